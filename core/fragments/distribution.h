@@ -1,0 +1,44 @@
+#pragma once
+// Scalar probability distributions of fragment properties, sampled by inversion from one uniform
+// variate so that each variable consumes exactly one Philox slot.
+#include <string>
+#include <vector>
+
+namespace fragsim::fragments {
+
+struct Distribution {
+  enum class Kind { kFixed, kUniform, kNormal, kLognormal, kTable };
+  Kind kind = Kind::kFixed;
+  double value = 0.0;     // fixed
+  double min = 0.0;       // uniform; normal/lognormal/table: lower truncation (see `truncate`)
+  double max = 0.0;       // uniform; normal/lognormal/table: upper truncation
+  bool has_min = false;   // normal/lognormal: an explicit truncation bound was given
+  bool has_max = false;
+  double mean = 0.0;      // normal
+  double sigma = 0.0;     // normal: standard deviation (> 0)
+  double median = 0.0;    // lognormal: exp(mu) (> 0)
+  double sigma_ln = 0.0;  // lognormal: standard deviation of ln X (> 0)
+  std::vector<double> table_values;  // table: strictly increasing values x_k
+  std::vector<double> table_cdf;     // table: CDF at x_k, nondecreasing from 0 to 1
+
+  static Distribution fixed(double v) {
+    Distribution d;
+    d.value = v;
+    return d;
+  }
+
+  // The variate for uniform u in (0,1): inverse CDF, truncated to [lo, hi] where lo/hi come from
+  // the explicit bounds and the physical range [phys_lo, phys_hi] of the quantity (a normal mass
+  // is never <= 0). Pure and deterministic.
+  double sample(double u, double phys_lo, double phys_hi) const;
+
+  // Checks parameters; returns an empty string when valid, else "field: problem" relative to the
+  // distribution (e.g. "sigma: must be > 0"), for the caller to prefix with its own path.
+  std::string validate(double phys_lo, double phys_hi) const;
+};
+
+// Standard normal CDF and its inverse (Wichura 1988, AS 241, relative accuracy ~1e-16).
+double normal_cdf(double x);
+double normal_quantile(double p);
+
+}  // namespace fragsim::fragments

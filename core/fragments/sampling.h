@@ -1,0 +1,66 @@
+#pragma once
+// Sampling one fragment history from its group. The random slots are fixed (see RandomStream):
+// never renumber them, only append.
+#include <cstdint>
+
+#include "core/common/random.h"
+#include "core/common/types.h"
+#include "core/fragments/group.h"
+
+namespace fragsim::fragments {
+
+enum Slot : std::uint32_t {
+  kSlotMass = 0,
+  kSlotSpeed = 1,
+  kSlotDirection = 2,    // k=0 elevation, k=1 azimuth
+  kSlotOrientation = 3,  // k=0,1 and kSlotOrientation2 k=0: uniform random rotation
+  kSlotOrientation2 = 4,
+  kSlotSpin = 5,         // k=0 magnitude
+  kSlotSpinAxis = 6,     // k=0,1 axis on the sphere (body frame)
+  kSlotFirstFree = 16,   // later issues (bounce) use slots from here
+};
+
+// Mass properties of a rigid body of uniform density (body frame = principal axes).
+struct MassProperties {
+  double mass_kg = 0.0;
+  Vec3 dims_m{0, 0, 0};       // resolved dims (layout as ShapeSpec::dims_m, unused entries 0)
+  Vec3 inertia_kg_m2{0, 0, 0};  // principal moments about body x, y, z
+  double surface_m2 = 0.0;    // total surface area (0 for point)
+  double presented_area_m2 = 0.0;  // tumble-averaged: surface / 4 (Cauchy), or the override
+};
+
+// Resolves dims, inertia and presented area of `shape` for a given mass. Point: inertia 0,
+// presented area from `area_override` (required). `area_override` replaces the presented area.
+MassProperties mass_properties(const ShapeSpec& shape, double mass_kg,
+                               const std::optional<double>& area_override);
+
+// Surface area of an ellipsoid with semi-axes a, b, c (Carlson symmetric integrals, exact).
+double ellipsoid_surface_area(double a, double b, double c);
+
+// Rotation from the group's local frame to site axes: Rz(yaw) * Ry(-pitch) * Rx(roll).
+Mat3 frame_rotation(const FrameSpec& frame);
+
+// Unit direction in the local frame, uniform on the sphere within the ranges, from u1, u2.
+Vec3 sample_direction(const DirectionSpec& d, double u_elevation, double u_azimuth);
+
+// Uniformly distributed random rotation (Shoemake 1992) from three uniforms.
+Quat uniform_rotation(double u1, double u2, double u3);
+
+struct FragmentInit {
+  std::uint32_t group = 0;
+  std::uint64_t history = 0;
+  double weight = 0.0;  // real fragments this history stands for: count / samples
+  fragments::ShapeType shape = ShapeType::kSphere;
+  MassProperties body;
+  Vec3 position_m{0, 0, 0};  // input (site) coordinates; the run converts to local
+  Vec3 velocity_mps{0, 0, 0};
+  Quat orientation = Quat::Identity();  // body -> site
+  Vec3 omega_body_radps{0, 0, 0};
+  double launch_speed_mps = 0.0;   // sampled explosion-induced speed (before frame velocity)
+  Vec3 launch_direction{1, 0, 0};  // unit, site axes, explosion-induced part
+};
+
+FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
+                             std::uint64_t history, std::uint64_t seed);
+
+}  // namespace fragsim::fragments

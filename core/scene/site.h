@@ -1,0 +1,242 @@
+#pragma once
+// A built, validated, immutable site: terrain and building triangle meshes in site-local
+// coordinates, materials, the Embree scene, and a 2-D index of terrain triangles.
+//
+// Coordinates: input coordinates (as in the scenario, possibly UTM-sized) minus `local_origin()`,
+// a double-precision point near the terrain centre. Embree stores floats; everything else is
+// double. Altitude above sea level (for the atmosphere) = local z + `altitude_offset_m()`.
+//
+// Thread safety: a Site is immutable once `build` returns; any number of threads may query it.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/common/types.h"
+#include "core/scene/site_spec.h"
+
+struct RTCDeviceTy;
+struct RTCSceneTy;
+
+namespace fragsim::scene {
+
+struct Material {
+  std::string name;
+  double friction = 0.5;
+  RestitutionSpec restitution;
+  double penetration_ke_per_area_j_per_m2 = std::numeric_limits<double>::infinity();
+  // e at a given normal impact speed (constant or table, clamped).
+  double restitution_at(double normal_speed_mps) const;
+};
+
+struct Building {
+  std::string id;
+  Box3 bounds;                        // local coordinates
+  std::uint32_t first_triangle = 0;   // range in Site::building_triangles()
+  std::uint32_t triangle_count = 0;
+  std::array<double, kSurfaceTypeCount> surface_area_m2{};  // by SurfaceType
+};
+
+// Per building triangle.
+struct BuildingTriangle {
+  std::array<std::uint32_t, 3> v;  // into building_vertices()
+  std::uint32_t building = 0;
+  SurfaceType surface = SurfaceType::kWall;
+  std::uint16_t material = 0;
+};
+
+// Result of a segment query against the scene.
+struct SceneHit {
+  double t = 0.0;              // hit at org + t * dir
+  bool terrain = false;        // terrain or a building
+  std::uint32_t triangle = 0;  // terrain triangle index, or building triangle index
+  std::uint32_t building = 0;  // valid when !terrain
+  SurfaceType surface = SurfaceType::kTerrain;
+  std::uint16_t material = 0;
+  Vec3 normal = Vec3::UnitZ();  // unit geometric normal; terrain: upward; building: outward
+};
+
+enum QueryMask : unsigned { kQueryTerrain = 1u, kQueryBuildings = 2u, kQueryAll = 3u };
+
+// Uniform 2-D bucket grid over the xy-projections of the terrain triangles (CSR layout).
+// For plane and grid terrains a bucket is exactly one grid cell (two triangles).
+class TerrainIndex2D {
+ public:
+  // Calls f(triangle) for every terrain triangle whose bucket the xy-segment a->b passes through.
+  // A triangle may be reported more than once; callers do the exact clipping.
+  template <class F>
+  void for_each_candidate(const Vec2& a, const Vec2& b, F&& f) const;
+  // Calls f(triangle) for the candidates of the bucket containing p.
+  template <class F>
+  void for_each_candidate_at(const Vec2& p, F&& f) const;
+
+  // Public for the builder (core/scene) and tests; treat as read-only.
+  Vec2 origin{0, 0};
+  double cell = 1.0;
+  int nx = 0, ny = 0;
+  std::vector<std::uint32_t> start;      // nx*ny + 1
+  std::vector<std::uint32_t> triangles;  // bucket contents
+  std::vector<float> max_z;              // per bucket: highest terrain z (local)
+
+ private:
+  template <class F>
+  void visit_bucket(int i, int j, F& f) const;
+};
+
+class Site {
+ public:
+  // Validates and builds. Throws InputError naming the offending element
+  // ("site.terrain.triangles[12]: zero-area triangle", "site.buildings[2].footprint_m: ...").
+  static std::shared_ptr<const Site> build(const SiteSpec& spec);
+  ~Site();
+  Site(const Site&) = delete;
+  Site& operator=(const Site&) = delete;
+
+  // Frames
+  const Vec3& local_origin() const { return local_origin_; }
+  double altitude_offset_m() const { return altitude_offset_m_; }
+  Vec3 to_local(const Vec3& input) const { return input - local_origin_; }
+  Vec3 to_input(const Vec3& local) const { return local + local_origin_; }
+  const std::optional<SiteOrigin>& origin() const { return origin_; }
+
+  // Terrain (local coordinates)
+  const std::vector<Vec3>& terrain_vertices() const { return terrain_vertices_; }
+  const std::vector<std::array<std::uint32_t, 3>>& terrain_triangles() const {
+    return terrain_triangles_;
+  }
+  std::size_t terrain_triangle_count() const { return terrain_triangles_.size(); }
+  double terrain_triangle_area(std::uint32_t t) const { return terrain_area_[t]; }
+  const Vec3& terrain_triangle_normal(std::uint32_t t) const { return terrain_normal_[t]; }  // up
+  Vec3 terrain_triangle_centroid(std::uint32_t t) const;
+  bool terrain_is_plane() const { return terrain_is_plane_; }
+  double plane_elevation() const { return plane_elevation_; }  // local z, when terrain_is_plane()
+  const Box3& terrain_bounds() const { return terrain_bounds_; }
+  // Height of the terrain surface at (x, y) (local); NaN outside the terrain's projection.
+  // For a mesh with overhangs: the highest surface at (x, y).
+  double terrain_height(double x, double y) const;
+  const TerrainIndex2D& terrain_index() const { return index_; }
+  std::uint16_t terrain_material() const { return terrain_material_; }
+
+  // Buildings
+  bool has_buildings() const { return !buildings_.empty(); }
+  const std::vector<Building>& buildings() const { return buildings_; }
+  const std::vector<Vec3>& building_vertices() const { return building_vertices_; }
+  const std::vector<BuildingTriangle>& building_triangles() const { return building_triangles_; }
+  const Box3& buildings_bounds() const { return buildings_bounds_; }
+  // True when p lies inside a building's closed mesh (ray parity).
+  bool inside_building(const Vec3& p) const;
+
+  // Everything: terrain and buildings.
+  const Box3& bounds() const { return bounds_; }
+
+  // Materials, indexed by the uint16 ids above.
+  const std::vector<Material>& materials() const { return materials_; }
+
+  // Nearest hit of the segment org + t*dir, t in [tnear, tfar], against the geometry selected by
+  // `mask`. For a plane terrain the terrain part is analytic (no BVH walk); with no buildings the
+  // building part costs nothing.
+  std::optional<SceneHit> intersect(const Vec3& org, const Vec3& dir, double tnear, double tfar,
+                                    unsigned mask = kQueryAll) const;
+
+ private:
+  Site() = default;
+  friend class SiteBuilder;
+
+  Vec3 local_origin_{0, 0, 0};
+  double altitude_offset_m_ = 0.0;
+  std::optional<SiteOrigin> origin_;
+
+  std::vector<Vec3> terrain_vertices_;
+  std::vector<std::array<std::uint32_t, 3>> terrain_triangles_;
+  std::vector<double> terrain_area_;
+  std::vector<Vec3> terrain_normal_;
+  bool terrain_is_plane_ = false;
+  double plane_elevation_ = 0.0;
+  Box3 terrain_bounds_;
+  TerrainIndex2D index_;
+  std::uint16_t terrain_material_ = 0;
+
+  std::vector<Building> buildings_;
+  std::vector<Vec3> building_vertices_;
+  std::vector<BuildingTriangle> building_triangles_;
+  Box3 buildings_bounds_;
+  Box3 bounds_;
+  std::vector<Material> materials_;
+
+  RTCDeviceTy* device_ = nullptr;
+  RTCSceneTy* scene_ = nullptr;  // terrain (geometry 0, absent for a plane) + buildings (1)
+  unsigned terrain_geom_ = ~0u;
+  unsigned building_geom_ = ~0u;
+};
+
+// ---- inline template members ----
+template <class F>
+void TerrainIndex2D::visit_bucket(int i, int j, F& f) const {
+  const std::size_t b = static_cast<std::size_t>(j) * nx + i;
+  for (std::uint32_t k = start[b]; k < start[b + 1]; ++k) f(triangles[k]);
+}
+
+template <class F>
+void TerrainIndex2D::for_each_candidate_at(const Vec2& p, F&& f) const {
+  const double fx = (p.x() - origin.x()) / cell, fy = (p.y() - origin.y()) / cell;
+  if (!(fx >= 0 && fy >= 0 && fx <= nx && fy <= ny)) return;
+  const int i = std::min(static_cast<int>(fx), nx - 1), j = std::min(static_cast<int>(fy), ny - 1);
+  visit_bucket(i, j, f);
+}
+
+// Amanatides & Woo (1987) grid traversal of the xy-segment a->b, clipped to the grid.
+template <class F>
+void TerrainIndex2D::for_each_candidate(const Vec2& a, const Vec2& b, F&& f) const {
+  if (nx <= 0 || ny <= 0) return;
+  const Vec2 pa = (a - origin) / cell, pb = (b - origin) / cell;  // grid units
+  const Vec2 d = pb - pa;
+  // Clip the parametric segment to [0,nx]x[0,ny].
+  double s0 = 0.0, s1 = 1.0;
+  for (int k = 0; k < 2; ++k) {
+    const double lo = 0.0, hi = (k == 0) ? nx : ny;
+    if (d[k] == 0.0) {
+      if (pa[k] < lo || pa[k] > hi) return;
+    } else {
+      double u0 = (lo - pa[k]) / d[k], u1 = (hi - pa[k]) / d[k];
+      if (u0 > u1) std::swap(u0, u1);
+      s0 = std::max(s0, u0);
+      s1 = std::min(s1, u1);
+    }
+  }
+  if (s0 > s1) return;
+  const Vec2 p0 = pa + s0 * d;
+  int i = std::clamp(static_cast<int>(std::floor(p0.x())), 0, nx - 1);
+  int j = std::clamp(static_cast<int>(std::floor(p0.y())), 0, ny - 1);
+  const Vec2 p1 = pa + s1 * d;
+  const int iend = std::clamp(static_cast<int>(std::floor(p1.x())), 0, nx - 1);
+  const int jend = std::clamp(static_cast<int>(std::floor(p1.y())), 0, ny - 1);
+  const int si = d.x() > 0 ? 1 : (d.x() < 0 ? -1 : 0);
+  const int sj = d.y() > 0 ? 1 : (d.y() < 0 ? -1 : 0);
+  const double inf = std::numeric_limits<double>::infinity();
+  double tmx = si != 0 ? ((i + (si > 0 ? 1 : 0)) - pa.x()) / d.x() : inf;
+  double tmy = sj != 0 ? ((j + (sj > 0 ? 1 : 0)) - pa.y()) / d.y() : inf;
+  const double tdx = si != 0 ? std::abs(1.0 / d.x()) : inf;
+  const double tdy = sj != 0 ? std::abs(1.0 / d.y()) : inf;
+  // Bounded loop: at most nx + ny + 2 buckets for any segment.
+  for (int guard = nx + ny + 2; guard > 0; --guard) {
+    visit_bucket(i, j, f);
+    if (i == iend && j == jend) break;
+    if (tmx < tmy) {
+      if (tmx > s1) break;
+      i += si;
+      tmx += tdx;
+    } else {
+      if (tmy > s1) break;
+      j += sj;
+      tmy += tdy;
+    }
+    if (i < 0 || j < 0 || i >= nx || j >= ny) break;
+  }
+}
+
+}  // namespace fragsim::scene

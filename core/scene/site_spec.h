@@ -1,0 +1,92 @@
+#pragma once
+// The site as the user describes it (input coordinates, before validation and meshing).
+// Field names follow the scenario contract (docs/scenario.md); InputError paths use them too.
+#include <map>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "core/common/types.h"
+
+namespace fragsim::scene {
+
+enum class SurfaceType : std::uint8_t { kTerrain = 0, kWall = 1, kRoof = 2, kWindow = 3 };
+inline constexpr int kSurfaceTypeCount = 4;
+const char* surface_type_name(SurfaceType s);  // "terrain", "wall", "roof", "window"
+
+// Coefficient of restitution: a constant, or a table of e against normal impact speed
+// (linear interpolation, clamped at the ends). Used by the bounce issue; parsed and validated now.
+struct RestitutionSpec {
+  double constant = 0.0;
+  std::vector<double> normal_speed_mps;  // strictly increasing, >= 0; empty => constant
+  std::vector<double> e;                 // same length, each in [0, 1]
+};
+
+struct MaterialSpec {
+  double friction = 0.5;  // Coulomb coefficient, >= 0
+  RestitutionSpec restitution;
+  // Penetration threshold: kinetic energy of the normal velocity component per presented area.
+  // Absent => the surface is never penetrated.
+  std::optional<double> penetration_ke_per_area_j_per_m2;
+};
+
+struct PlaneTerrainSpec {
+  double elevation_m = 0.0;
+  std::array<double, 4> extent_m{};  // xmin, ymin, xmax, ymax
+  double cell_m = 10.0;              // meshed into square cells of this size, two triangles each
+};
+
+// Heightfield: vertex (i, j) at (origin_m[0] + i*spacing_m, origin_m[1] + j*spacing_m,
+// elevation_m[j*nx + i]) for i < nx, j < ny (row-major, rows along x).
+struct GridTerrainSpec {
+  std::array<double, 2> origin_m{};
+  double spacing_m = 0.0;
+  int nx = 0;
+  int ny = 0;
+  std::vector<double> elevation_m;
+};
+
+struct MeshSpec {
+  std::vector<Vec3> vertices_m;
+  std::vector<std::array<std::int64_t, 3>> triangles;
+  std::vector<SurfaceType> surface;  // per triangle; buildings only (empty for terrain)
+};
+
+struct TerrainSpec {
+  std::variant<PlaneTerrainSpec, GridTerrainSpec, MeshSpec> geometry;
+  std::string material;  // key into SiteSpec::materials
+};
+
+// A building: either a footprint extruded to a closed mesh (walls + flat roof) or an explicit
+// closed mesh with a surface type per triangle. Materials are named per surface type.
+struct BuildingSpec {
+  std::string id;
+  // Footprint form (used when `mesh` is empty):
+  std::vector<std::array<double, 2>> footprint_m;  // simple polygon, either orientation
+  double height_m = 0.0;                            // above the base
+  std::optional<double> base_elevation_m;  // default: lowest terrain height under the footprint
+  // Explicit form:
+  std::optional<MeshSpec> mesh;
+  // Materials by surface type (keys into SiteSpec::materials); window may stay empty when the
+  // building has no window triangles.
+  std::string wall;
+  std::string roof;
+  std::string window;
+};
+
+struct SiteOrigin {
+  std::string crs;
+  double easting_m = 0.0;
+  double northing_m = 0.0;
+  double elevation_m = 0.0;  // altitude above sea level of input z = 0 (used by the atmosphere)
+};
+
+struct SiteSpec {
+  TerrainSpec terrain;
+  std::vector<BuildingSpec> buildings;
+  std::map<std::string, MaterialSpec> materials;
+  std::optional<SiteOrigin> origin;
+};
+
+}  // namespace fragsim::scene

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages fragsim builds and tests with, only when one is missing.
+# Safe to run repeatedly; needs root (or sudo) only when something has to be installed.
+set -euo pipefail
+PACKAGES=(
+  build-essential cmake pkg-config git
+  libeigen3-dev            # linear algebra (vectors, quaternions, inertia tensors)
+  libembree-dev            # Embree 3.13.x ray queries against terrain and building meshes
+  libcpp-httplib-dev       # HTTP server for fragsimd
+  nlohmann-json3-dev       # JSON contract
+  libsqlite3-dev sqlite3   # job queue and result index (fragsimd)
+  libhdf5-dev              # results.h5
+  librandom123-dev         # Philox counter-based random streams
+  libgtest-dev libgmock-dev googletest  # unit and validation tests
+  libbenchmark-dev         # micro-benchmarks in bench/
+)
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+echo "install-deps: installing ${missing[*]}"
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
