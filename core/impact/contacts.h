@@ -1,0 +1,71 @@
+#pragma once
+// Contact detection along a flight arc. Each accepted integrator step is cut into straight chords
+// whose sagitta stays under a tolerance; each chord is a segment query against the site; a hit is
+// then refined on the dense-output interpolant (not the chord), so the sagitta tolerance only
+// decides which hits can be found (paths skimming a surface closer than the tolerance), not where
+// they are.
+#include <algorithm>
+#include <cmath>
+
+#include "core/common/types.h"
+#include "core/scene/site.h"
+
+namespace fragsim::impact {
+
+// Curvature of a path with velocity v and acceleration a: kappa = |v x a| / |v|^3 (infinite at
+// v = 0).
+inline double path_curvature(const Vec3& v, const Vec3& a) {
+  const double s = v.norm();
+  return s > 0.0 ? v.cross(a).norm() / (s * s * s) : std::numeric_limits<double>::infinity();
+}
+
+// Number of chords so that the sagitta of each stays <= sagitta_m (physics notes):
+//   n = ceil(L sqrt(kappa / (8 delta)))
+// with kappa the largest curvature on the step (the caller samples both ends and the middle: the
+// curvature peaks at an apex, which may lie inside a step).
+inline int chord_count(double length_m, double kappa_max, double sagitta_m, int max_chords = 256) {
+  if (!(kappa_max > 0.0)) return 1;
+  const double n = std::ceil(length_m * std::sqrt(kappa_max / (8.0 * sagitta_m)));
+  if (!(n < max_chords)) return max_chords;  // also catches inf/NaN (v = 0)
+  return std::max(1, static_cast<int>(n));
+}
+
+// Time in [t_lo, t_hi] at which the arc P(t) crosses the plane through q with normal n, found by
+// the Illinois variant of regula falsi on g(t) = n.(P(t) - q). Requires g(t_lo) and g(t_hi) of
+// opposite signs (or one of them 0); returns NaN otherwise.
+template <class PositionFn>
+double refine_plane_crossing(const PositionFn& position, const Vec3& n, const Vec3& q, double t_lo,
+                             double t_hi) {
+  double glo = n.dot(position(t_lo) - q);
+  double ghi = n.dot(position(t_hi) - q);
+  if (glo == 0.0) return t_lo;
+  if (ghi == 0.0) return t_hi;
+  if ((glo > 0.0) == (ghi > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  int side = 0;
+  for (int it = 0; it < 100; ++it) {
+    const double t = (t_lo * ghi - t_hi * glo) / (ghi - glo);
+    const double g = n.dot(position(t) - q);
+    if (g == 0.0 || (t_hi - t_lo) <= 1e-14 * std::max(1.0, std::abs(t))) return t;
+    if ((g > 0.0) == (glo > 0.0)) {
+      t_lo = t;
+      glo = g;
+      if (side == -1) ghi *= 0.5;
+      side = -1;
+    } else {
+      t_hi = t;
+      ghi = g;
+      if (side == 1) glo *= 0.5;
+      side = 1;
+    }
+  }
+  return 0.5 * (t_lo + t_hi);
+}
+
+// Impact angle between the velocity and the surface, degrees: 0 grazing, 90 head-on.
+inline double impact_angle_deg(const Vec3& velocity, const Vec3& normal) {
+  const double s = velocity.norm();
+  if (!(s > 0.0)) return 0.0;
+  return std::asin(std::min(1.0, std::abs(velocity.dot(normal)) / s)) / kDegToRad;
+}
+
+}  // namespace fragsim::impact

@@ -1,0 +1,68 @@
+#pragma once
+// One fragment history: launch checks, flight, contacts, tallies. Pure function of its inputs
+// (scenario, site, group, history index, seed); writes its tally contributions to a ChunkOutput.
+#include <cstdint>
+#include <vector>
+
+#include "core/flight/atmosphere.h"
+#include "core/flight/flight_model.h"
+#include "core/fragments/sampling.h"
+#include "core/run/result.h"
+#include "core/run/scenario.h"
+#include "core/scene/site.h"
+#include "core/tally/ptn_prisms.h"
+
+namespace fragsim::run {
+
+struct PtnContribution {
+  std::uint32_t triangle;
+  double value;  // weight / A_PTN
+};
+
+struct BuildingContribution {
+  std::uint32_t building;
+  std::uint8_t surface;
+  bool penetrated;
+  double residual_ke_j;
+};
+
+// Everything a chunk of histories produces, per history, in history order.
+struct ChunkOutput {
+  std::uint32_t group = 0;
+  std::int64_t first_history = 0;
+  std::int64_t count = 0;
+  bool last_of_group = false;
+  double weight = 0.0;
+  std::vector<std::uint32_t> ptn_end;  // per history: end offset into ptn
+  std::vector<PtnContribution> ptn;
+  std::vector<std::int32_t> building_index;  // per history: index into buildings, or -1
+  std::vector<BuildingContribution> buildings;
+  std::vector<Outcome> outcomes;
+  std::vector<FragmentRecord> records;
+  std::vector<TrajectoryRecord> trajectories;
+  RunStats stats;
+  double integration_s = 0.0, geometry_s = 0.0, tally_s = 0.0;
+};
+
+// Immutable, shared by all workers of one run.
+struct RunContext {
+  const Scenario* scenario = nullptr;
+  const scene::Site* site = nullptr;
+  flight::Atmosphere atmosphere;
+  std::vector<flight::DragCoefficient> cd;  // per group
+  tally::PtnPrisms prisms;
+  double terrain_min_z = 0.0;   // local
+  double terrain_max_z = 0.0;   // local
+  double top_z = 0.0;           // highest point anything can be hit or tallied (local)
+  RunContext(const Scenario& sc, const scene::Site& s);
+};
+
+// Per-thread scratch space reused between histories (no allocation in the steady state).
+struct HistoryScratch {
+  std::vector<PtnContribution> ptn;
+};
+
+void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,
+                      bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out);
+
+}  // namespace fragsim::run

@@ -1,0 +1,130 @@
+#pragma once
+// What one Monte Carlo run produces. Every tallied figure comes with a standard error estimated
+// from per-history sums and sums of squares (groups are independent strata):
+//   mean = sum_g S_g,  var = sum_g n_g/(n_g-1) (Q_g - S_g^2/n_g)
+// where S_g, Q_g are the sum and sum of squares of the per-history contributions of group g
+// (each already multiplied by the history's weight count_g/samples_g).
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/common/types.h"
+#include "core/scene/site_spec.h"
+
+namespace fragsim::run {
+
+struct Estimate {
+  double mean = 0.0;
+  double std_error = 0.0;
+};
+
+// How a history ended.
+enum class Outcome : std::uint8_t {
+  kGround = 0,           // terrain impact (no bounce) / came to rest (bounce)
+  kBuilding = 1,         // stopped by a building (impact; penetrated or not)
+  kMaxFlightTime = 2,    // still flying at max_flight_time_s
+  kLeftSite = 3,         // left the terrain's horizontal extent
+  kStartedInside = 4,    // launched below the terrain or inside a building: not flown
+  kHarmless = 5,  // can never become hazardous and nothing else to tally: tracking stopped
+  kIntegrationFailed = 6,  // step size underflow (counted, never silently dropped)
+};
+inline constexpr int kOutcomeCount = 7;
+const char* outcome_name(Outcome o);
+
+struct BuildingResult {
+  std::string id;
+  Estimate impacts;      // expected number of real fragments hitting the building
+  Estimate penetrations;  // expected number penetrating
+  std::array<Estimate, scene::kSurfaceTypeCount> impacts_by_surface;
+  std::array<Estimate, scene::kSurfaceTypeCount> penetrations_by_surface;
+  Estimate residual_ke_j;  // expected total residual kinetic energy of penetrating fragments
+};
+
+// Per-history record (settings.record_fragments).
+struct FragmentRecord {
+  std::uint32_t group = 0;
+  std::uint64_t history = 0;
+  double weight = 0.0;
+  double mass_kg = 0.0;
+  double area_m2 = 0.0;
+  Vec3 launch_position_m{0, 0, 0};  // input coordinates
+  Vec3 launch_velocity_mps{0, 0, 0};
+  Outcome outcome = Outcome::kGround;
+  double end_time_s = 0.0;
+  Vec3 end_position_m{0, 0, 0};  // input coordinates: impact / rest / last position
+  Vec3 end_velocity_mps{0, 0, 0};
+  double impact_angle_deg = 0.0;  // between velocity and surface at the impact, 0 = grazing
+  double impact_ke_j = 0.0;
+  std::int32_t building = -1;     // index into buildings, -1 none
+  std::int32_t surface = -1;      // SurfaceType of the building hit
+  bool penetrated = false;
+  double residual_ke_j = 0.0;
+  std::uint32_t bounces = 0;
+  double ground_path_m = 0.0;
+};
+
+struct TrajectoryRecord {
+  std::uint32_t group = 0;
+  std::uint64_t history = 0;
+  std::vector<double> t_s;
+  std::vector<Vec3> position_m;  // input coordinates
+};
+
+struct Timing {
+  double wall_s = 0.0;
+  double build_s = 0.0;  // site build (Embree scene)
+  int threads = 1;
+  // With settings.profile: summed over threads, seconds.
+  double integration_s = 0.0;
+  double geometry_s = 0.0;
+  double tally_s = 0.0;
+  double fragments_per_s = 0.0;            // histories per wall second
+  double fragments_per_s_per_thread = 0.0;
+};
+
+struct RunStats {
+  std::int64_t rhs_evaluations = 0;
+  std::int64_t integrator_steps = 0;
+  std::int64_t chords = 0;
+  std::int64_t scene_queries = 0;       // Embree/analytic segment queries actually made
+  std::int64_t chords_skipped = 0;      // chords above everything: no query needed
+  std::int64_t ptn_triangle_tests = 0;
+};
+
+struct RunResult {
+  std::int64_t samples = 0;
+  double real_fragments = 0.0;
+  std::uint64_t seed = 0;
+  bool cancelled = false;  // partial: not a final result
+  std::int64_t histories_done = 0;
+
+  // PTN density per terrain triangle (paper eqs. 37-39), per m^2.
+  std::vector<double> ptn_density_per_m2;
+  std::vector<double> ptn_std_error_per_m2;
+  double max_ptn_density_per_m2 = 0.0;
+  std::int64_t max_ptn_triangle = -1;
+  Vec3 max_ptn_location_m{0, 0, 0};  // centroid, input coordinates
+
+  // Hazardous fragment distance: largest horizontal distance from hfd_origin_m of a terrain
+  // triangle centroid whose density >= the threshold (0 when none).
+  Vec3 hfd_origin_m{0, 0, 0};
+  double hazardous_fragment_distance_m = 0.0;
+  // Indicative band: HFD of the fields (mean - 1 se) and (mean + 1 se).
+  double hfd_lower_m = 0.0;
+  double hfd_upper_m = 0.0;
+  std::array<double, 36> hfd_by_sector_m{};  // sector k: azimuth [10k, 10k+10) deg from +x toward +y
+
+  std::vector<BuildingResult> buildings;
+
+  // Weighted (real fragments) and raw (histories) counts by outcome.
+  std::array<Estimate, kOutcomeCount> outcome_fragments;
+  std::array<std::int64_t, kOutcomeCount> outcome_histories{};
+
+  std::vector<FragmentRecord> fragments;       // when recorded, in (group, history) order
+  std::vector<TrajectoryRecord> trajectories;  // when recorded
+  Timing timing;
+  RunStats stats;
+};
+
+}  // namespace fragsim::run

@@ -1,0 +1,318 @@
+#include "core/run/run.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "core/run/history.h"
+#include "core/run/ordered_sequencer.h"
+#include "core/tally/stratified_estimator.h"
+
+namespace fragsim::run {
+
+const char* outcome_name(Outcome o) {
+  switch (o) {
+    case Outcome::kGround: return "ground";
+    case Outcome::kBuilding: return "building";
+    case Outcome::kMaxFlightTime: return "max_flight_time";
+    case Outcome::kLeftSite: return "left_site";
+    case Outcome::kStartedInside: return "started_inside";
+    case Outcome::kHarmless: return "harmless";
+    case Outcome::kIntegrationFailed: return "integration_failed";
+  }
+  return "unknown";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct ChunkSpec {
+  std::uint32_t group;
+  std::int64_t first;
+  std::int64_t count;
+  bool last_of_group;
+};
+
+// Building figures per building, in this order, each a bin of a StratifiedEstimator.
+enum BuildingFigure : int {
+  kImpacts = 0,
+  kPenetrations = 1,
+  kImpactsBySurface = 2,                                         // + surface type
+  kPenetrationsBySurface = kImpactsBySurface + scene::kSurfaceTypeCount,  // + surface type
+  kResidualKe = kPenetrationsBySurface + scene::kSurfaceTypeCount,
+  kBuildingFigures = kResidualKe + 1,
+};
+
+// The ordered fold: everything order-dependent happens here, in (group, history) order.
+class Reducer {
+ public:
+  Reducer(const Scenario& sc, const scene::Site& site)
+      : ptn_(site.terrain_triangle_count()),
+        buildings_(site.buildings().size() * kBuildingFigures),
+        outcomes_(kOutcomeCount) {
+    (void)sc;
+  }
+
+  void fold(ChunkOutput& c) {
+    std::uint32_t begin = 0;
+    for (std::int64_t i = 0; i < c.count; ++i) {
+      const std::uint32_t end = c.ptn_end[static_cast<std::size_t>(i)];
+      for (std::uint32_t k = begin; k < end; ++k) ptn_.add(c.ptn[k].triangle, c.ptn[k].value);
+      begin = end;
+      const std::int32_t bi = c.building_index[static_cast<std::size_t>(i)];
+      if (bi >= 0) {
+        const BuildingContribution& b = c.buildings[static_cast<std::size_t>(bi)];
+        const std::size_t base = static_cast<std::size_t>(b.building) * kBuildingFigures;
+        buildings_.add(base + kImpacts, c.weight);
+        buildings_.add(base + kImpactsBySurface + b.surface, c.weight);
+        if (b.penetrated) {
+          buildings_.add(base + kPenetrations, c.weight);
+          buildings_.add(base + kPenetrationsBySurface + b.surface, c.weight);
+          buildings_.add(base + kResidualKe, c.weight * b.residual_ke_j);
+        }
+      }
+      const auto o = static_cast<std::size_t>(c.outcomes[static_cast<std::size_t>(i)]);
+      outcomes_.add(o, c.weight);
+      ++outcome_histories_[o];
+    }
+    group_histories_ += c.count;
+    histories_done_ += c.count;
+    if (c.last_of_group) close_group();
+    for (auto& r : c.records) records_.push_back(r);
+    for (auto& t : c.trajectories) trajectories_.push_back(std::move(t));
+    stats_.rhs_evaluations += c.stats.rhs_evaluations;
+    stats_.integrator_steps += c.stats.integrator_steps;
+    stats_.chords += c.stats.chords;
+    stats_.scene_queries += c.stats.scene_queries;
+    stats_.chords_skipped += c.stats.chords_skipped;
+    stats_.ptn_triangle_tests += c.stats.ptn_triangle_tests;
+    integration_s_ += c.integration_s;
+    geometry_s_ += c.geometry_s;
+    tally_s_ += c.tally_s;
+  }
+
+  // Closes a group cut short by cancellation.
+  void close_group() {
+    if (group_histories_ == 0) return;
+    ptn_.end_group(group_histories_);
+    buildings_.end_group(group_histories_);
+    outcomes_.end_group(group_histories_);
+    group_histories_ = 0;
+  }
+
+  tally::StratifiedEstimator ptn_, buildings_, outcomes_;
+  std::array<std::int64_t, kOutcomeCount> outcome_histories_{};
+  std::int64_t group_histories_ = 0;
+  std::int64_t histories_done_ = 0;
+  std::vector<FragmentRecord> records_;
+  std::vector<TrajectoryRecord> trajectories_;
+  RunStats stats_;
+  double integration_s_ = 0.0, geometry_s_ = 0.0, tally_s_ = 0.0;
+};
+
+// Largest horizontal distance from `origin` of a triangle centroid with density >= threshold,
+// overall and per 10-degree sector (azimuth from +x toward +y).
+double hazardous_distance(const scene::Site& site, const std::vector<double>& density,
+                          double threshold, const Vec3& origin,
+                          std::array<double, 36>* by_sector) {
+  double best = 0.0;
+  if (by_sector) by_sector->fill(0.0);
+  for (std::uint32_t t = 0; t < density.size(); ++t) {
+    if (!(density[t] >= threshold) || density[t] <= 0.0) continue;
+    const Vec3 c = site.terrain_triangle_centroid(t);
+    const double dx = c.x() - origin.x(), dy = c.y() - origin.y();
+    const double r = std::hypot(dx, dy);
+    best = std::max(best, r);
+    if (by_sector) {
+      double az = std::atan2(dy, dx) / kDegToRad;
+      if (az < 0.0) az += 360.0;
+      const int k = std::clamp(static_cast<int>(az / 10.0), 0, 35);
+      (*by_sector)[static_cast<std::size_t>(k)] =
+          std::max((*by_sector)[static_cast<std::size_t>(k)], r);
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
+              const RunControl& control) {
+  const auto t_start = Clock::now();
+  const scene::Site& site = *site_ptr;
+  const Settings& st = sc.settings;
+  const RunContext ctx(sc, site);
+
+  // Chunks never straddle groups; their size only affects scheduling, never the result.
+  const std::int64_t chunk = std::max<std::int64_t>(1, st.chunk_histories);
+  std::vector<ChunkSpec> chunks;
+  std::int64_t total = 0;
+  for (std::uint32_t g = 0; g < sc.groups.size(); ++g) {
+    const std::int64_t n = sc.groups[g].samples;
+    total += n;
+    for (std::int64_t first = 0; first < n; first += chunk) {
+      const std::int64_t cnt = std::min(chunk, n - first);
+      chunks.push_back({g, first, cnt, first + cnt == n});
+    }
+  }
+  // Trajectories are recorded for the first max_recorded_trajectories histories in global order.
+  std::vector<std::int64_t> group_offset(sc.groups.size(), 0);
+  for (std::size_t g = 1; g < sc.groups.size(); ++g)
+    group_offset[g] = group_offset[g - 1] + sc.groups[g - 1].samples;
+
+  int threads = st.threads > 0 ? st.threads : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::clamp(threads, 1, 1024);
+  threads = static_cast<int>(std::min<std::int64_t>(threads, static_cast<std::int64_t>(chunks.size())));
+  threads = std::max(threads, 1);
+
+  Reducer reducer(sc, site);
+  auto fold = [&reducer](ChunkOutput& c) { reducer.fold(c); };
+  OrderedSequencer<ChunkOutput, decltype(fold)> sequencer(fold);
+
+  std::atomic<std::int64_t> next_chunk{0};
+  std::atomic<std::int64_t> histories_done{0};
+  std::atomic<bool> stop{false};
+  std::atomic<std::int64_t> last_report_ns{0};
+  const auto report_every_ns =
+      static_cast<std::int64_t>(std::max(0.0, control.progress_interval_s) * 1e9);
+
+  auto cancelled = [&]() {
+    return control.cancel != nullptr && control.cancel->load(std::memory_order_relaxed);
+  };
+
+  auto worker = [&]() {
+    HistoryScratch scratch;
+    while (!stop.load(std::memory_order_relaxed)) {
+      const std::int64_t k = next_chunk.fetch_add(1);
+      if (k >= static_cast<std::int64_t>(chunks.size())) break;
+      const ChunkSpec& cs = chunks[static_cast<std::size_t>(k)];
+      ChunkOutput out;
+      out.group = cs.group;
+      out.first_history = cs.first;
+      out.count = cs.count;
+      out.last_of_group = cs.last_of_group;
+      const auto& grp = sc.groups[cs.group];
+      out.weight = grp.count / static_cast<double>(grp.samples);
+      out.ptn_end.reserve(static_cast<std::size_t>(cs.count));
+      out.outcomes.reserve(static_cast<std::size_t>(cs.count));
+      out.building_index.reserve(static_cast<std::size_t>(cs.count));
+      for (std::int64_t h = cs.first; h < cs.first + cs.count; ++h) {
+        if (cancelled()) {
+          stop.store(true);
+          return;  // the unfinished chunk is dropped; folded chunks form a clean prefix
+        }
+        const bool rec = st.record_trajectories &&
+                         group_offset[cs.group] + h < st.max_recorded_trajectories;
+        simulate_history(ctx, cs.group, h, rec, scratch, out);
+      }
+      sequencer.submit(k, std::move(out));
+      const std::int64_t done = histories_done.fetch_add(cs.count) + cs.count;
+      if (control.on_progress) {
+        const std::int64_t now =
+            std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t_start).count();
+        std::int64_t last = last_report_ns.load();
+        if (now - last >= report_every_ns &&
+            last_report_ns.compare_exchange_strong(last, now)) {
+          control.on_progress({done, total, static_cast<double>(now) * 1e-9});
+        }
+      }
+    }
+  };
+
+  std::vector<std::thread> pool;
+  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
+
+  RunResult r;
+  r.cancelled = cancelled() || stop.load();
+  reducer.close_group();  // a group cut short by cancellation
+  r.samples = total;
+  r.histories_done = reducer.histories_done_;
+  r.seed = st.seed;
+  for (const auto& g : sc.groups) r.real_fragments += g.count;
+
+  r.ptn_density_per_m2 = reducer.ptn_.means();
+  r.ptn_std_error_per_m2 = reducer.ptn_.std_errors();
+  for (std::size_t t = 0; t < r.ptn_density_per_m2.size(); ++t) {
+    if (r.ptn_density_per_m2[t] > r.max_ptn_density_per_m2) {
+      r.max_ptn_density_per_m2 = r.ptn_density_per_m2[t];
+      r.max_ptn_triangle = static_cast<std::int64_t>(t);
+    }
+  }
+  if (r.max_ptn_triangle >= 0) {
+    r.max_ptn_location_m =
+        site.to_input(site.terrain_triangle_centroid(static_cast<std::uint32_t>(r.max_ptn_triangle)));
+  }
+
+  const Vec3 hfd_origin_input =
+      st.hfd_origin_m ? *st.hfd_origin_m
+                      : (sc.groups.empty() ? site.local_origin() : sc.groups[0].frame.origin_m);
+  r.hfd_origin_m = hfd_origin_input;
+  const Vec3 hfd_origin = site.to_local(hfd_origin_input);
+  r.hazardous_fragment_distance_m = hazardous_distance(
+      site, r.ptn_density_per_m2, st.hfd_threshold_per_m2, hfd_origin, &r.hfd_by_sector_m);
+  {
+    std::vector<double> shifted(r.ptn_density_per_m2.size());
+    for (std::size_t t = 0; t < shifted.size(); ++t)
+      shifted[t] = r.ptn_density_per_m2[t] - r.ptn_std_error_per_m2[t];
+    r.hfd_lower_m = hazardous_distance(site, shifted, st.hfd_threshold_per_m2, hfd_origin, nullptr);
+    for (std::size_t t = 0; t < shifted.size(); ++t)
+      shifted[t] = r.ptn_density_per_m2[t] + r.ptn_std_error_per_m2[t];
+    r.hfd_upper_m = hazardous_distance(site, shifted, st.hfd_threshold_per_m2, hfd_origin, nullptr);
+  }
+
+  const auto& bs = site.buildings();
+  r.buildings.resize(bs.size());
+  for (std::size_t b = 0; b < bs.size(); ++b) {
+    const std::size_t base = b * kBuildingFigures;
+    auto est = [&](std::size_t bin) {
+      return Estimate{reducer.buildings_.mean(bin), reducer.buildings_.std_error(bin)};
+    };
+    BuildingResult& br = r.buildings[b];
+    br.id = bs[b].id;
+    br.impacts = est(base + kImpacts);
+    br.penetrations = est(base + kPenetrations);
+    for (int s = 0; s < scene::kSurfaceTypeCount; ++s) {
+      br.impacts_by_surface[static_cast<std::size_t>(s)] = est(base + kImpactsBySurface + s);
+      br.penetrations_by_surface[static_cast<std::size_t>(s)] =
+          est(base + kPenetrationsBySurface + s);
+    }
+    br.residual_ke_j = est(base + kResidualKe);
+  }
+  for (std::size_t o = 0; o < kOutcomeCount; ++o) {
+    r.outcome_fragments[o] = {reducer.outcomes_.mean(o), reducer.outcomes_.std_error(o)};
+    r.outcome_histories[o] = reducer.outcome_histories_[o];
+  }
+  r.fragments = std::move(reducer.records_);
+  r.trajectories = std::move(reducer.trajectories_);
+  r.stats = reducer.stats_;
+
+  r.timing.wall_s = std::chrono::duration<double>(Clock::now() - t_start).count();
+  r.timing.threads = threads;
+  r.timing.integration_s = reducer.integration_s_;
+  r.timing.geometry_s = reducer.geometry_s_;
+  r.timing.tally_s = reducer.tally_s_;
+  if (r.timing.wall_s > 0.0) {
+    r.timing.fragments_per_s = static_cast<double>(r.histories_done) / r.timing.wall_s;
+    r.timing.fragments_per_s_per_thread = r.timing.fragments_per_s / threads;
+  }
+  if (control.on_progress) {
+    control.on_progress({r.histories_done, total, r.timing.wall_s});
+  }
+  return r;
+}
+
+RunResult run(const Scenario& sc, const RunControl& control) {
+  const auto t0 = Clock::now();
+  auto site = scene::Site::build(sc.site);
+  const double build_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  RunResult r = run(sc, std::move(site), control);
+  r.timing.build_s = build_s;
+  return r;
+}
+
+}  // namespace fragsim::run

@@ -1,0 +1,35 @@
+#pragma once
+// One Monte Carlo run: sample histories, fly them, tally. Thread pool over chunks of histories.
+// Results are bit-identical for any thread count and chunk size (see tally/ordered_reducer.h).
+#include <atomic>
+#include <functional>
+#include <memory>
+
+#include "core/run/result.h"
+#include "core/run/scenario.h"
+#include "core/scene/site.h"
+
+namespace fragsim::run {
+
+struct Progress {
+  std::int64_t histories_done = 0;
+  std::int64_t histories_total = 0;
+  double elapsed_s = 0.0;
+};
+
+struct RunControl {
+  // Called from a worker thread at most every `progress_interval_s` and at the end.
+  std::function<void(const Progress&)> on_progress;
+  double progress_interval_s = 0.5;
+  // Set to true from any thread to stop; the result comes back with cancelled = true.
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+// Runs the scenario on an already built site (the daemon shares one Site between jobs).
+RunResult run(const Scenario& scenario, std::shared_ptr<const scene::Site> site,
+              const RunControl& control = {});
+
+// Convenience: builds the site from scenario.site, then runs. Throws InputError on bad geometry.
+RunResult run(const Scenario& scenario, const RunControl& control = {});
+
+}  // namespace fragsim::run

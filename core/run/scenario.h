@@ -1,0 +1,42 @@
+#pragma once
+// A complete simulation request in core terms: the site, the atmosphere, the fragment groups and
+// the run settings. The api layer builds it from JSON (docs/scenario.md); the core validates
+// what it needs to (geometry) and trusts the api layer for the rest.
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "core/common/types.h"
+#include "core/flight/atmosphere.h"
+#include "core/fragments/group.h"
+#include "core/scene/site_spec.h"
+
+namespace fragsim::run {
+
+struct Settings {
+  std::uint64_t seed = 1;
+  double person_height_m = 1.8;        // H_r of the PTN prisms (paper eq. 37)
+  double hazardous_ke_j = 79.0;        // 58 ft-lb (DDESB TP-16 / DoD 6055.09-M hazardous fragment)
+  double hfd_threshold_per_m2 = 1.0 / 55.74;  // 1 hazardous fragment per 600 ft^2
+  std::optional<Vec3> hfd_origin_m;    // input coordinates; default: first group's frame origin
+  double max_flight_time_s = 120.0;
+  double rtol = 1e-6;                  // integrator.rtol
+  double sagitta_m = 0.05;             // integrator.sagitta_m: chord sagitta tolerance
+  bool bounce = false;                 // ground impact ends the history when false
+  int threads = 0;                     // 0: all hardware threads
+  std::int64_t chunk_histories = 256;  // scheduling granularity (results do not depend on it)
+  bool record_fragments = false;       // per-history table in results.h5
+  bool record_trajectories = false;    // sampled trajectory points in results.h5
+  std::int64_t max_recorded_trajectories = 1000;
+  bool profile = false;                // time split integration / geometry / tally (costs a bit)
+};
+
+struct Scenario {
+  scene::SiteSpec site;
+  flight::AtmosphereSpec atmosphere;
+  double gravity_mps2 = kStandardGravity_mps2;
+  std::vector<fragments::FragmentGroupSpec> groups;
+  Settings settings;
+};
+
+}  // namespace fragsim::run

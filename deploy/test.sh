@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Quick start, command 2: build (installing dependencies if missing) and run the whole test suite.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+"$root/deploy/build.sh"
+cd "$root/build"
+ctest --output-on-failure -j "$(nproc 2>/dev/null || echo 2)" --timeout 1200
