@@ -7,46 +7,254 @@
 //   ode.reset(t0, y0);
 //   while (ode.step(t_end)) { ... ode.dense(t) for t in [ode.t_prev(), ode.t()] ... }
 //
-// Error norm: RMS over components of err_i / (atol_i + rtol * max(|y0_i|, |y1_i|)).
+// `Rhs` is a callable `Vec rhs(double t, const Vec& y)` (any expression convertible to Vec).
+// Error norm: RMS over components of err_i / (atol + rtol * max(|y0_i|, |y1_i|)).
+// No heap allocation: every vector is a fixed-size Eigen vector held by value.
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
+#include <utility>
 
 namespace fragsim::flight {
 
 struct Dopri5Options {
   double rtol = 1e-6;
-  double atol = 1e-6;  // absolute tolerance, same for all components unless atol_vec is set
+  double atol = 1e-6;  // absolute tolerance, same for all components (scale the state instead)
   double h_max = std::numeric_limits<double>::infinity();
   double h_min = 1e-12;  // step() returns false below this
   int max_rejections_per_step = 60;
 };
 
+// Butcher tableau of DOPRI5 (Dormand & Prince 1980; Hairer, Norsett & Wanner 1993, II.5,
+// Table 5.2), the 4th-order error weights e = b - b_hat, and the coefficients d of Hairer's
+// continuous extension (HNW 1993, II.6, dense output of DOPRI5). The dense-output polynomial
+// b_i(theta) built from d below was checked symbolically against all eight order-4 conditions
+// (sum b_i = theta, ..., sum b_i a_ij a_jk c_k = theta^4/24) for every theta, and b_i(1) = b_i.
+namespace dopri5_tableau {
+inline constexpr double c2 = 1.0 / 5, c3 = 3.0 / 10, c4 = 4.0 / 5, c5 = 8.0 / 9;
+inline constexpr double a21 = 1.0 / 5;
+inline constexpr double a31 = 3.0 / 40, a32 = 9.0 / 40;
+inline constexpr double a41 = 44.0 / 45, a42 = -56.0 / 15, a43 = 32.0 / 9;
+inline constexpr double a51 = 19372.0 / 6561, a52 = -25360.0 / 2187, a53 = 64448.0 / 6561,
+                        a54 = -212.0 / 729;
+inline constexpr double a61 = 9017.0 / 3168, a62 = -355.0 / 33, a63 = 46732.0 / 5247,
+                        a64 = 49.0 / 176, a65 = -5103.0 / 18656;
+// 5th-order weights (= a7j: the last stage is f at the new point, hence FSAL); b2 = b7 = 0.
+inline constexpr double b1 = 35.0 / 384, b3 = 500.0 / 1113, b4 = 125.0 / 192, b5 = -2187.0 / 6784,
+                        b6 = 11.0 / 84;
+// e = b - b_hat (b_hat = 4th-order embedded weights); e2 = 0.
+inline constexpr double e1 = 71.0 / 57600, e3 = -71.0 / 16695, e4 = 71.0 / 1920,
+                        e5 = -17253.0 / 339200, e6 = 22.0 / 525, e7 = -1.0 / 40;
+// Continuous extension; d2 = 0.
+inline constexpr double d1 = -12715105075.0 / 11282082432, d3 = 87487479700.0 / 32700410799,
+                        d4 = -10690763975.0 / 1880347072, d5 = 701980252875.0 / 199316789632,
+                        d6 = -1453857185.0 / 822651844, d7 = 69997945.0 / 29380423;
+}  // namespace dopri5_tableau
+
 template <int N, class Rhs>
 class Dopri5 {
  public:
   using Vec = Eigen::Matrix<double, N, 1>;
-  Dopri5(Rhs rhs, Dopri5Options opt);
+
+  Dopri5(Rhs rhs, Dopri5Options opt) : rhs_(std::move(rhs)), opt_(opt) {}
+
   // Start at (t0, y0). h0 <= 0: initial step chosen automatically (Hairer's algorithm).
-  void reset(double t0, const Vec& y0, double h0 = 0.0);
+  void reset(double t0, const Vec& y0, double h0 = 0.0) {
+    t_ = t_prev_ = t0;
+    y_ = y_prev_ = y0;
+    dy_ = f_prev_ = rhs_(t0, y0);
+    ++rhs_evals_;
+    h_ = 0.0;
+    log_facold_ = kLogErrFloor;
+    rejected_last_ = false;
+    r2_.setZero();
+    r3_.setZero();
+    r4_.setZero();
+    r5_.setZero();
+    h_next_ = h0 > 0.0 ? std::min(h0, opt_.h_max) : initial_step();
+  }
+
   // Take one accepted step, never past t_end. Returns false (state unchanged) when t() >= t_end
   // or the step size underflows h_min.
-  bool step(double t_end);
+  bool step(double t_end) {
+    using namespace dopri5_tableau;
+    if (!(t_ < t_end)) return false;
+    // PI step-size control (Gustafsson 1991, ACM TOMS 17; in the form of Hairer's DOPRI5 code,
+    // whose "beta" damps step-size oscillation): h_new = h / fac with
+    // fac = err^(1/5 - 0.75 beta) / err_old^beta / safety, fac limited to [1/facmax, 1/facmin].
+    constexpr double kSafety = 0.9, kFacMin = 0.2, kFacMax = 10.0, kBeta = 0.04;
+    constexpr double kExpo1 = 0.2 - 0.75 * kBeta;
+    double h = std::min(h_next_, opt_.h_max);
+    int rejections = 0;
+    for (;;) {
+      if (!(h >= opt_.h_min)) return false;  // also catches NaN
+      // Stretch the last step by up to 1 % rather than leave a sliver before t_end (Hairer).
+      bool last = false;
+      if (t_ + 1.01 * h >= t_end) {
+        h = t_end - t_;
+        last = true;
+      }
+      // FSAL: dy_ = f(t_, y_) is the first stage.
+      Vec y1, k7;
+      const double err = attempt(t_, y_, dy_, h, y1, k7, true);
+      if (err <= 1.0) {
+        // err^expo1 / err_old^beta as one exp of logs (pow twice per step showed in profiles);
+        // err = 0 (e.g. a polynomial solution) gives log = -inf, fac = 0, clamped below.
+        const double log_err = std::log(err);
+        double fac = std::exp(kExpo1 * log_err - kBeta * log_facold_);
+        fac = std::clamp(fac / kSafety, 1.0 / kFacMax, 1.0 / kFacMin);
+        double h_new = h / fac;
+        if (rejected_last_) h_new = std::min(h_new, h);  // no growth right after a rejection
+        log_facold_ = std::max(log_err, kLogErrFloor);   // err_old >= 1e-4 as in Hairer's code
+        rejected_last_ = false;
+        t_prev_ = t_;
+        y_prev_ = y_;
+        f_prev_ = dy_;
+        t_ = last ? t_end : t_ + h;
+        h_ = t_ - t_prev_;
+        y_ = y1;
+        dy_ = k7;
+        h_next_ = h_new;
+        ++accepted_;
+        build_dense();
+        return true;
+      }
+      ++rejected_;
+      rejected_last_ = true;
+      if (++rejections > opt_.max_rejections_per_step) {
+        h_next_ = h;
+        return false;
+      }
+      // NaN/Inf error (e.g. the right-hand side blew up): shrink by the largest allowed factor.
+      const double fac11 = std::isfinite(err) ? std::pow(err, kExpo1) : 1.0 / kFacMin;
+      h /= std::min(1.0 / kFacMin, fac11 / kSafety);
+    }
+  }
+
   // Retake the last accepted step but end it at t_stop in (t_prev, t]: state becomes the step's
   // result at exactly t_stop (integrated, not interpolated). Used to stop on kinks/events.
-  void truncate_last_step(double t_stop);
+  void truncate_last_step(double t_stop) {
+    if (!(t_stop > t_prev_ && t_stop <= t_))
+      throw std::invalid_argument("Dopri5::truncate_last_step: t_stop " + std::to_string(t_stop) +
+                                  " outside (" + std::to_string(t_prev_) + ", " +
+                                  std::to_string(t_) + "]");
+    if (t_stop == t_) return;
+    Vec y1, k7;
+    attempt(t_prev_, y_prev_, f_prev_, t_stop - t_prev_, y1, k7, false);
+    t_ = t_stop;
+    h_ = t_ - t_prev_;
+    y_ = y1;
+    dy_ = k7;
+    build_dense();
+  }
 
-  double t() const;
-  double t_prev() const;
-  const Vec& y() const;
-  const Vec& y_prev() const;
-  const Vec& dy() const;          // f(t, y) at t()
-  Vec dense(double t) const;      // valid on [t_prev(), t()]
-  double next_step_size() const;  // proposal for the next step
-  long rhs_evaluations() const;
-  long steps_accepted() const;
-  long steps_rejected() const;
-  // ... implementation-defined private members ...
+  double t() const { return t_; }
+  double t_prev() const { return t_prev_; }
+  const Vec& y() const { return y_; }
+  const Vec& y_prev() const { return y_prev_; }
+  const Vec& dy() const { return dy_; }  // f(t, y) at t()
+
+  // Hairer's continuous extension on [t_prev(), t()], theta = (t - t_prev)/h:
+  //   y(theta) = y0 + theta (r2 + (1-theta) (r3 + theta (r4 + (1-theta) r5)))
+  // with r2 = y1 - y0, r3 = h k1 - r2, r4 = r2 - h k7 - r3, r5 = h sum d_i k_i (HNW II.6).
+  // It matches y0, y1, f0 and f1 at the ends (C1 across steps) and is 4th order inside.
+  Vec dense(double t) const {
+    if (h_ == 0.0) return y_;
+    const double th = (t - t_prev_) / h_, th1 = 1.0 - th;
+    return y_prev_ + th * (r2_ + th1 * (r3_ + th * (r4_ + th1 * r5_)));
+  }
+  // Time derivative of dense(t).
+  Vec dense_derivative(double t) const {
+    if (h_ == 0.0) return dy_;
+    const double th = (t - t_prev_) / h_, th1 = 1.0 - th;
+    return (r2_ + (1.0 - 2.0 * th) * r3_ + th * (2.0 - 3.0 * th) * r4_ +
+            (2.0 * th * th1 * (1.0 - 2.0 * th)) * r5_) /
+           h_;
+  }
+
+  double next_step_size() const { return h_next_; }  // proposal for the next step
+  // Counters accumulate over the object's lifetime (reset() does not clear them).
+  long rhs_evaluations() const { return rhs_evals_; }
+  long steps_accepted() const { return accepted_; }
+  long steps_rejected() const { return rejected_; }
+  const Rhs& rhs() const { return rhs_; }
+  const Dopri5Options& options() const { return opt_; }
+
+ private:
+  // RMS of v_i / (atol + rtol * max(|a_i|, |b_i|)).
+  double scaled_rms(const Vec& v, const Vec& a, const Vec& b) const {
+    const Vec sc = (opt_.atol + opt_.rtol * a.cwiseAbs().cwiseMax(b.cwiseAbs()).array()).matrix();
+    return std::sqrt(v.cwiseQuotient(sc).squaredNorm() / static_cast<double>(N));
+  }
+
+  // One DOPRI5 step of size h from (t0, y0) with f0 = f(t0, y0): the 5th-order result y1,
+  // k7 = f(t0 + h, y1), and the stages k2..k6 in members for the dense output. Returns the
+  // scaled error norm when `estimate` is set (else 0).
+  double attempt(double t0, const Vec& y0, const Vec& f0, double h, Vec& y1, Vec& k7,
+                 bool estimate) {
+    using namespace dopri5_tableau;
+    k1_ = f0;
+    k2_ = rhs_(t0 + c2 * h, y0 + h * (a21 * k1_));
+    k3_ = rhs_(t0 + c3 * h, y0 + h * (a31 * k1_ + a32 * k2_));
+    k4_ = rhs_(t0 + c4 * h, y0 + h * (a41 * k1_ + a42 * k2_ + a43 * k3_));
+    k5_ = rhs_(t0 + c5 * h, y0 + h * (a51 * k1_ + a52 * k2_ + a53 * k3_ + a54 * k4_));
+    k6_ = rhs_(t0 + h, y0 + h * (a61 * k1_ + a62 * k2_ + a63 * k3_ + a64 * k4_ + a65 * k5_));
+    y1 = y0 + h * (b1 * k1_ + b3 * k3_ + b4 * k4_ + b5 * k5_ + b6 * k6_);
+    k7 = rhs_(t0 + h, y1);
+    rhs_evals_ += 6;
+    k7_ = k7;
+    if (!estimate) return 0.0;
+    const Vec err = h * (e1 * k1_ + e3 * k3_ + e4 * k4_ + e5 * k5_ + e6 * k6_ + e7 * k7);
+    return scaled_rms(err, y0, y1);
+  }
+
+  // Coefficients of the continuous extension for the accepted step [t_prev_, t_].
+  void build_dense() {
+    using namespace dopri5_tableau;
+    r2_ = y_ - y_prev_;
+    r3_ = h_ * k1_ - r2_;
+    r4_ = r2_ - h_ * k7_ - r3_;
+    r5_ = h_ * (d1 * k1_ + d3 * k3_ + d4 * k4_ + d5 * k5_ + d6 * k6_ + d7 * k7_);
+  }
+
+  // Starting step size (HNW 1993, II.4, "Starting step size"): h0 = 0.01 ||y0|| / ||f0||, one
+  // explicit Euler step to estimate the second derivative, then h1 = (0.01 / max(||f0||,
+  // ||f''||))^(1/5); h = min(100 h0, h1). Norms are the error norm's, so the result is in the
+  // same tolerance units as the step control. Costs one evaluation of f.
+  double initial_step() {
+    const Vec& f0 = dy_;
+    const double d0 = scaled_rms(y_, y_, y_);
+    const double d1 = scaled_rms(f0, y_, y_);
+    double h0 = (d0 < 1e-10 || d1 < 1e-10) ? 1e-6 : 0.01 * d0 / d1;
+    h0 = std::min(h0, opt_.h_max);
+    const Vec y1 = y_ + h0 * f0;
+    const Vec f1 = rhs_(t_ + h0, y1);
+    ++rhs_evals_;
+    const double d2 = scaled_rms(f1 - f0, y_, y_) / h0;
+    const double der = std::max(d1, d2);
+    const double h1 = der <= 1e-15 ? std::max(1e-6, h0 * 1e-3) : std::pow(0.01 / der, 0.2);
+    return std::min({100.0 * h0, h1, opt_.h_max});
+  }
+
+  // Private Members
+  Rhs rhs_;
+  Dopri5Options opt_;
+  double t_ = 0.0, t_prev_ = 0.0;
+  double h_ = 0.0;       // size of the last accepted (or truncated) step
+  double h_next_ = 0.0;  // controller's proposal
+  static constexpr double kLogErrFloor = -9.210340371976182;  // ln(1e-4)
+  double log_facold_ = kLogErrFloor;  // ln of the previous accepted error norm
+  bool rejected_last_ = false;
+  Vec y_ = Vec::Zero(), y_prev_ = Vec::Zero();
+  Vec dy_ = Vec::Zero();      // f(t_, y_)
+  Vec f_prev_ = Vec::Zero();  // f(t_prev_, y_prev_), for truncate_last_step
+  Vec k1_ = Vec::Zero(), k2_ = Vec::Zero(), k3_ = Vec::Zero(), k4_ = Vec::Zero(), k5_ = Vec::Zero(),
+      k6_ = Vec::Zero(), k7_ = Vec::Zero();
+  Vec r2_ = Vec::Zero(), r3_ = Vec::Zero(), r4_ = Vec::Zero(), r5_ = Vec::Zero();
+  long rhs_evals_ = 0, accepted_ = 0, rejected_ = 0;
 };
 
 }  // namespace fragsim::flight

@@ -22,6 +22,7 @@ class DragCoefficient {
   std::vector<double> mach_, cd_;
 };
 
+// A null atmosphere or Cd, or zero area, means no drag (vacuum flight).
 struct FlightModel {
   const Atmosphere* atmosphere = nullptr;
   const DragCoefficient* cd = nullptr;
@@ -30,7 +31,8 @@ struct FlightModel {
   double mass_kg = 1.0;
   double altitude_offset_m = 0.0;  // altitude = local z + offset
 
-  // Acceleration at local position p with velocity v.
+  // Acceleration at local position p with velocity v (time-independent: wind is uniform and
+  // steady).
   Vec3 acceleration(const Vec3& p, const Vec3& v) const;
 };
 

@@ -69,6 +69,7 @@ RunContext::RunContext(const Scenario& sc, const scene::Site& s)
   terrain_max_z = highest_terrain_z(s);
   top_z = prisms.top_z();
   if (s.has_buildings()) top_z = std::max(top_z, s.buildings_bounds().hi.z());
+  step_min_at_ends = sc.atmosphere.wind_mps.z() <= 0.0;
 }
 
 void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,
@@ -182,9 +183,11 @@ void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t h
         traj.position_m.push_back(site.to_input(p1));
       }
 
-      // Under gravity and drag z(t) has no interior minimum within a step (z'' = -g < 0 where
-      // z' = 0), so the step's lowest point is one of its ends: steps above everything are free.
-      if (std::min(p0.z(), p1.z()) <= ctx.top_z) {
+      // Under gravity and drag in still or sinking air z(t) has no interior minimum within a step
+      // (z'' = -g - k|v_rel| (v_z - w_z) < 0 where v_z = 0 and w_z <= 0), so the step's lowest
+      // point is one of its ends and steps above everything are free. An updraft (w_z > 0) can
+      // make z'' > 0 at rest: then every step is examined.
+      if (!ctx.step_min_at_ends || std::min(p0.z(), p1.z()) <= ctx.top_z) {
         // Curvature at both ends and in the middle (an apex inside the step is where it peaks).
         const double tm = 0.5 * (t0 + t1);
         const Vec3 vm = integ.velocity(tm);
@@ -266,10 +269,10 @@ void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t h
           if (!std::isnan(h1) && p1.z() < h1 - 1e-6) {
             double lo = t0, hi = t1;
             for (int it = 0; it < 60; ++it) {
-              const double tm = 0.5 * (lo + hi);
-              const Vec3 pm = integ.position(tm);
+              const double t_mid = 0.5 * (lo + hi);
+              const Vec3 pm = integ.position(t_mid);
               const double hm = site.terrain_height(pm.x(), pm.y());
-              if (std::isnan(hm) || pm.z() >= hm) lo = tm; else hi = tm;
+              if (std::isnan(hm) || pm.z() >= hm) lo = t_mid; else hi = t_mid;
             }
             end.t = hi;
             end.p = integ.position(hi);

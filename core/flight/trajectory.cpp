@@ -1,0 +1,228 @@
+#include "core/flight/trajectory.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace fragsim::flight {
+
+// ---------------------------------------------------------------------------------------------
+// TrajectoryIntegrator
+
+namespace {
+
+Dopri5Options translation_options(double rtol) {
+  if (!(rtol > 0.0 && rtol < 1.0))
+    throw std::invalid_argument("TrajectoryIntegrator: rtol " + std::to_string(rtol) +
+                                " outside (0, 1)");
+  Dopri5Options opt;
+  opt.rtol = rtol;
+  opt.atol = rtol;  // x 1 m or 1 m/s: see the constructor's comment in the header
+  return opt;
+}
+
+}  // namespace
+
+TrajectoryIntegrator::TrajectoryIntegrator(const FlightModel& model, double rtol)
+    : ode_(Rhs{model}, translation_options(rtol)) {
+  if (model.atmosphere != nullptr) wind_ = model.atmosphere->wind();
+}
+
+void TrajectoryIntegrator::reset(double t0, const Vec3& position, const Vec3& velocity) {
+  Vec6 y0;
+  y0 << position, velocity;
+  ode_.reset(t0, y0);
+  last_cut_t_ = -std::numeric_limits<double>::infinity();
+}
+
+bool TrajectoryIntegrator::step(double t_end) {
+  if (!ode_.step(t_end)) return false;
+  cut_at_apex_if_needed();
+  return true;
+}
+
+// The kink of -k|v_rel| v_rel at v_rel = 0 (physics notes, "Caution"): with no horizontal
+// relative speed, v_z' = -g - k|v_z|v_z has a v_z''' that jumps by 4 k g^2 at the apex, so a
+// Runge-Kutta step across it drops to low order and its error estimate is unreliable. If the
+// accepted step [t_prev, t] has v_z,rel changing sign while the horizontal relative speed is
+// small (kApexHorizontalRatio), locate v_z,rel = 0 on the dense output and retake the step to
+// end there; the next step then starts at the apex and sees a smooth solution.
+void TrajectoryIntegrator::cut_at_apex_if_needed() {
+  const double t0 = ode_.t_prev(), t1 = ode_.t();
+  if (t0 == last_cut_t_) return;  // this step starts at the apex just cut: v_z,rel(t0) ~ 0
+  const Vec6& y0 = ode_.y_prev();
+  const Vec6& y1 = ode_.y();
+  const double s0 = y0[5] - wind_.z(), s1 = y1[5] - wind_.z();
+  if (!(s0 * s1 < 0.0)) return;
+  // A zero within the velocity tolerance of an end of the step is harmless: near v_rel = 0 the
+  // kinked and the smooth branch differ by 2 k v_z^2, so crossing there perturbs v by
+  // ~2 k tol_v^2 h, far below tol_v.
+  const Dopri5Options& opt = ode_.options();
+  const Vec3 vr0 = y0.tail<3>() - wind_, vr1 = y1.tail<3>() - wind_;
+  const double tol0 = opt.atol + opt.rtol * vr0.norm(), tol1 = opt.atol + opt.rtol * vr1.norm();
+  if (std::abs(s0) <= tol0 || std::abs(s1) <= tol1) return;
+  const double u = std::max(vr0.head<2>().norm(), vr1.head<2>().norm());
+  if (u > kApexHorizontalRatio * std::max(std::abs(s0), std::abs(s1))) return;
+
+  // Safeguarded Newton on the dense output's v_z(t) - w_z, bracketed by [a, b] (the dense output
+  // interpolates both ends exactly, so the bracket is valid); falls back to bisection when a
+  // Newton step leaves the bracket. Converges to a few ulp of t.
+  double a = t0, b = t1, fa = s0;
+  double t = t0 + (t1 - t0) * s0 / (s0 - s1);  // regula falsi start
+  const double t_tol =
+      4.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(t1), t1 - t0);
+  for (int it = 0; it < 100; ++it) {
+    const double f = ode_.dense(t)[5] - wind_.z();
+    if (f == 0.0) break;
+    if ((f < 0.0) == (fa < 0.0)) {
+      a = t;
+      fa = f;
+    } else {
+      b = t;
+    }
+    const double df = ode_.dense_derivative(t)[5];
+    double t_next = t - f / df;
+    if (!(t_next > a && t_next < b)) t_next = 0.5 * (a + b);
+    const bool done = std::abs(t_next - t) <= t_tol || b - a <= t_tol;
+    t = t_next;
+    if (done) break;
+  }
+  t = std::clamp(t, std::nextafter(t0, t1), t1);
+  ode_.truncate_last_step(t);
+  last_cut_t_ = ode_.t();
+  ++apex_cuts_;
+}
+
+double TrajectoryIntegrator::t_prev() const {
+  return ode_.t_prev();
+}
+double TrajectoryIntegrator::t() const {
+  return ode_.t();
+}
+Vec3 TrajectoryIntegrator::position(double t) const {
+  return ode_.dense(t).head<3>();
+}
+Vec3 TrajectoryIntegrator::velocity(double t) const {
+  return ode_.dense(t).tail<3>();
+}
+Vec3 TrajectoryIntegrator::position() const {
+  return ode_.y().head<3>();
+}
+Vec3 TrajectoryIntegrator::velocity() const {
+  return ode_.y().tail<3>();
+}
+Vec3 TrajectoryIntegrator::acceleration() const {
+  return ode_.dy().tail<3>();
+}
+long TrajectoryIntegrator::rhs_evaluations() const {
+  return ode_.rhs_evaluations();
+}
+const FlightModel& TrajectoryIntegrator::model() const {
+  return ode_.rhs().model;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Torque-free rotation
+
+namespace {
+
+// Relative tolerance for "equal" principal moments. Moments computed from equal dimensions by
+// the same formula agree to the last bit or so; treating moments that differ by d (relative) as
+// equal changes the motion by ~d |omega| t, negligible at this level.
+constexpr double kEqualInertia = 1e-14;
+
+bool nearly_equal(double a, double b) {
+  return std::abs(a - b) <= kEqualInertia * std::max(std::abs(a), std::abs(b));
+}
+
+// Axisymmetric (and spherical) closed form. With I_s the distinct moment about body axis e_s and
+// I_p the other two, the body-frame angular velocity precesses about e_s at
+// Omega = (I_s - I_p) omega_s / I_p (Landau & Lifshitz, Mechanics, sects. 33 and 36), and the
+// attitude is
+//   R(t) = Rot(L_w, |L| t / I_p) R0 Rot(e_s, -Omega t),   L_w = R0 I omega0 (constant),
+// which gives omega_body = L_body / I_p - Omega e_s, i.e. I omega_body = L_body: the motion with
+// constant world angular momentum. Spherical inertia is Omega = 0: rotation by |omega| t.
+RotationState axisymmetric_closed_form(const Vec3& inertia, int s, double i_perp,
+                                       const RotationState& st, double dt) {
+  const Vec3 l_body = inertia.cwiseProduct(st.omega_body);
+  const Vec3 l_world = st.q * l_body;
+  const double l_norm = l_world.norm();
+  const double omega_s = (inertia[s] - i_perp) * st.omega_body[s] / i_perp;
+  const Vec3 e_s = Vec3::Unit(s);
+  const Quat a(Eigen::AngleAxisd(l_norm * dt / i_perp, l_world / l_norm));
+  const Quat b(Eigen::AngleAxisd(-omega_s * dt, e_s));
+  RotationState out;
+  out.q = (a * st.q * b).normalized();
+  // L_body(t) = B^T L_body(0); omega = I^-1 L.
+  out.omega_body = (b.conjugate() * l_body).cwiseQuotient(inertia);
+  return out;
+}
+
+// State (q_w, q_x, q_y, q_z, w) in scaled time tau = |omega0| t with w = omega / |omega0|, so
+// every component is O(1) and one absolute tolerance fits all:
+//   dq/dtau = 1/2 q (x) (0, w),   dw/dtau = -I^-1 (w x I w)   (Euler, paper eq. 2 with tau = 0).
+// `direction` = -1 integrates backwards in t.
+struct EulerRhs {
+  Vec3 inertia;
+  double direction;
+  using Vec7 = Eigen::Matrix<double, 7, 1>;
+  Vec7 operator()(double /*tau*/, const Vec7& y) const {
+    const double qw = y[0];
+    const Vec3 qv = y.segment<3>(1);
+    const Vec3 w = y.segment<3>(4);
+    Vec7 dy;
+    // q (x) (0, w) = (-qv.w, qw w + qv x w)
+    dy[0] = -0.5 * qv.dot(w);
+    dy.segment<3>(1) = 0.5 * (qw * w + qv.cross(w));
+    dy.segment<3>(4) = -(w.cross(inertia.cwiseProduct(w))).cwiseQuotient(inertia);
+    return direction * dy;
+  }
+};
+
+}  // namespace
+
+RotationState propagate_torque_free(const Vec3& inertia_principal_kg_m2, const RotationState& s,
+                                    double dt_s, double rtol) {
+  const Vec3& inertia = inertia_principal_kg_m2;
+  if (!(inertia.minCoeff() > 0.0) || !inertia.allFinite())
+    throw std::invalid_argument("propagate_torque_free: principal moments must be finite and > 0");
+  if (!std::isfinite(dt_s) || !s.omega_body.allFinite() || !s.q.coeffs().allFinite())
+    throw std::invalid_argument("propagate_torque_free: non-finite state or time");
+  const double spin = s.omega_body.norm();
+  if (spin == 0.0 || dt_s == 0.0) return {s.q.normalized(), s.omega_body};
+
+  // Two equal moments: closed form about the distinct one (any axis if all three are equal).
+  for (int k = 0; k < 3; ++k) {
+    const int i = (k + 1) % 3, j = (k + 2) % 3;
+    if (nearly_equal(inertia[i], inertia[j]))
+      return axisymmetric_closed_form(inertia, k, 0.5 * (inertia[i] + inertia[j]), s, dt_s);
+  }
+
+  if (!(rtol > 0.0 && rtol < 1.0))
+    throw std::invalid_argument("propagate_torque_free: rtol " + std::to_string(rtol) +
+                                " outside (0, 1)");
+  Dopri5Options opt;
+  opt.rtol = rtol;
+  opt.atol = rtol;  // components are O(1) after scaling
+  opt.h_min = 1e-14;
+  Dopri5<7, EulerRhs> ode(EulerRhs{inertia, dt_s > 0.0 ? 1.0 : -1.0}, opt);
+  EulerRhs::Vec7 y0;
+  const Quat q0 = s.q.normalized();
+  y0 << q0.w(), q0.x(), q0.y(), q0.z(), s.omega_body / spin;
+  ode.reset(0.0, y0);
+  const double tau_end = spin * std::abs(dt_s);
+  while (ode.t() < tau_end) {
+    if (!ode.step(tau_end))
+      throw std::runtime_error("propagate_torque_free: step size underflow at tau = " +
+                               std::to_string(ode.t()));
+  }
+  const EulerRhs::Vec7& y = ode.y();
+  RotationState out;
+  // The exact flow keeps |q| = 1; the integrator drifts by O(rtol), removed here.
+  out.q = Quat(y[0], y[1], y[2], y[3]).normalized();
+  out.omega_body = spin * y.segment<3>(4);
+  return out;
+}
+
+}  // namespace fragsim::flight
