@@ -220,7 +220,17 @@ void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t h
             SectionTimer timer(prof, out.geometry_s);
             ++out.stats.scene_queries;
             // tfar slightly beyond 1: a hit exactly at a chord junction is never lost.
-            hit = site.intersect(pa, pb - pa, 0.0, 1.0 + 1e-7, mask);
+            const Vec3 d = pb - pa;
+            double tnear = 0.0;
+            hit = site.intersect(pa, d, tnear, 1.0 + 1e-7, mask);
+            // A surface met from behind (moving away from it) is where the path starts on it,
+            // e.g. a launch from ground level: look past it. Bounded: at most a few surfaces
+            // can pass through one point.
+            for (int skip = 0; hit && hit->normal.dot(d) >= 0.0 && skip < 4; ++skip) {
+              tnear = hit->t + 1e-9;
+              hit = site.intersect(pa, d, tnear, 1.0 + 1e-7, mask);
+            }
+            if (hit && hit->normal.dot(d) >= 0.0) hit.reset();
           }
           const double s_end = hit ? std::min(hit->t, 1.0) : 1.0;
           add_ptn_segment(pa, pa + s_end * (pb - pa), ta, ta + s_end * (tb - ta), integ);

@@ -39,7 +39,10 @@ struct Building {
   Box3 bounds;                        // local coordinates
   std::uint32_t first_triangle = 0;   // range in Site::building_triangles()
   std::uint32_t triangle_count = 0;
-  std::array<double, kSurfaceTypeCount> surface_area_m2{};  // by SurfaceType
+  std::array<double, kSurfaceTypeCount> surface_area_m2{};  // by SurfaceType, exposed surface only
+  // Footprint buildings end their triangle range with a floor (tagged kWall, wall material) that
+  // closes the mesh; it sits on or below the ground, so it is left out of surface_area_m2.
+  std::uint32_t floor_triangle_count = 0;
 };
 
 // Per building triangle.
@@ -64,7 +67,8 @@ struct SceneHit {
 enum QueryMask : unsigned { kQueryTerrain = 1u, kQueryBuildings = 2u, kQueryAll = 3u };
 
 // Uniform 2-D bucket grid over the xy-projections of the terrain triangles (CSR layout).
-// For plane and grid terrains a bucket is exactly one grid cell (two triangles).
+// For plane and grid terrains a bucket is exactly one grid cell (two triangles), so buckets may be
+// rectangular (a plane's cells fit its extent exactly and are only about square).
 class TerrainIndex2D {
  public:
   // Calls f(triangle) for every terrain triangle whose bucket the xy-segment a->b passes through.
@@ -77,7 +81,7 @@ class TerrainIndex2D {
 
   // Public for the builder (core/scene) and tests; treat as read-only.
   Vec2 origin{0, 0};
-  double cell = 1.0;
+  Vec2 cell{1.0, 1.0};  // bucket size in x and y
   int nx = 0, ny = 0;
   std::vector<std::uint32_t> start;      // nx*ny + 1
   std::vector<std::uint32_t> triangles;  // bucket contents
@@ -87,6 +91,8 @@ class TerrainIndex2D {
   template <class F>
   void visit_bucket(int i, int j, F& f) const;
 };
+
+struct EmbreeErrorLog;  // embree_scene.h
 
 class Site {
  public:
@@ -134,18 +140,34 @@ class Site {
   // Everything: terrain and buildings.
   const Box3& bounds() const { return bounds_; }
 
+  // Per building triangle (local coordinates): outward unit normal and area.
+  const Vec3& building_triangle_normal(std::uint32_t t) const { return building_normal_[t]; }
+  double building_triangle_area(std::uint32_t t) const { return building_area_[t]; }
+
   // Materials, indexed by the uint16 ids above.
   const std::vector<Material>& materials() const { return materials_; }
 
   // Nearest hit of the segment org + t*dir, t in [tnear, tfar], against the geometry selected by
   // `mask`. For a plane terrain the terrain part is analytic (no BVH walk); with no buildings the
   // building part costs nothing.
+  // The hit t is refined in double against the hit triangle's plane (Embree's float t is only
+  // used for grazing hits) and clamped to [tnear, tfar]. Terrain meshes get a double-precision
+  // guard against rays slipping through shared vertices (see site.cpp).
   std::optional<SceneHit> intersect(const Vec3& org, const Vec3& dir, double tnear, double tfar,
                                     unsigned mask = kQueryAll) const;
+
+  // First error message Embree reported for this site's device (empty if none). Errors during the
+  // build already throw; this is for diagnostics after queries.
+  std::string embree_error() const;
 
  private:
   Site() = default;
   friend class SiteBuilder;
+  // intersect() without the vertex slip guard: analytic plane + Embree.
+  std::optional<SceneHit> intersect_embree(const Vec3& org, const Vec3& dir, double tnear,
+                                           double tfar, unsigned mask) const;
+  // Strictly below the terrain surface at p's xy (false outside the terrain).
+  bool below_terrain(const Vec3& p) const;
 
   Vec3 local_origin_{0, 0, 0};
   double altitude_offset_m_ = 0.0;
@@ -156,6 +178,7 @@ class Site {
   std::vector<double> terrain_area_;
   std::vector<Vec3> terrain_normal_;
   bool terrain_is_plane_ = false;
+  bool terrain_is_lattice_ = false;  // plane or grid: bucket (i, j) holds triangles 2k, 2k + 1
   double plane_elevation_ = 0.0;
   Box3 terrain_bounds_;
   TerrainIndex2D index_;
@@ -164,6 +187,8 @@ class Site {
   std::vector<Building> buildings_;
   std::vector<Vec3> building_vertices_;
   std::vector<BuildingTriangle> building_triangles_;
+  std::vector<Vec3> building_normal_;
+  std::vector<double> building_area_;
   Box3 buildings_bounds_;
   Box3 bounds_;
   std::vector<Material> materials_;
@@ -172,6 +197,7 @@ class Site {
   RTCSceneTy* scene_ = nullptr;  // terrain (geometry 0, absent for a plane) + buildings (1)
   unsigned terrain_geom_ = ~0u;
   unsigned building_geom_ = ~0u;
+  std::unique_ptr<EmbreeErrorLog> embree_log_;  // the device error callback writes here
 };
 
 // ---- inline template members ----
@@ -183,17 +209,20 @@ void TerrainIndex2D::visit_bucket(int i, int j, F& f) const {
 
 template <class F>
 void TerrainIndex2D::for_each_candidate_at(const Vec2& p, F&& f) const {
-  const double fx = (p.x() - origin.x()) / cell, fy = (p.y() - origin.y()) / cell;
-  if (!(fx >= 0 && fy >= 0 && fx <= nx && fy <= ny)) return;
+  const double fx = (p.x() - origin.x()) / cell.x(), fy = (p.y() - origin.y()) / cell.y();
+  if (!(fx >= 0 && fy >= 0 && fx <= nx && fy <= ny)) return;  // also rejects NaN
   const int i = std::min(static_cast<int>(fx), nx - 1), j = std::min(static_cast<int>(fy), ny - 1);
   visit_bucket(i, j, f);
 }
 
 // Amanatides & Woo (1987) grid traversal of the xy-segment a->b, clipped to the grid.
+// Buckets the segment only touches (at a corner or along a bucket edge) may or may not be visited;
+// the builder pads bucket contents so that every triangle the segment crosses is reported.
 template <class F>
 void TerrainIndex2D::for_each_candidate(const Vec2& a, const Vec2& b, F&& f) const {
   if (nx <= 0 || ny <= 0) return;
-  const Vec2 pa = (a - origin) / cell, pb = (b - origin) / cell;  // grid units
+  const Vec2 pa = (a - origin).cwiseQuotient(cell), pb = (b - origin).cwiseQuotient(cell);
+  if (!pa.allFinite() || !pb.allFinite()) return;  // NaN would reach an int cast below (UB)
   const Vec2 d = pb - pa;
   // Clip the parametric segment to [0,nx]x[0,ny].
   double s0 = 0.0, s1 = 1.0;
@@ -218,10 +247,15 @@ void TerrainIndex2D::for_each_candidate(const Vec2& a, const Vec2& b, F&& f) con
   const int si = d.x() > 0 ? 1 : (d.x() < 0 ? -1 : 0);
   const int sj = d.y() > 0 ? 1 : (d.y() < 0 ? -1 : 0);
   const double inf = std::numeric_limits<double>::infinity();
-  double tmx = si != 0 ? ((i + (si > 0 ? 1 : 0)) - pa.x()) / d.x() : inf;
-  double tmy = sj != 0 ? ((j + (sj > 0 ? 1 : 0)) - pa.y()) / d.y() : inf;
-  const double tdx = si != 0 ? std::abs(1.0 / d.x()) : inf;
-  const double tdy = sj != 0 ? std::abs(1.0 / d.y()) : inf;
+  // Parameter of the next x (y) bucket boundary, recomputed from the integer boundary at every step
+  // rather than accumulated (t += dt drifts by one rounding per step on long segments).
+  const auto next_x = [&](int ii) {
+    return si != 0 ? ((ii + (si > 0 ? 1 : 0)) - pa.x()) / d.x() : inf;
+  };
+  const auto next_y = [&](int jj) {
+    return sj != 0 ? ((jj + (sj > 0 ? 1 : 0)) - pa.y()) / d.y() : inf;
+  };
+  double tmx = next_x(i), tmy = next_y(j);
   // Bounded loop: at most nx + ny + 2 buckets for any segment.
   for (int guard = nx + ny + 2; guard > 0; --guard) {
     visit_bucket(i, j, f);
@@ -229,11 +263,11 @@ void TerrainIndex2D::for_each_candidate(const Vec2& a, const Vec2& b, F&& f) con
     if (tmx < tmy) {
       if (tmx > s1) break;
       i += si;
-      tmx += tdx;
+      tmx = next_x(i);
     } else {
       if (tmy > s1) break;
       j += sj;
-      tmy += tdy;
+      tmy = next_y(j);
     }
     if (i < 0 || j < 0 || i >= nx || j >= ny) break;
   }

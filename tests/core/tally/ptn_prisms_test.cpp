@@ -65,23 +65,25 @@ TEST(PtnPrisms, ProjectedAreaEqualsHalfTheSumOfAbsoluteFaceProjections) {
 TEST(PtnPrisms, ClipKeepsThePartInsideTheBand) {
   auto site = one_triangle_site();
   PtnPrisms p(*site, 1.8);
+  // Prisms live in site-local coordinates.
+  auto L = [&](double x, double y, double z) { return site->to_local(Vec3(x, y, z)); };
   double s0, s1;
   // Horizontal path at 1 m above the ground (z = 3) along y = 1 from x = -1 to x = 5:
   // the triangle spans x in [0, 4 - 4/3] at y = 1.
-  ASSERT_TRUE(p.clip(0, Vec3(-1, 1, 3), Vec3(5, 1, 3), s0, s1));
+  ASSERT_TRUE(p.clip(0, L(-1, 1, 3), L(5, 1, 3), s0, s1));
   EXPECT_NEAR(s0, 1.0 / 6.0, 1e-12);
   EXPECT_NEAR(s1, (1.0 + 4.0 - 4.0 / 3.0) / 6.0, 1e-12);
   // Same path above the band (z = 4 > 2 + 1.8): no crossing.
-  EXPECT_FALSE(p.clip(0, Vec3(-1, 1, 4), Vec3(5, 1, 4), s0, s1));
+  EXPECT_FALSE(p.clip(0, L(-1, 1, 4), L(5, 1, 4), s0, s1));
   // Below the ground: no crossing.
-  EXPECT_FALSE(p.clip(0, Vec3(-1, 1, 1.5), Vec3(5, 1, 1.5), s0, s1));
+  EXPECT_FALSE(p.clip(0, L(-1, 1, 1.5), L(5, 1, 1.5), s0, s1));
   // Vertical fall through the band at (1, 1): from z = 10 to z = 2 -> s in [(10-3.8)/8, 1].
-  ASSERT_TRUE(p.clip(0, Vec3(1, 1, 10), Vec3(1, 1, 2), s0, s1));
+  ASSERT_TRUE(p.clip(0, L(1, 1, 10), L(1, 1, 2), s0, s1));
   EXPECT_NEAR(s0, (10 - 3.8) / 8.0, 1e-12);
   EXPECT_NEAR(s1, 1.0, 1e-12);
   // Vertical fall outside the triangle.
-  EXPECT_FALSE(p.clip(0, Vec3(3, 3, 10), Vec3(3, 3, 2), s0, s1));
-  EXPECT_NEAR(p.top_z(), 3.8, 1e-12);
+  EXPECT_FALSE(p.clip(0, L(3, 3, 10), L(3, 3, 2), s0, s1));
+  EXPECT_NEAR(p.top_z(), L(0, 0, 3.8).z(), 1e-12);
 }
 
 TEST(StratifiedEstimator, MeanAndStandardErrorOfTwoStrata) {

@@ -1,0 +1,97 @@
+// Surface materials: validation, numbering, and restitution lookup.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/scene/site_builder.h"
+#include "core/scene/validation.h"
+
+namespace fragsim::scene {
+
+const char* surface_type_name(SurfaceType s) {
+  switch (s) {
+    case SurfaceType::kTerrain:
+      return "terrain";
+    case SurfaceType::kWall:
+      return "wall";
+    case SurfaceType::kRoof:
+      return "roof";
+    case SurfaceType::kWindow:
+      return "window";
+  }
+  return "unknown";
+}
+
+double Material::restitution_at(double normal_speed_mps) const {
+  const auto& v = restitution.normal_speed_mps;
+  const auto& e = restitution.e;
+  if (v.empty()) return restitution.constant;
+  // Table of e against normal impact speed (paper Fig. 2 gives such curves): piecewise linear,
+  // held constant beyond the first and last points.
+  if (!(normal_speed_mps > v.front())) return e.front();  // also NaN -> first value
+  if (normal_speed_mps >= v.back()) return e.back();
+  const auto hi = std::upper_bound(v.begin(), v.end(), normal_speed_mps);
+  const std::size_t k = static_cast<std::size_t>(hi - v.begin());  // v[k-1] <= s < v[k]
+  const double w = (normal_speed_mps - v[k - 1]) / (v[k] - v[k - 1]);
+  return e[k - 1] + w * (e[k] - e[k - 1]);
+}
+
+std::uint16_t material_id(const MaterialIds& ids, const std::string& name,
+                          const std::string& field) {
+  if (name.empty()) detail::fail(field, "missing material name");
+  const auto it = ids.find(name);
+  if (it == ids.end()) detail::fail(field, "unknown material \"" + name + "\"");
+  return it->second;
+}
+
+namespace {
+
+void validate_material(const MaterialSpec& m, const std::string& field) {
+  detail::require_at_least(m.friction, 0.0, field + ".friction");
+  const RestitutionSpec& r = m.restitution;
+  const std::string rf = field + ".restitution";
+  if (r.normal_speed_mps.empty() && r.e.empty()) {
+    detail::require_in(r.constant, 0.0, 1.0, rf);
+  } else {
+    if (r.normal_speed_mps.size() != r.e.size())
+      detail::fail(rf, "normal_speed_mps and e differ in length (" +
+                           std::to_string(r.normal_speed_mps.size()) + " vs " +
+                           std::to_string(r.e.size()) + ")");
+    for (std::size_t k = 0; k < r.normal_speed_mps.size(); ++k) {
+      const std::string sf = detail::indexed(rf + ".normal_speed_mps", k);
+      detail::require_at_least(r.normal_speed_mps[k], 0.0, sf);
+      if (k > 0 && !(r.normal_speed_mps[k] > r.normal_speed_mps[k - 1]))
+        detail::fail(sf, "speeds must be strictly increasing");
+      detail::require_in(r.e[k], 0.0, 1.0, detail::indexed(rf + ".e", k));
+    }
+  }
+  if (m.penetration_ke_per_area_j_per_m2)
+    detail::require_positive(*m.penetration_ke_per_area_j_per_m2,
+                             field + ".penetration.ke_per_area_j_per_m2");
+}
+
+}  // namespace
+
+MaterialIds SiteBuilder::build_materials(Site& site, const SiteSpec& spec) {
+  if (spec.materials.size() > std::numeric_limits<std::uint16_t>::max())
+    detail::fail("site.materials", "too many materials (limit 65535)");
+  MaterialIds ids;
+  site.materials_.clear();
+  site.materials_.reserve(spec.materials.size());
+  // std::map iterates in name order, so ids do not depend on the input's key order.
+  for (const auto& [name, m] : spec.materials) {
+    if (name.empty()) detail::fail("site.materials", "empty material name");
+    validate_material(m, detail::material_field(name));
+    Material out;
+    out.name = name;
+    out.friction = m.friction;
+    out.restitution = m.restitution;
+    if (m.penetration_ke_per_area_j_per_m2)
+      out.penetration_ke_per_area_j_per_m2 = *m.penetration_ke_per_area_j_per_m2;
+    ids.emplace(name, static_cast<std::uint16_t>(site.materials_.size()));
+    site.materials_.push_back(std::move(out));
+  }
+  return ids;
+}
+
+}  // namespace fragsim::scene

@@ -1,0 +1,34 @@
+#pragma once
+// Plane polygon geometry for building footprints (internal to core/scene): orientation
+// predicates, segment crossing, point in polygon, and ear-clipping triangulation.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/common/types.h"
+
+namespace fragsim::scene::detail {
+
+// Twice the signed area of triangle (a, b, c): > 0 when counter-clockwise.
+inline double orient2d(const Vec2& a, const Vec2& b, const Vec2& c) {
+  return (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+}
+
+// Signed area of a polygon (shoelace formula): > 0 for counter-clockwise vertex order.
+double signed_area(const std::vector<Vec2>& poly);
+
+// True when the closed segments p1-p2 and q1-q2 share at least one point (crossing, touching,
+// or collinear overlap). Exact sign tests on the double orientation values.
+bool segments_intersect(const Vec2& p1, const Vec2& p2, const Vec2& q1, const Vec2& q2);
+
+// Crossing-number point-in-polygon test (Shimrat 1962 / Haines 1994); points exactly on the
+// boundary may go either way.
+bool point_in_polygon(const std::vector<Vec2>& poly, const Vec2& p);
+
+// Triangulates a simple counter-clockwise polygon (convex or concave, collinear vertices allowed)
+// by ear clipping (Meisters 1975, "two ears" theorem): n - 2 counter-clockwise triangles indexing
+// `poly`, whose areas sum to the polygon's. Throws std::runtime_error if no ear is found, which
+// for a validated simple polygon only numerical near-degeneracy can cause.
+std::vector<std::array<std::uint32_t, 3>> triangulate_polygon(const std::vector<Vec2>& poly);
+
+}  // namespace fragsim::scene::detail

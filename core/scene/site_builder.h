@@ -1,0 +1,36 @@
+#pragma once
+// Builds a Site from a SiteSpec (internal to core/scene). SiteBuilder is Site's friend; its steps
+// live in the .cpp file of their topic:
+//   site_builder.cpp      build(): order of the steps, frames, bounds, the Embree scene
+//   material.cpp          build_materials()
+//   terrain_builder.cpp   build_terrain()
+//   building_builder.cpp  build_buildings()
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "core/scene/site.h"
+
+namespace fragsim::scene {
+
+using MaterialIds = std::map<std::string, std::uint16_t>;
+
+class SiteBuilder {
+ public:
+  static std::shared_ptr<const Site> build(const SiteSpec& spec);
+
+  // Validates every material and numbers them in name order.
+  static MaterialIds build_materials(Site& site, const SiteSpec& spec);
+  // Validates and meshes the terrain, sets the local origin, normals, areas and the 2-D index.
+  static void build_terrain(Site& site, const SiteSpec& spec, const MaterialIds& ids);
+  // Validates and meshes the buildings (needs the terrain for default base elevations).
+  static void build_buildings(Site& site, const SiteSpec& spec, const MaterialIds& ids);
+  // Creates the Embree device and scene.
+  static void build_embree(Site& site);
+};
+
+// Looks up a material name; throws InputError(field, "unknown material ...") if absent.
+std::uint16_t material_id(const MaterialIds& ids, const std::string& name, const std::string& field);
+
+}  // namespace fragsim::scene

@@ -1,0 +1,243 @@
+// Building meshes: ear clipping, winding, base elevation, explicit meshes, inside_building.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "core/scene/polygon.h"
+#include "scene_test_util.h"
+
+namespace fragsim::scene {
+namespace {
+
+using testing::box_building;
+using testing::grid_site;
+using testing::make_grid;
+using testing::plane_site;
+
+double triangulated_area(const std::vector<Vec2>& poly,
+                         const std::vector<std::array<std::uint32_t, 3>>& tris) {
+  double a = 0;
+  for (const auto& t : tris) {
+    const double ta = 0.5 * detail::orient2d(poly[t[0]], poly[t[1]], poly[t[2]]);
+    EXPECT_GT(ta, 0.0);  // counter-clockwise, non-degenerate
+    a += ta;
+  }
+  return a;
+}
+
+TEST(EarClipping, LShapeAndCollinearVertices) {
+  // L: 7 vertices including a collinear one at (10, 0).
+  const std::vector<Vec2> l = {{0, 0}, {10, 0}, {20, 0}, {20, 5}, {5, 5}, {5, 15}, {0, 15}};
+  const double area = detail::signed_area(l);
+  EXPECT_DOUBLE_EQ(area, 20 * 5 + 5 * 10);
+  const auto tris = detail::triangulate_polygon(l);
+  EXPECT_EQ(tris.size(), l.size() - 2);
+  EXPECT_NEAR(triangulated_area(l, tris), area, 1e-12 * area);
+}
+
+TEST(EarClipping, RandomStarPolygons) {
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> r(0.2, 1.0), jit(-0.4, 0.4);
+  for (int trial = 0; trial < 200; ++trial) {
+    const int n = 3 + trial % 40;
+    std::vector<Vec2> poly;
+    for (int k = 0; k < n; ++k) {
+      const double phi = 2 * kPi * (k + 0.5 + jit(rng)) / n, rad = 30 * r(rng);
+      poly.emplace_back(rad * std::cos(phi), rad * std::sin(phi));
+    }
+    const double area = detail::signed_area(poly);
+    ASSERT_GT(area, 0);
+    const auto tris = detail::triangulate_polygon(poly);
+    ASSERT_EQ(tris.size(), static_cast<std::size_t>(n - 2)) << trial;
+    ASSERT_NEAR(triangulated_area(poly, tris), area, 1e-12 * area) << trial;
+  }
+}
+
+TEST(Buildings, BoxMeshIsClosedAndOutward) {
+  for (const bool cw : {false, true}) {
+    auto spec = plane_site();
+    spec.buildings.push_back(box_building("B1", 60, -10, 80, 10, 6, cw));
+    const auto site = Site::build(spec);
+    ASSERT_EQ(site->buildings().size(), 1u);
+    const Building& b = site->buildings()[0];
+    EXPECT_EQ(b.id, "B1");
+    EXPECT_EQ(b.triangle_count, 8u + 2u + 2u);  // walls, roof, floor
+    EXPECT_EQ(b.floor_triangle_count, 2u);
+    EXPECT_NEAR(b.surface_area_m2[static_cast<int>(SurfaceType::kWall)], 4 * 20 * 6, 1e-9);
+    EXPECT_NEAR(b.surface_area_m2[static_cast<int>(SurfaceType::kRoof)], 400, 1e-9);
+    EXPECT_EQ(b.surface_area_m2[static_cast<int>(SurfaceType::kWindow)], 0);
+    const Vec3 o = site->local_origin();
+    EXPECT_LE((b.bounds.lo - (Vec3(60, -10, 0) - o)).norm(), 1e-12);
+    EXPECT_LE((b.bounds.hi - (Vec3(80, 10, 6) - o)).norm(), 1e-12);
+    const Vec3 centre = 0.5 * (b.bounds.lo + b.bounds.hi);
+    for (std::uint32_t t = b.first_triangle; t < b.first_triangle + b.triangle_count; ++t) {
+      const auto& v = site->building_triangles()[t].v;
+      const Vec3 c = (site->building_vertices()[v[0]] + site->building_vertices()[v[1]] +
+                      site->building_vertices()[v[2]]) / 3.0;
+      EXPECT_GT((c - centre).dot(site->building_triangle_normal(t)), 0) << "cw " << cw << " t " << t;
+    }
+    // Closed: every directed edge has its reverse.
+    std::multiset<std::pair<std::uint32_t, std::uint32_t>> edges;
+    for (const auto& t : site->building_triangles())
+      for (int k = 0; k < 3; ++k) edges.insert({t.v[k], t.v[(k + 1) % 3]});
+    for (const auto& [a, c] : edges) EXPECT_EQ(edges.count({c, a}), 1u);
+  }
+}
+
+TEST(Buildings, ConcaveRoofAreaEqualsFootprintArea) {
+  for (const bool cw : {false, true}) {
+    auto spec = plane_site();
+    BuildingSpec b = box_building("L", 0, 0, 1, 1, 9);
+    b.footprint_m = {{10, 10}, {40, 10}, {40, 20}, {20, 20}, {20, 50}, {10, 50}};
+    if (cw) std::reverse(b.footprint_m.begin(), b.footprint_m.end());
+    spec.buildings.push_back(b);
+    const auto site = Site::build(spec);
+    const Building& out = site->buildings()[0];
+    const double area = 30 * 10 + 10 * 30;
+    EXPECT_NEAR(out.surface_area_m2[static_cast<int>(SurfaceType::kRoof)], area, 1e-12 * area);
+    double floor = 0;
+    for (std::uint32_t t = out.first_triangle; t < out.first_triangle + out.triangle_count; ++t) {
+      const Vec3& n = site->building_triangle_normal(t);
+      if (site->building_triangles()[t].surface == SurfaceType::kRoof) {
+        EXPECT_NEAR(n.z(), 1, 1e-15);
+      }
+      if (t >= out.first_triangle + out.triangle_count - out.floor_triangle_count) {
+        EXPECT_NEAR(n.z(), -1, 1e-15);
+        floor += site->building_triangle_area(t);
+      }
+    }
+    EXPECT_NEAR(floor, area, 1e-12 * area);
+    EXPECT_EQ(out.floor_triangle_count, 4u);
+  }
+}
+
+TEST(Buildings, BaseIsTheLowestGroundUnderTheFootprint) {
+  // Sloped ground z = 0.1 x: the lowest point is on the footprint's west edge.
+  {
+    const auto g = make_grid(0, 0, 10, 21, 21, [](double x, double) { return 0.1 * x; });
+    auto spec = grid_site(g);
+    spec.buildings.push_back(box_building("S", 33, 41, 57, 62, 5));
+    const auto site = Site::build(spec);
+    const Building& b = site->buildings()[0];
+    EXPECT_NEAR(b.bounds.lo.z() + site->local_origin().z(), 3.3, 1e-12);
+    EXPECT_NEAR(b.bounds.hi.z() + site->local_origin().z(), 8.3, 1e-12);
+  }
+  // A pit at terrain vertex (30, 30) inside the footprint.
+  {
+    auto g = make_grid(0, 0, 10, 6, 6, [](double, double) { return 2.0; });
+    g.elevation_m[3 * 6 + 3] = -4.0;
+    auto spec = grid_site(g);
+    spec.buildings.push_back(box_building("P", 24, 24, 36, 36, 5));
+    const auto site = Site::build(spec);
+    EXPECT_NEAR(site->buildings()[0].bounds.lo.z() + site->local_origin().z(), -4.0, 1e-12);
+  }
+  // A valley along the grid line x = 10 that no footprint vertex or enclosed terrain vertex
+  // touches: only the footprint edges' crossings of terrain edges find its depth (-5; the
+  // footprint vertices are at -4).
+  {
+    const auto g = make_grid(0, 0, 10, 4, 3, [](double x, double) { return x == 10 ? -5.0 : 0.0; });
+    auto spec = grid_site(g);
+    spec.buildings.push_back(box_building("V", 8, 3, 12, 7, 5));
+    const auto site = Site::build(spec);
+    const Vec3 o = site->local_origin();
+    EXPECT_NEAR(site->terrain_height(8 - o.x(), 3 - o.y()) + o.z(), -4.0, 1e-12);
+    EXPECT_NEAR(site->buildings()[0].bounds.lo.z() + o.z(), -5.0, 1e-12);
+    // No gap: along every wall bottom the ground is at or above the base.
+    const auto& fp = spec.buildings[0].footprint_m;
+    for (std::size_t k = 0; k < fp.size(); ++k)
+      for (int q = 0; q <= 100; ++q) {
+        const double x = fp[k][0] + (fp[(k + 1) % 4][0] - fp[k][0]) * q / 100.0;
+        const double y = fp[k][1] + (fp[(k + 1) % 4][1] - fp[k][1]) * q / 100.0;
+        EXPECT_GE(site->terrain_height(x - o.x(), y - o.y()), site->buildings()[0].bounds.lo.z() - 1e-12);
+      }
+  }
+  // An explicit base overrides the terrain.
+  {
+    auto spec = plane_site();
+    spec.buildings.push_back(box_building("E", 0, 0, 10, 10, 5));
+    spec.buildings[0].base_elevation_m = -2.0;
+    const auto site = Site::build(spec);
+    EXPECT_NEAR(site->buildings()[0].bounds.lo.z() + site->local_origin().z(), -2.0, 1e-12);
+  }
+}
+
+TEST(Buildings, ExplicitMeshWoundInwardIsFlipped) {
+  // Tetrahedron wound inward (normals toward the centroid) with a window face.
+  MeshSpec m;
+  m.vertices_m = {{100, 100, 0}, {110, 100, 0}, {100, 110, 0}, {100, 100, 10}};
+  m.triangles = {{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}};
+  m.surface = {SurfaceType::kWall, SurfaceType::kWall, SurfaceType::kWindow, SurfaceType::kRoof};
+  // Check the input really is inward: face 0 (z = 0) has normal +z.
+  ASSERT_GT((m.vertices_m[1] - m.vertices_m[0]).cross(m.vertices_m[2] - m.vertices_m[0]).z(), 0);
+  auto spec = plane_site();
+  BuildingSpec b;
+  b.id = "T";
+  b.mesh = m;
+  b.wall = "concrete_wall";
+  b.roof = "metal_roof";
+  b.window = "glass";
+  spec.buildings.push_back(b);
+  const auto site = Site::build(spec);
+  const Building& out = site->buildings()[0];
+  EXPECT_EQ(out.floor_triangle_count, 0u);
+  const Vec3 centre = (Vec3(100, 100, 0) + Vec3(110, 100, 0) + Vec3(100, 110, 0) + Vec3(100, 100, 10)) / 4 -
+                      site->local_origin();
+  for (std::uint32_t t = 0; t < 4; ++t) {
+    const auto& bt = site->building_triangles()[t];
+    const Vec3 c = (site->building_vertices()[bt.v[0]] + site->building_vertices()[bt.v[1]] +
+                    site->building_vertices()[bt.v[2]]) / 3.0;
+    EXPECT_GT((c - centre).dot(site->building_triangle_normal(t)), 0) << t;
+    EXPECT_EQ(bt.surface, m.surface[t]);
+  }
+  EXPECT_EQ(site->materials()[site->building_triangles()[2].material].name, "glass");
+  EXPECT_EQ(site->materials()[site->building_triangles()[3].material].name, "metal_roof");
+  EXPECT_NEAR(out.surface_area_m2[static_cast<int>(SurfaceType::kWindow)], 50, 1e-9);
+}
+
+TEST(Buildings, InsideBuilding) {
+  auto spec = plane_site();
+  spec.buildings.push_back(box_building("B1", 60, -10, 80, 10, 6));
+  BuildingSpec l = box_building("L", 0, 0, 1, 1, 9);
+  l.footprint_m = {{10, 10}, {40, 10}, {40, 20}, {20, 20}, {20, 50}, {10, 50}};
+  spec.buildings.push_back(l);
+  const auto site = Site::build(spec);
+  const auto inside = [&](double x, double y, double z) {
+    return site->inside_building(site->to_local(Vec3(x, y, z)));
+  };
+  EXPECT_TRUE(inside(70, 0, 3));
+  EXPECT_TRUE(inside(60.01, -9.99, 0.01));
+  EXPECT_TRUE(inside(70, 0, 3.0));
+  EXPECT_FALSE(inside(70, 0, 6.01));   // above the roof
+  EXPECT_FALSE(inside(70, 0, -0.01));  // below the floor
+  EXPECT_FALSE(inside(59.99, 0, 3));
+  EXPECT_FALSE(inside(0, 0, 3));
+  EXPECT_TRUE(inside(35, 15, 4));   // in the L's foot
+  EXPECT_TRUE(inside(15, 45, 4));   // in its stem
+  EXPECT_FALSE(inside(30, 30, 4));  // in the notch (inside the bounding box, outside the L)
+  // Just under the roof, above the roof's diagonal (70, 0 lies on it in xy).
+  EXPECT_TRUE(inside(70, 0, 5.999));
+  // A tall L whose notch faces the lower left: from a point in the notch, a ray going up and
+  // towards +x+y enters the building and leaves it again (two crossings: outside).
+  auto tall_spec = plane_site();
+  BuildingSpec tall = box_building("T", 0, 0, 1, 1, 100);
+  tall.footprint_m = {{30, 10}, {50, 10}, {50, 50}, {10, 50}, {10, 30}, {30, 30}};
+  tall_spec.buildings.push_back(tall);
+  const auto tall_site = Site::build(tall_spec);
+  std::mt19937_64 trng(6);
+  std::uniform_real_distribution<double> nxy(10.5, 29.5), nz(0.5, 20);
+  for (int k = 0; k < 200; ++k)
+    ASSERT_FALSE(tall_site->inside_building(tall_site->to_local(Vec3(nxy(trng), nxy(trng), nz(trng)))));
+  EXPECT_TRUE(tall_site->inside_building(tall_site->to_local(Vec3(40, 40, 50))));
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<double> ux(5, 45), uy(5, 55), uz(-1, 10);
+  for (int k = 0; k < 2000; ++k) {
+    const double x = ux(rng), y = uy(rng), z = uz(rng);
+    const bool in_l = z > 0 && z < 9 &&
+                      ((x > 10 && x < 40 && y > 10 && y < 20) || (x > 10 && x < 20 && y > 10 && y < 50));
+    ASSERT_EQ(inside(x, y, z), in_l) << x << " " << y << " " << z;
+  }
+}
+
+}  // namespace
+}  // namespace fragsim::scene
