@@ -1,18 +1,29 @@
 #pragma once
 // Scalar probability distributions of fragment properties, sampled by inversion from one uniform
 // variate so that each variable consumes exactly one Philox slot.
+#include <limits>
 #include <string>
 #include <vector>
 
 namespace fragsim::fragments {
 
+// Physical ranges passed to sample()/validate() are closed intervals. A quantity that must be
+// strictly positive (a mass) passes this smallest normal double as phys_lo: the open bound
+// (0, ...). Messages print it as 0.
+inline constexpr double kPositiveLowerBound = std::numeric_limits<double>::min();
+
+// A truncated normal, lognormal or table whose range holds less probability than this is
+// rejected by validate(): such a range is almost surely an input mistake (a normal cut more than
+// ~7 sigma from its mean), and inside the bulk the inversion would resolve it only coarsely.
+inline constexpr double kMinTruncatedMass = 1e-12;
+
 struct Distribution {
   enum class Kind { kFixed, kUniform, kNormal, kLognormal, kTable };
   Kind kind = Kind::kFixed;
   double value = 0.0;     // fixed
-  double min = 0.0;       // uniform; normal/lognormal/table: lower truncation (see `truncate`)
-  double max = 0.0;       // uniform; normal/lognormal/table: upper truncation
-  bool has_min = false;   // normal/lognormal: an explicit truncation bound was given
+  double min = 0.0;       // uniform; normal/lognormal/table: lower truncation (if has_min)
+  double max = 0.0;       // uniform; normal/lognormal/table: upper truncation (if has_max)
+  bool has_min = false;   // normal/lognormal/table: an explicit truncation bound was given
   bool has_max = false;
   double mean = 0.0;      // normal
   double sigma = 0.0;     // normal: standard deviation (> 0)

@@ -2,6 +2,7 @@
 // Sampling one fragment history from its group. The random slots are fixed (see RandomStream):
 // never renumber them, only append.
 #include <cstdint>
+#include <limits>
 
 #include "core/common/random.h"
 #include "core/common/types.h"
@@ -19,6 +20,15 @@ enum Slot : std::uint32_t {
   kSlotSpinAxis = 6,     // k=0,1 axis on the sphere (body frame)
   kSlotFirstFree = 16,   // later issues (bounce) use slots from here
 };
+
+// Physical ranges sample_fragment passes to Distribution::sample (validate the group's
+// distributions with the same ranges): a mass is > 0, a speed or spin rate >= 0.
+struct PhysRange {
+  double lo, hi;
+};
+inline constexpr PhysRange kMassRange{kPositiveLowerBound, std::numeric_limits<double>::infinity()};
+inline constexpr PhysRange kSpeedRange{0.0, std::numeric_limits<double>::infinity()};
+inline constexpr PhysRange kSpinRange{0.0, std::numeric_limits<double>::infinity()};
 
 // Mass properties of a rigid body of uniform density (body frame = principal axes).
 struct MassProperties {

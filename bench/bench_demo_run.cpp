@@ -1,0 +1,84 @@
+// Whole-run benchmark on a scenario (default: the bundled demo site). Runs it with 1 thread and
+// with all threads (headline throughput, profiling off), then once more with profiling on for the
+// time split between integration, geometry queries and tallies. Results are written down in
+// docs/benchmarks.md.
+//
+//   build/bench/bench_demo_run [scenario.json] [--repeat N]
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "api/scenario_json.h"
+#include "core/run/run.h"
+
+using namespace fragsim;
+
+namespace {
+
+void print_row(const char* label, const run::RunResult& r) {
+  const double n = static_cast<double>(r.histories_done);
+  std::printf("%-22s threads %d  histories %lld  wall %.3f s  %.0f fragments/s  %.0f per thread\n",
+              label, r.timing.threads, static_cast<long long>(r.histories_done), r.timing.wall_s,
+              r.timing.fragments_per_s, r.timing.fragments_per_s_per_thread);
+  std::printf("%-22s per fragment: %.1f rhs evals, %.1f steps, %.2f chords (%.2f skipped), "
+              "%.2f scene queries, %.1f PTN triangle tests\n",
+              "", static_cast<double>(r.stats.rhs_evaluations) / n,
+              static_cast<double>(r.stats.integrator_steps) / n,
+              static_cast<double>(r.stats.chords) / n,
+              static_cast<double>(r.stats.chords_skipped) / n,
+              static_cast<double>(r.stats.scene_queries) / n,
+              static_cast<double>(r.stats.ptn_triangle_tests) / n);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string path = std::string(FRAGSIM_SOURCE_DIR) + "/examples/demo/scenario.json";
+  int repeat = 3;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
+      repeat = std::atoi(argv[++i]);
+    } else {
+      path = argv[i];
+    }
+  }
+  std::ifstream in(path);
+  if (!in) {
+    std::fprintf(stderr, "cannot open %s\n", path.c_str());
+    return 1;
+  }
+  std::stringstream ss;
+  ss << in.rdbuf();
+  run::Scenario sc = api::parse_scenario_text(ss.str());
+  sc.settings.record_fragments = false;
+  sc.settings.record_trajectories = false;
+  auto site = scene::Site::build(sc.site);
+  std::printf("# %s\n# terrain triangles %zu, buildings %zu, hardware threads %u\n", path.c_str(),
+              site->terrain_triangle_count(), site->buildings().size(),
+              std::thread::hardware_concurrency());
+
+  const int all = static_cast<int>(std::thread::hardware_concurrency());
+  for (int threads : {1, all}) {
+    run::RunResult best;
+    for (int k = 0; k < repeat; ++k) {
+      sc.settings.threads = threads;
+      sc.settings.profile = false;
+      run::RunResult r = run::run(sc, site);
+      if (k == 0 || r.timing.wall_s < best.timing.wall_s) best = std::move(r);
+    }
+    print_row(threads == 1 ? "1 thread (best of N)" : "all threads (best of N)", best);
+  }
+  sc.settings.threads = 1;
+  sc.settings.profile = true;
+  const run::RunResult p = run::run(sc, site);
+  const double split = p.timing.integration_s + p.timing.geometry_s + p.timing.tally_s;
+  std::printf("profile (1 thread)     wall %.3f s: integration %.3f s (%.0f%%), geometry %.3f s "
+              "(%.0f%%), tally %.3f s (%.0f%%), rest (sampling, bookkeeping, timers) %.3f s\n",
+              p.timing.wall_s, p.timing.integration_s, 100 * p.timing.integration_s / p.timing.wall_s,
+              p.timing.geometry_s, 100 * p.timing.geometry_s / p.timing.wall_s, p.timing.tally_s,
+              100 * p.timing.tally_s / p.timing.wall_s, p.timing.wall_s - split);
+  return 0;
+}

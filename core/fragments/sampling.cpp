@@ -1,0 +1,91 @@
+// Sampling one fragment history: launch frame, direction, orientation, spin, and the Philox slots
+// each random variable reads.
+#include "core/fragments/sampling.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace fragsim::fragments {
+
+Mat3 frame_rotation(const FrameSpec& frame) {
+  // Aerospace-style yaw-pitch-roll: roll about local x, then pitch, then yaw about site z. Pitch
+  // enters as Ry(-pitch) because a right-handed rotation about +y by +theta takes +x toward -z,
+  // while a positive pitch must raise the nose (+x) toward +z.
+  const double yaw = frame.yaw_deg * kDegToRad;
+  const double pitch = frame.pitch_deg * kDegToRad;
+  const double roll = frame.roll_deg * kDegToRad;
+  return (Eigen::AngleAxisd(yaw, Vec3::UnitZ()) * Eigen::AngleAxisd(-pitch, Vec3::UnitY()) *
+          Eigen::AngleAxisd(roll, Vec3::UnitX()))
+      .toRotationMatrix();
+}
+
+Vec3 sample_direction(const DirectionSpec& d, double u_elevation, double u_azimuth) {
+  // Archimedes' hat-box theorem: the area of a spherical zone is proportional to the difference
+  // of sin(elevation) at its edges, so sin(elevation) uniform and azimuth uniform give a uniform
+  // density on the part of the sphere within the ranges.
+  const double s_lo = std::sin(d.elevation_min_deg * kDegToRad);
+  const double s_hi = std::sin(d.elevation_max_deg * kDegToRad);
+  const double s = std::clamp(s_lo + u_elevation * (s_hi - s_lo), -1.0, 1.0);
+  const double c = std::sqrt(std::max(0.0, (1.0 - s) * (1.0 + s)));
+  const double az =
+      (d.azimuth_min_deg + u_azimuth * (d.azimuth_max_deg - d.azimuth_min_deg)) * kDegToRad;
+  return Vec3(c * std::cos(az), c * std::sin(az), s);
+}
+
+Quat uniform_rotation(double u1, double u2, double u3) {
+  // Shoemake, K. (1992), "Uniform random rotations", Graphics Gems III, 124-132: with
+  // r1 = sqrt(1 - u1), r2 = sqrt(u1), t1 = 2 pi u2, t2 = 2 pi u3, the quaternion
+  // (r1 sin t1, r1 cos t1, r2 sin t2, r2 cos t2) is uniform on S^3, hence the rotation is
+  // uniform (Haar) on SO(3).
+  const double r1 = std::sqrt(1.0 - u1), r2 = std::sqrt(u1);
+  const double t1 = 2.0 * kPi * u2, t2 = 2.0 * kPi * u3;
+  Quat q(r2 * std::cos(t2), r1 * std::sin(t1), r1 * std::cos(t1), r2 * std::sin(t2));  // (w,x,y,z)
+  q.normalize();  // unit to rounding already; keep it exactly so for the integrator
+  return q;
+}
+
+FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
+                             std::uint64_t history, std::uint64_t seed) {
+  // One Philox stream per (seed, group, history); each variable reads its own fixed slot, so
+  // the value of one never depends on whether another is fixed or random (DESIGN.md, "Monte Carlo
+  // and reproducibility"). No heap allocation: this runs once per history.
+  const RandomStream rng(seed, group_index, history);
+
+  FragmentInit f;
+  f.group = group_index;
+  f.history = history;
+  f.weight = group.count / static_cast<double>(group.samples);
+  f.shape = group.shape.type;
+
+  const double mass = group.mass_kg.sample(rng.uniform(kSlotMass), kMassRange.lo, kMassRange.hi);
+  f.body = mass_properties(group.shape, mass, group.area_m2);
+
+  const double speed =
+      group.speed_mps.sample(rng.uniform(kSlotSpeed), kSpeedRange.lo, kSpeedRange.hi);
+  const Vec3 dir_local = sample_direction(group.direction, rng.uniform(kSlotDirection, 0),
+                                          rng.uniform(kSlotDirection, 1));
+  const Mat3 rot = frame_rotation(group.frame);
+
+  f.position_m = group.frame.origin_m;
+  f.launch_speed_mps = speed;
+  f.launch_direction = rot * dir_local;
+  f.velocity_mps = speed * f.launch_direction + group.frame.velocity_mps;
+
+  // Random attitude relative to the local frame, then carried into site axes with the frame.
+  const Quat q_local =
+      uniform_rotation(rng.uniform(kSlotOrientation, 0), rng.uniform(kSlotOrientation, 1),
+                       rng.uniform(kSlotOrientation2, 0));
+  f.orientation = (Quat(rot) * q_local).normalized();
+
+  // Spin: magnitude from its distribution, axis uniform on the sphere in the body frame
+  // (z = cos(polar angle) uniform on [-1, 1], longitude uniform).
+  const double spin =
+      group.spin_radps.sample(rng.uniform(kSlotSpin, 0), kSpinRange.lo, kSpinRange.hi);
+  const double z = 2.0 * rng.uniform(kSlotSpinAxis, 0) - 1.0;
+  const double rho = std::sqrt(std::max(0.0, (1.0 - z) * (1.0 + z)));
+  const double phi = 2.0 * kPi * rng.uniform(kSlotSpinAxis, 1);
+  f.omega_body_radps = spin * Vec3(rho * std::cos(phi), rho * std::sin(phi), z);
+  return f;
+}
+
+}  // namespace fragsim::fragments
