@@ -1,0 +1,117 @@
+#include "api/output_dir.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <stdexcept>
+#include <system_error>
+
+namespace fragsim::api {
+
+namespace {
+
+[[noreturn]] void fail_errno(const std::string& what, const std::filesystem::path& path, int err) {
+  throw std::runtime_error(what + " " + path.string() + ": " + std::strerror(err));
+}
+
+}  // namespace
+
+void fsync_path(const std::filesystem::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) fail_errno("cannot open", path, errno);
+  const int rc = ::fsync(fd);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) fail_errno("cannot fsync", path, err);
+}
+
+OutputDir::OutputDir(std::filesystem::path dir) : dir_(std::move(dir)) {
+  std::error_code ec;
+  if (std::filesystem::exists(dir_, ec)) {
+    if (!std::filesystem::is_directory(dir_, ec))
+      throw std::runtime_error(dir_.string() + ": exists and is not a directory");
+    return;
+  }
+  // Create the missing chain outermost first, remembering each, so that discard() can take
+  // back exactly what was made here.
+  std::filesystem::path leaf = dir_.lexically_normal();
+  if (leaf.has_parent_path() && leaf.filename().empty()) leaf = leaf.parent_path();  // "out/"
+  std::vector<std::filesystem::path> missing;
+  for (std::filesystem::path p = leaf; !p.empty() && !std::filesystem::exists(p, ec);
+       p = p.parent_path()) {
+    missing.push_back(p);
+    if (p == p.parent_path()) break;
+  }
+  for (auto it = missing.rbegin(); it != missing.rend(); ++it) {
+    if (!std::filesystem::create_directory(*it, ec) && ec) {
+      discard();
+      throw std::runtime_error("cannot create directory " + it->string() + ": " + ec.message());
+    }
+    created_dirs_.push_back(*it);
+  }
+}
+
+OutputDir::~OutputDir() {
+  if (!committed_) discard();
+}
+
+void OutputDir::stage(const std::string& name,
+                      const std::function<void(const std::filesystem::path&)>& write) {
+  if (name.empty() || name.find('/') != std::string::npos)
+    throw std::invalid_argument("OutputDir::stage: not a plain file name: \"" + name + "\"");
+  const std::filesystem::path temporary =
+      dir_ / ("." + name + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter_++));
+  std::error_code ec;
+  try {
+    write(temporary);
+    fsync_path(temporary);
+  } catch (...) {
+    std::filesystem::remove(temporary, ec);
+    throw;
+  }
+  staged_.push_back({name, temporary});
+}
+
+void OutputDir::stage_text(const std::string& name, std::string_view contents) {
+  stage(name, [&](const std::filesystem::path& path) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd < 0) fail_errno("cannot create", path, errno);
+    std::size_t done = 0;
+    while (done < contents.size()) {
+      const ssize_t n = ::write(fd, contents.data() + done, contents.size() - done);
+      if (n < 0) {
+        if (errno == EINTR) continue;
+        const int err = errno;
+        ::close(fd);
+        fail_errno("cannot write", path, err);
+      }
+      done += static_cast<std::size_t>(n);
+    }
+    if (::close(fd) != 0) fail_errno("cannot close", path, errno);
+  });
+}
+
+void OutputDir::commit() {
+  for (const Staged& s : staged_) {
+    std::error_code ec;
+    std::filesystem::rename(s.temporary, dir_ / s.name, ec);
+    if (ec) throw std::runtime_error("cannot rename " + s.temporary.string() + ": " + ec.message());
+  }
+  committed_ = true;
+  staged_.clear();
+  fsync_path(dir_);  // make the renames durable
+}
+
+void OutputDir::discard() noexcept {
+  std::error_code ec;
+  for (const Staged& s : staged_) std::filesystem::remove(s.temporary, ec);
+  staged_.clear();
+  // Innermost first; remove() leaves a directory that is not empty (someone else's files).
+  for (auto it = created_dirs_.rbegin(); it != created_dirs_.rend(); ++it)
+    std::filesystem::remove(*it, ec);
+  created_dirs_.clear();
+}
+
+}  // namespace fragsim::api

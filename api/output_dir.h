@@ -1,0 +1,57 @@
+#pragma once
+// An output directory whose files appear all at once or not at all.
+//
+// Each file is written under a temporary name in the target directory (".<name>.tmp.<pid>.<n>"),
+// fsynced, and only renamed to its final name by commit(), which then fsyncs the directory. If
+// commit() is never reached (an exception, a cancelled run), the destructor removes the
+// temporaries, and the directories this object created if they are left empty: a failed run
+// leaves no final-named file behind and no new directory.
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace fragsim::api {
+
+class OutputDir {
+ public:
+  // Uses `dir`, creating it (and missing parents) if needed. Throws std::runtime_error if it
+  // cannot, or if `dir` exists and is not a directory.
+  explicit OutputDir(std::filesystem::path dir);
+  ~OutputDir();
+  OutputDir(const OutputDir&) = delete;
+  OutputDir& operator=(const OutputDir&) = delete;
+
+  const std::filesystem::path& path() const { return dir_; }
+  // True when this object created the directory.
+  bool created() const { return !created_dirs_.empty(); }
+
+  // Writes `name` (a plain file name) by calling `write(temporary_path)`, which must create the
+  // file; then fsyncs it. If `write` throws, the temporary is removed and the exception passes.
+  void stage(const std::string& name,
+             const std::function<void(const std::filesystem::path&)>& write);
+  void stage_text(const std::string& name, std::string_view contents);
+
+  // Renames every staged file to its final name and fsyncs the directory.
+  void commit();
+  // Removes the temporaries (and the directories this object created, if empty). Idempotent;
+  // the destructor calls it unless commit() succeeded.
+  void discard() noexcept;
+
+ private:
+  struct Staged {
+    std::string name;
+    std::filesystem::path temporary;
+  };
+  std::filesystem::path dir_;
+  std::vector<std::filesystem::path> created_dirs_;  // outermost first
+  std::vector<Staged> staged_;
+  bool committed_ = false;
+  unsigned counter_ = 0;
+};
+
+// fsync of a file or directory by path; throws std::runtime_error naming it.
+void fsync_path(const std::filesystem::path& path);
+
+}  // namespace fragsim::api

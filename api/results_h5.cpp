@@ -1,0 +1,616 @@
+// results.h5 with the HDF5 C API. Files use the 1.8 object format (readable by HDF5 >= 1.8, h5py,
+// MATLAB) with dense attribute storage, so the scenario JSON can be a root attribute of any size.
+#include "api/results_h5.h"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <stdexcept>
+#include <type_traits>
+
+namespace fragsim::api {
+
+namespace {
+
+// ---- Handles and errors ----
+
+// Silences HDF5's automatic error printing while an api call runs; failures become exceptions.
+class QuietErrors {
+ public:
+  QuietErrors() {
+    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  }
+  ~QuietErrors() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
+  QuietErrors(const QuietErrors&) = delete;
+  QuietErrors& operator=(const QuietErrors&) = delete;
+
+ private:
+  H5E_auto2_t func_ = nullptr;
+  void* data_ = nullptr;
+};
+
+class Handle {
+ public:
+  Handle(hid_t id, herr_t (*close)(hid_t), const std::string& what) : id_(id), close_(close) {
+    if (id_ < 0) throw std::runtime_error("HDF5: " + what);
+  }
+  ~Handle() {
+    if (id_ >= 0) close_(id_);
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  operator hid_t() const { return id_; }  // NOLINT: a handle is used where an id is expected
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+void check(herr_t status, const std::string& what) {
+  if (status < 0) throw std::runtime_error("HDF5: " + what);
+}
+
+// Memory type and little-endian file type per C++ type.
+template <class T>
+struct H5Type;
+template <>
+struct H5Type<double> {
+  static hid_t mem() { return H5T_NATIVE_DOUBLE; }
+  static hid_t file() { return H5T_IEEE_F64LE; }
+};
+template <>
+struct H5Type<std::uint8_t> {
+  static hid_t mem() { return H5T_NATIVE_UINT8; }
+  static hid_t file() { return H5T_STD_U8LE; }
+};
+template <>
+struct H5Type<std::int32_t> {
+  static hid_t mem() { return H5T_NATIVE_INT32; }
+  static hid_t file() { return H5T_STD_I32LE; }
+};
+template <>
+struct H5Type<std::uint32_t> {
+  static hid_t mem() { return H5T_NATIVE_UINT32; }
+  static hid_t file() { return H5T_STD_U32LE; }
+};
+template <>
+struct H5Type<std::int64_t> {
+  static hid_t mem() { return H5T_NATIVE_INT64; }
+  static hid_t file() { return H5T_STD_I64LE; }
+};
+template <>
+struct H5Type<std::uint64_t> {
+  static hid_t mem() { return H5T_NATIVE_UINT64; }
+  static hid_t file() { return H5T_STD_U64LE; }
+};
+
+// Fixed-length UTF-8 string type, null-padded; at least one byte (HDF5 has no empty type).
+hid_t string_type(std::size_t size) {
+  const hid_t t = H5Tcopy(H5T_C_S1);
+  if (t < 0) return t;
+  H5Tset_size(t, std::max<std::size_t>(size, 1));
+  H5Tset_strpad(t, H5T_STR_NULLPAD);
+  H5Tset_cset(t, H5T_CSET_UTF8);
+  return t;
+}
+
+// ---- Writer ----
+
+class Writer {
+ public:
+  explicit Writer(const std::filesystem::path& path) : name_(path.string()) {
+    const Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose, "property list");
+    check(H5Pset_attr_phase_change(fcpl, 0, 0), "dense attribute storage");
+    const Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "property list");
+    check(H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18), "format version bounds");
+    file_ = H5Fcreate(name_.c_str(), H5F_ACC_EXCL, fcpl, fapl);
+    if (file_ < 0) throw std::runtime_error("HDF5: cannot create " + name_);
+  }
+  ~Writer() {
+    if (file_ >= 0) H5Fclose(file_);
+  }
+  Writer(const Writer&) = delete;
+  Writer& operator=(const Writer&) = delete;
+
+  void close() {
+    const hid_t f = file_;
+    file_ = -1;
+    check(H5Fclose(f), "closing " + name_);
+  }
+
+  hid_t file() const { return file_; }
+
+  Handle group(const std::string& path) {
+    return Handle(H5Gcreate2(file_, path.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                  "cannot create group " + path + " in " + name_);
+  }
+
+  // rows x cols (cols == 0: a 1-D dataset of `rows`; rows == 0 with scalar: a scalar).
+  template <class T>
+  void dataset(const std::string& path, const T* data, std::size_t rows, std::size_t cols = 0) {
+    write(path, H5Type<T>::mem(), H5Type<T>::file(), data, rows, cols, false);
+  }
+  template <class T>
+  void dataset(const std::string& path, const std::vector<T>& v) {
+    dataset(path, v.data(), v.size());
+  }
+  template <class T>
+  void scalar(const std::string& path, T value) {
+    write(path, H5Type<T>::mem(), H5Type<T>::file(), &value, 1, 0, true);
+  }
+  void strings(const std::string& path, const std::vector<std::string>& values) {
+    std::size_t width = 1;
+    for (const auto& s : values) width = std::max(width, s.size());
+    std::vector<char> buffer(values.size() * width, '\0');
+    for (std::size_t k = 0; k < values.size(); ++k)
+      std::copy(values[k].begin(), values[k].end(), buffer.begin() + static_cast<long>(k * width));
+    const Handle type(string_type(width), H5Tclose, "string type");
+    write(path, type, type, buffer.data(), values.size(), 0, false);
+  }
+
+  template <class T>
+  void attribute(hid_t object, const char* name, T value) {
+    const Handle space(H5Screate(H5S_SCALAR), H5Sclose, "dataspace");
+    const Handle attr(H5Acreate2(object, name, H5Type<T>::file(), space, H5P_DEFAULT, H5P_DEFAULT),
+                      H5Aclose, std::string("cannot create attribute ") + name);
+    check(H5Awrite(attr, H5Type<T>::mem(), &value), std::string("writing attribute ") + name);
+  }
+  void attribute(hid_t object, const char* name, const std::string& value) {
+    const Handle type(string_type(value.size()), H5Tclose, "string type");
+    const Handle space(H5Screate(H5S_SCALAR), H5Sclose, "dataspace");
+    const Handle attr(H5Acreate2(object, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                      std::string("cannot create attribute ") + name);
+    std::vector<char> buffer(std::max<std::size_t>(value.size(), 1), '\0');
+    std::copy(value.begin(), value.end(), buffer.begin());
+    check(H5Awrite(attr, type, buffer.data()), std::string("writing attribute ") + name);
+  }
+  void attribute(hid_t object, const char* name, const char* value) {
+    attribute(object, name, std::string(value));
+  }
+  // Attribute on a dataset by path.
+  void dataset_attribute(const std::string& path, const char* name, const std::string& value) {
+    const Handle d(H5Dopen2(file_, path.c_str(), H5P_DEFAULT), H5Dclose, "cannot open " + path);
+    attribute(d, name, value);
+  }
+
+ private:
+  void write(const std::string& path, hid_t mem_type, hid_t file_type, const void* data,
+             std::size_t rows, std::size_t cols, bool is_scalar) {
+    const int rank = cols == 0 ? 1 : 2;
+    const hsize_t dims[2] = {rows, cols};
+    const Handle space(is_scalar ? H5Screate(H5S_SCALAR) : H5Screate_simple(rank, dims, nullptr),
+                       H5Sclose, "dataspace for " + path);
+    const Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "property list");
+    // Large fields are chunked and compressed (shuffle + deflate); both are deterministic, and
+    // readers see the same values either way.
+    const std::size_t elements = rows * std::max<std::size_t>(cols, 1);
+    if (!is_scalar && elements >= kCompressElements && H5Zfilter_avail(H5Z_FILTER_DEFLATE) > 0) {
+      const std::size_t width = std::max<std::size_t>(cols, 1);
+      const hsize_t chunk[2] = {
+          std::min<hsize_t>(rows, std::max<std::size_t>(1, kChunkElements / width)), cols};
+      check(H5Pset_chunk(dcpl, rank, chunk), "chunking " + path);
+      check(H5Pset_shuffle(dcpl), "shuffle filter for " + path);
+      check(H5Pset_deflate(dcpl, 4), "deflate filter for " + path);
+    }
+    const Handle dset(
+        H5Dcreate2(file_, path.c_str(), file_type, space, H5P_DEFAULT, dcpl, H5P_DEFAULT), H5Dclose,
+        "cannot create dataset " + path + " in " + name_);
+    if (elements > 0)
+      check(H5Dwrite(dset, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), "writing " + path);
+  }
+
+  static constexpr std::size_t kCompressElements = 1 << 16;
+  static constexpr std::size_t kChunkElements = 1 << 16;
+  std::string name_;
+  hid_t file_ = -1;
+};
+
+std::string utc_now_iso8601() {
+  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+std::vector<double> flatten(const std::vector<Vec3>& points) {
+  std::vector<double> out;
+  out.reserve(3 * points.size());
+  for (const Vec3& p : points) out.insert(out.end(), {p.x(), p.y(), p.z()});
+  return out;
+}
+
+const char* kSurfaceColumns = "terrain,wall,roof,window";
+
+std::string outcome_names() {
+  std::string names;
+  for (int k = 0; k < run::kOutcomeCount; ++k) {
+    if (k) names += ",";
+    names += run::outcome_name(static_cast<run::Outcome>(k));
+  }
+  return names;
+}
+
+void write_terrain(Writer& w, const scene::Site& site) {
+  w.group("/terrain");
+  std::vector<Vec3> vertices;
+  vertices.reserve(site.terrain_vertices().size());
+  for (const Vec3& v : site.terrain_vertices()) vertices.push_back(site.to_input(v));
+  const auto xyz = flatten(vertices);
+  w.dataset("/terrain/vertices_m", xyz.data(), vertices.size(), 3);
+  std::vector<std::uint32_t> tris;
+  tris.reserve(3 * site.terrain_triangle_count());
+  for (const auto& t : site.terrain_triangles()) tris.insert(tris.end(), t.begin(), t.end());
+  w.dataset("/terrain/triangles", tris.data(), site.terrain_triangle_count(), 3);
+  std::vector<double> area(site.terrain_triangle_count());
+  for (std::size_t t = 0; t < area.size(); ++t)
+    area[t] = site.terrain_triangle_area(static_cast<std::uint32_t>(t));
+  w.dataset("/terrain/area_m2", area);
+}
+
+void write_buildings(Writer& w, const run::RunResult& r, const scene::Site& site) {
+  w.group("/buildings");
+  const std::size_t n = r.buildings.size();
+  std::vector<std::string> ids;
+  std::vector<double> impacts, impacts_se, penetrations, penetrations_se, residual, residual_se;
+  std::vector<double> by_surface[4];  // impacts, se, penetrations, se: n x 4 each
+  for (const auto& b : r.buildings) {
+    ids.push_back(b.id);
+    impacts.push_back(b.impacts.mean);
+    impacts_se.push_back(b.impacts.std_error);
+    penetrations.push_back(b.penetrations.mean);
+    penetrations_se.push_back(b.penetrations.std_error);
+    residual.push_back(b.residual_ke_j.mean);
+    residual_se.push_back(b.residual_ke_j.std_error);
+    for (std::size_t s = 0; s < scene::kSurfaceTypeCount; ++s) {
+      by_surface[0].push_back(b.impacts_by_surface[s].mean);
+      by_surface[1].push_back(b.impacts_by_surface[s].std_error);
+      by_surface[2].push_back(b.penetrations_by_surface[s].mean);
+      by_surface[3].push_back(b.penetrations_by_surface[s].std_error);
+    }
+  }
+  w.strings("/buildings/id", ids);
+  w.dataset("/buildings/expected_impacts", impacts);
+  w.dataset("/buildings/impacts_std_error", impacts_se);
+  w.dataset("/buildings/expected_penetrations", penetrations);
+  w.dataset("/buildings/penetrations_std_error", penetrations_se);
+  w.dataset("/buildings/residual_ke_j", residual);
+  w.dataset("/buildings/residual_ke_std_error_j", residual_se);
+  const char* names[4] = {"impacts_by_surface", "impacts_by_surface_std_error",
+                          "penetrations_by_surface", "penetrations_by_surface_std_error"};
+  for (int k = 0; k < 4; ++k) {
+    const std::string path = std::string("/buildings/") + names[k];
+    w.dataset(path, by_surface[k].data(), n, scene::kSurfaceTypeCount);
+    w.dataset_attribute(path, "columns", kSurfaceColumns);
+  }
+
+  // Geometry, for viewers: the meshes as built (footprints extruded), in input coordinates.
+  std::vector<double> area;
+  for (const auto& b : site.buildings())
+    area.insert(area.end(), b.surface_area_m2.begin(), b.surface_area_m2.end());
+  w.dataset("/buildings/surface_area_m2", area.data(), site.buildings().size(),
+            scene::kSurfaceTypeCount);
+  w.dataset_attribute("/buildings/surface_area_m2", "columns", kSurfaceColumns);
+  std::vector<Vec3> vertices;
+  for (const Vec3& v : site.building_vertices()) vertices.push_back(site.to_input(v));
+  const auto xyz = flatten(vertices);
+  w.dataset("/buildings/vertices_m", xyz.data(), vertices.size(), 3);
+  std::vector<std::uint32_t> tris, tri_building;
+  std::vector<std::uint8_t> tri_surface;
+  for (const auto& t : site.building_triangles()) {
+    tris.insert(tris.end(), t.v.begin(), t.v.end());
+    tri_building.push_back(t.building);
+    tri_surface.push_back(static_cast<std::uint8_t>(t.surface));
+  }
+  w.dataset("/buildings/triangles", tris.data(), site.building_triangles().size(), 3);
+  w.dataset("/buildings/triangle_building", tri_building);
+  w.dataset("/buildings/triangle_surface", tri_surface);
+  w.dataset_attribute("/buildings/triangle_surface", "values",
+                      "0 terrain, 1 wall, 2 roof, 3 window");
+}
+
+void write_fragments(Writer& w, const std::vector<run::FragmentRecord>& records) {
+  w.group("/fragments");
+  const std::size_t n = records.size();
+  const auto column = [&](const char* name, auto field) {
+    using T = std::decay_t<decltype(field(records[0]))>;
+    std::vector<T> v;
+    v.reserve(n);
+    for (const auto& r : records) v.push_back(field(r));
+    w.dataset(std::string("/fragments/") + name, v);
+  };
+  const auto vectors = [&](const char* name, auto field) {
+    std::vector<Vec3> v;
+    v.reserve(n);
+    for (const auto& r : records) v.push_back(field(r));
+    const auto xyz = flatten(v);
+    w.dataset(std::string("/fragments/") + name, xyz.data(), n, 3);
+  };
+  using R = run::FragmentRecord;
+  column("group", [](const R& r) { return r.group; });
+  column("history", [](const R& r) { return r.history; });
+  column("weight", [](const R& r) { return r.weight; });
+  column("mass_kg", [](const R& r) { return r.mass_kg; });
+  column("area_m2", [](const R& r) { return r.area_m2; });
+  vectors("launch_position_m", [](const R& r) { return r.launch_position_m; });
+  vectors("launch_velocity_mps", [](const R& r) { return r.launch_velocity_mps; });
+  column("outcome", [](const R& r) { return static_cast<std::uint8_t>(r.outcome); });
+  column("end_time_s", [](const R& r) { return r.end_time_s; });
+  vectors("end_position_m", [](const R& r) { return r.end_position_m; });
+  vectors("end_velocity_mps", [](const R& r) { return r.end_velocity_mps; });
+  column("impact_angle_deg", [](const R& r) { return r.impact_angle_deg; });
+  column("impact_ke_j", [](const R& r) { return r.impact_ke_j; });
+  column("building", [](const R& r) { return r.building; });
+  column("surface", [](const R& r) { return r.surface; });
+  column("penetrated", [](const R& r) { return static_cast<std::uint8_t>(r.penetrated ? 1 : 0); });
+  column("residual_ke_j", [](const R& r) { return r.residual_ke_j; });
+  column("bounces", [](const R& r) { return r.bounces; });
+  column("ground_path_m", [](const R& r) { return r.ground_path_m; });
+  w.dataset_attribute("/fragments/outcome", "names", outcome_names());
+  w.dataset_attribute("/fragments/surface", "values", "-1 none, 1 wall, 2 roof, 3 window");
+}
+
+void write_trajectories(Writer& w, const std::vector<run::TrajectoryRecord>& trajectories) {
+  w.group("/trajectories");
+  std::vector<std::uint32_t> group;
+  std::vector<std::uint64_t> history, offsets{0};
+  std::vector<double> t_s;
+  std::vector<Vec3> points;
+  for (const auto& tr : trajectories) {
+    if (tr.t_s.size() != tr.position_m.size())
+      throw std::logic_error("results.h5: trajectory with " + std::to_string(tr.t_s.size()) +
+                             " times and " + std::to_string(tr.position_m.size()) + " points");
+    group.push_back(tr.group);
+    history.push_back(tr.history);
+    t_s.insert(t_s.end(), tr.t_s.begin(), tr.t_s.end());
+    points.insert(points.end(), tr.position_m.begin(), tr.position_m.end());
+    offsets.push_back(t_s.size());
+  }
+  w.dataset("/trajectories/group", group);
+  w.dataset("/trajectories/history", history);
+  w.dataset("/trajectories/offsets", offsets);
+  w.dataset("/trajectories/t_s", t_s);
+  const auto xyz = flatten(points);
+  w.dataset("/trajectories/position_m", xyz.data(), points.size(), 3);
+}
+
+}  // namespace
+
+void write_results_h5(const std::filesystem::path& path, const run::RunResult& r,
+                      const scene::Site& site, const run::Scenario& scenario,
+                      const std::string& scenario_json, const Provenance& provenance) {
+  const std::size_t m = site.terrain_triangle_count();
+  if (r.ptn_density_per_m2.size() != m || r.ptn_std_error_per_m2.size() != m)
+    throw std::logic_error("results.h5: " + std::to_string(r.ptn_density_per_m2.size()) +
+                           " PTN values for " + std::to_string(m) + " terrain triangles");
+  if (r.buildings.size() != site.buildings().size())
+    throw std::logic_error("results.h5: " + std::to_string(r.buildings.size()) +
+                           " building results for " + std::to_string(site.buildings().size()) +
+                           " buildings");
+
+  const QuietErrors quiet;
+  Writer w(path);
+  const hid_t root = w.file();
+  w.attribute(root, "file_type", kResultsFileType);
+  w.attribute(root, "format_version", std::int32_t{kResultsFormatVersion});
+  w.attribute(root, "fragsim_version", provenance.version);
+  w.attribute(root, "git_sha", provenance.git_sha);
+  if (provenance.scenario_sha256) w.attribute(root, "scenario_sha256", *provenance.scenario_sha256);
+  w.attribute(root, "seed", std::uint64_t{r.seed});
+  w.attribute(root, "samples", std::int64_t{r.samples});
+  w.attribute(root, "histories_done", std::int64_t{r.histories_done});
+  w.attribute(root, "real_fragments", r.real_fragments);
+  w.attribute(root, "cancelled", std::uint8_t{r.cancelled ? std::uint8_t{1} : std::uint8_t{0}});
+  w.attribute(root, "scenario_json", scenario_json);
+  w.attribute(root, "created_utc", utc_now_iso8601());
+  w.attribute(root, "wall_s", r.timing.wall_s);
+  w.attribute(root, "threads", std::int32_t{r.timing.threads});
+
+  write_terrain(w, site);
+
+  {
+    const Handle ptn = w.group("/ptn");
+    w.dataset("/ptn/density_per_m2", r.ptn_density_per_m2);
+    w.dataset("/ptn/std_error_per_m2", r.ptn_std_error_per_m2);
+    w.attribute(ptn, "person_height_m", scenario.settings.person_height_m);
+    w.attribute(ptn, "hazardous_ke_j", scenario.settings.hazardous_ke_j);
+    w.attribute(ptn, "max_density_per_m2", r.max_ptn_density_per_m2);
+    w.attribute(ptn, "max_triangle", std::int64_t{r.max_ptn_triangle});
+  }
+  {
+    w.group("/hfd");
+    w.scalar("/hfd/hazardous_fragment_distance_m", r.hazardous_fragment_distance_m);
+    const std::vector<double> band = {r.hfd_lower_m, r.hfd_upper_m};
+    w.dataset("/hfd/band_m", band);
+    w.dataset("/hfd/by_sector_m", r.hfd_by_sector_m.data(), r.hfd_by_sector_m.size());
+    const std::vector<double> origin = {r.hfd_origin_m.x(), r.hfd_origin_m.y(), r.hfd_origin_m.z()};
+    w.dataset("/hfd/origin_m", origin);
+    w.scalar("/hfd/threshold_per_m2", scenario.settings.hfd_threshold_per_m2);
+    w.dataset_attribute("/hfd/by_sector_m", "sectors",
+                        "k: azimuth [10k, 10k+10) deg from +x (east) toward +y (north)");
+  }
+
+  write_buildings(w, r, site);
+
+  {
+    w.group("/outcomes");
+    std::vector<std::string> names;
+    std::vector<std::int64_t> histories;
+    std::vector<double> fragments, fragments_se;
+    for (int k = 0; k < run::kOutcomeCount; ++k) {
+      const auto o = static_cast<std::size_t>(k);
+      names.emplace_back(run::outcome_name(static_cast<run::Outcome>(k)));
+      histories.push_back(r.outcome_histories[o]);
+      fragments.push_back(r.outcome_fragments[o].mean);
+      fragments_se.push_back(r.outcome_fragments[o].std_error);
+    }
+    w.strings("/outcomes/name", names);
+    w.dataset("/outcomes/histories", histories);
+    w.dataset("/outcomes/fragments", fragments);
+    w.dataset("/outcomes/fragments_std_error", fragments_se);
+  }
+
+  if (scenario.settings.record_fragments) write_fragments(w, r.fragments);
+  if (scenario.settings.record_trajectories) write_trajectories(w, r.trajectories);
+  w.close();
+}
+
+// ---- Readers ----
+
+namespace {
+
+Handle open_file(const std::filesystem::path& path) {
+  return Handle(H5Fopen(path.string().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
+                "cannot open " + path.string());
+}
+
+Handle open_dataset(hid_t file, const std::filesystem::path& path, const std::string& name) {
+  return Handle(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose,
+                "no dataset " + name + " in " + path.string());
+}
+
+std::size_t element_count(hid_t dset) {
+  const Handle space(H5Dget_space(dset), H5Sclose, "dataspace");
+  const hssize_t n = H5Sget_simple_extent_npoints(space);
+  if (n < 0) throw std::runtime_error("HDF5: dataspace size");
+  return static_cast<std::size_t>(n);
+}
+
+template <class T>
+std::vector<T> read_numeric(const std::filesystem::path& path, const std::string& name,
+                            hid_t mem_type) {
+  const QuietErrors quiet;
+  const Handle file = open_file(path);
+  const Handle dset = open_dataset(file, path, name);
+  std::vector<T> out(element_count(dset));
+  if (!out.empty())
+    check(H5Dread(dset, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()),
+          "reading " + name + " from " + path.string());
+  return out;
+}
+
+Handle open_attribute(hid_t file, const std::filesystem::path& path, const std::string& object,
+                      const std::string& attribute) {
+  return Handle(H5Aopen_by_name(file, object.c_str(), attribute.c_str(), H5P_DEFAULT, H5P_DEFAULT),
+                H5Aclose, "no attribute " + attribute + " on " + object + " in " + path.string());
+}
+
+template <class T>
+T read_attribute_numeric(const std::filesystem::path& path, const std::string& object,
+                         const std::string& attribute, hid_t mem_type) {
+  const QuietErrors quiet;
+  const Handle file = open_file(path);
+  const Handle attr = open_attribute(file, path, object, attribute);
+  T value{};
+  check(H5Aread(attr, mem_type, &value), "reading attribute " + attribute);
+  return value;
+}
+
+herr_t collect_dataset(hid_t /*obj*/, const char* name, const H5O_info_t* info, void* data) {
+  if (info->type == H5O_TYPE_DATASET)
+    static_cast<std::vector<std::string>*>(data)->push_back(std::string("/") + name);
+  return 0;
+}
+
+}  // namespace
+
+std::vector<std::string> list_datasets(const std::filesystem::path& path) {
+  const QuietErrors quiet;
+  const Handle file = open_file(path);
+  std::vector<std::string> names;
+  check(H5Ovisit2(file, H5_INDEX_NAME, H5_ITER_INC, collect_dataset, &names, H5O_INFO_BASIC),
+        "listing " + path.string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+std::vector<std::uint64_t> dataset_shape(const std::filesystem::path& path,
+                                         const std::string& name) {
+  const QuietErrors quiet;
+  const Handle file = open_file(path);
+  const Handle dset = open_dataset(file, path, name);
+  const Handle space(H5Dget_space(dset), H5Sclose, "dataspace");
+  const int rank = H5Sget_simple_extent_ndims(space);
+  if (rank < 0) throw std::runtime_error("HDF5: rank of " + name);
+  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+  if (rank > 0) H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+  return std::vector<std::uint64_t>(dims.begin(), dims.end());
+}
+
+std::vector<double> read_dataset_double(const std::filesystem::path& path,
+                                        const std::string& name) {
+  return read_numeric<double>(path, name, H5T_NATIVE_DOUBLE);
+}
+
+std::vector<std::int64_t> read_dataset_int64(const std::filesystem::path& path,
+                                             const std::string& name) {
+  return read_numeric<std::int64_t>(path, name, H5T_NATIVE_INT64);
+}
+
+std::vector<std::string> read_dataset_strings(const std::filesystem::path& path,
+                                              const std::string& name) {
+  const QuietErrors quiet;
+  const Handle file = open_file(path);
+  const Handle dset = open_dataset(file, path, name);
+  const Handle type(H5Dget_type(dset), H5Tclose, "type of " + name);
+  if (H5Tget_class(type) != H5T_STRING || H5Tis_variable_str(type) > 0)
+    throw std::runtime_error(name + " in " + path.string() +
+                             " is not a fixed-length string dataset");
+  const std::size_t width = H5Tget_size(type);
+  const std::size_t n = element_count(dset);
+  std::vector<char> buffer(n * width);
+  if (n > 0)
+    check(H5Dread(dset, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer.data()), "reading " + name);
+  std::vector<std::string> out;
+  for (std::size_t k = 0; k < n; ++k) {
+    const char* s = buffer.data() + k * width;
+    out.emplace_back(s, std::find(s, s + width, '\0'));
+  }
+  return out;
+}
+
+std::vector<unsigned char> read_dataset_raw(const std::filesystem::path& path,
+                                            const std::string& name) {
+  const QuietErrors quiet;
+  const Handle file = open_file(path);
+  const Handle dset = open_dataset(file, path, name);
+  const Handle type(H5Dget_type(dset), H5Tclose, "type of " + name);
+  std::vector<unsigned char> out(element_count(dset) * H5Tget_size(type));
+  if (!out.empty())
+    check(H5Dread(dset, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()), "reading " + name);
+  return out;
+}
+
+std::string read_attribute_string(const std::filesystem::path& path, const std::string& object,
+                                  const std::string& attribute) {
+  const QuietErrors quiet;
+  const Handle file = open_file(path);
+  const Handle attr = open_attribute(file, path, object, attribute);
+  const Handle type(H5Aget_type(attr), H5Tclose, "type of " + attribute);
+  if (H5Tget_class(type) != H5T_STRING || H5Tis_variable_str(type) > 0)
+    throw std::runtime_error("attribute " + attribute + " is not a fixed-length string");
+  std::vector<char> buffer(H5Tget_size(type));
+  check(H5Aread(attr, type, buffer.data()), "reading attribute " + attribute);
+  return std::string(buffer.data(), std::find(buffer.begin(), buffer.end(), '\0') - buffer.begin());
+}
+
+double read_attribute_double(const std::filesystem::path& path, const std::string& object,
+                             const std::string& attribute) {
+  return read_attribute_numeric<double>(path, object, attribute, H5T_NATIVE_DOUBLE);
+}
+
+std::int64_t read_attribute_int64(const std::filesystem::path& path, const std::string& object,
+                                  const std::string& attribute) {
+  return read_attribute_numeric<std::int64_t>(path, object, attribute, H5T_NATIVE_INT64);
+}
+
+std::uint64_t read_attribute_uint64(const std::filesystem::path& path, const std::string& object,
+                                    const std::string& attribute) {
+  return read_attribute_numeric<std::uint64_t>(path, object, attribute, H5T_NATIVE_UINT64);
+}
+
+}  // namespace fragsim::api

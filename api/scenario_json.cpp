@@ -1,0 +1,285 @@
+// The scenario document: schema tag, site, atmosphere, gravity, fragment groups, settings; text
+// parsing (line/column of malformed JSON, duplicate keys); full validation; normalised output.
+#include "api/scenario_json.h"
+
+#include <set>
+#include <vector>
+
+#include "api/group_json.h"
+#include "api/json_fields.h"
+#include "api/site_json.h"
+
+namespace fragsim::api {
+
+namespace {
+
+flight::AtmosphereSpec parse_atmosphere(const Json& j, const std::string& path) {
+  const ObjectReader o(j, path, "atmosphere");
+  flight::AtmosphereSpec a;
+  const std::string model = o.string("model");
+  if (model == "isa") {
+    a.model = flight::AtmosphereSpec::Model::kIsa;
+    for (const char* key : {"density_kg_m3", "sound_speed_mps"})
+      if (o.has(key)) fail(o.at(key), "only used with model \"constant\"");
+  } else if (model == "constant") {
+    a.model = flight::AtmosphereSpec::Model::kConstant;
+    a.density_kg_m3 = o.number_or("density_kg_m3", a.density_kg_m3);
+    check_ge(a.density_kg_m3, 0.0, o.at("density_kg_m3"));  // 0: vacuum
+    a.sound_speed_mps = o.number_or("sound_speed_mps", a.sound_speed_mps);
+    check_gt(a.sound_speed_mps, 0.0, o.at("sound_speed_mps"));
+  } else {
+    fail(o.at("model"), "must be \"isa\" or \"constant\" (got \"" + model + "\")");
+  }
+  a.wind_mps = o.vec3_or("wind_mps", a.wind_mps);
+  return a;
+}
+
+run::Settings parse_settings(const Json& j, const std::string& path) {
+  const ObjectReader o(j, path, "settings");
+  run::Settings s;
+  if (const Json* seed = o.find("seed")) s.seed = read_unsigned(*seed, o.at("seed"));
+  s.person_height_m = o.number_or("person_height_m", s.person_height_m);
+  check_gt(s.person_height_m, 0.0, o.at("person_height_m"));
+  s.hazardous_ke_j = o.number_or("hazardous_ke_j", s.hazardous_ke_j);
+  check_gt(s.hazardous_ke_j, 0.0, o.at("hazardous_ke_j"));
+  s.hfd_threshold_per_m2 = o.number_or("hfd_threshold_per_m2", s.hfd_threshold_per_m2);
+  check_gt(s.hfd_threshold_per_m2, 0.0, o.at("hfd_threshold_per_m2"));
+  if (o.has("hfd_origin_m")) s.hfd_origin_m = o.vec3("hfd_origin_m");
+  s.max_flight_time_s = o.number_or("max_flight_time_s", s.max_flight_time_s);
+  check_gt(s.max_flight_time_s, 0.0, o.at("max_flight_time_s"));
+  if (const Json* integrator = o.find("integrator")) {
+    const ObjectReader r(*integrator, o.at("integrator"), "integrator");
+    s.rtol = r.number_or("rtol", s.rtol);
+    check_in(s.rtol, 1e-12, 1e-2, r.at("rtol"));
+    s.sagitta_m = r.number_or("sagitta_m", s.sagitta_m);
+    check_gt(s.sagitta_m, 0.0, r.at("sagitta_m"));
+  }
+  s.bounce = o.bool_or("bounce", s.bounce);
+  s.threads = static_cast<int>(o.integer_or("threads", s.threads, 0, kMaxThreads));
+  s.chunk_histories = o.integer_or("chunk_histories", s.chunk_histories, 1, kMaxSamplesPerGroup);
+  s.record_fragments = o.bool_or("record_fragments", s.record_fragments);
+  s.record_trajectories = o.bool_or("record_trajectories", s.record_trajectories);
+  s.max_recorded_trajectories =
+      o.integer_or("max_recorded_trajectories", s.max_recorded_trajectories, 0, 1'000'000);
+  s.profile = o.bool_or("profile", s.profile);
+  return s;
+}
+
+Json vec3_json(const Vec3& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
+
+// Builds the DOM through nlohmann's SAX interface, tracking the path of the value being parsed:
+// a key given twice in one object (the DOM parser would keep the last silently) and a number
+// that overflows a double ("1e999": the DOM parser throws without saying where) are reported at
+// their path; syntax errors at their line and column.
+class DomBuilder {
+ public:
+  explicit DomBuilder(std::string_view text) : text_(text) {}
+  Json take() { return std::move(root_); }
+
+  // SAX interface
+  bool null() { return add(nullptr); }
+  bool boolean(bool v) { return add(v); }
+  bool number_integer(Json::number_integer_t v) { return add(v); }
+  bool number_unsigned(Json::number_unsigned_t v) { return add(v); }
+  bool number_float(Json::number_float_t v, const std::string& /*text*/) { return add(v); }
+  bool string(Json::string_t& v) { return add(std::move(v)); }
+  bool binary(Json::binary_t& v) { return add(Json::binary(std::move(v))); }
+  bool start_object(std::size_t /*size*/) { return open(Json::object()); }
+  bool start_array(std::size_t /*size*/) { return open(Json::array()); }
+  bool end_object() { return close(); }
+  bool end_array() { return close(); }
+  bool key(Json::string_t& k) {
+    Level& top = levels_.back();
+    if (!top.keys.insert(k).second) fail(child_path(top.path, k), "duplicate key");
+    top.key = k;
+    return true;
+  }
+  bool parse_error(std::size_t position, const std::string& /*last_token*/,
+                   const nlohmann::detail::exception& e) {
+    if (e.id == 406) fail(next_path(), "not finite");  // number overflow
+    // position: characters read, the offending one included.
+    const std::size_t stop = std::min(position == 0 ? 0 : position - 1, text_.size());
+    std::size_t line = 1, column = 1;
+    for (std::size_t k = 0; k < stop; ++k) {
+      if (text_[k] == '\n') {
+        ++line;
+        column = 1;
+      } else {
+        ++column;
+      }
+    }
+    // what(): "[json.exception.parse_error.101] parse error at line L, column C: <reason>".
+    std::string reason = e.what();
+    if (const auto c = reason.find("column "); c != std::string::npos) {
+      if (const auto colon = reason.find(": ", c); colon != std::string::npos)
+        reason = reason.substr(colon + 2);
+    }
+    fail("", "malformed JSON at line " + std::to_string(line) + ", column " +
+                 std::to_string(column) + ": " + reason);
+  }
+
+ private:
+  struct Level {
+    Json* value;
+    std::string path;
+    std::string key;  // objects: the key whose value comes next
+    std::set<std::string> keys;
+  };
+
+  // Path of the value about to be added.
+  std::string next_path() const {
+    if (levels_.empty()) return "";
+    const Level& top = levels_.back();
+    return top.value->is_array() ? index_path(top.path, top.value->size())
+                                 : child_path(top.path, top.key);
+  }
+  Json* place(Json&& v) {
+    if (levels_.empty()) {
+      root_ = std::move(v);
+      return &root_;
+    }
+    Level& top = levels_.back();
+    if (top.value->is_array()) {
+      top.value->push_back(std::move(v));
+      return &top.value->back();
+    }
+    Json& slot = (*top.value)[top.key];
+    slot = std::move(v);
+    return &slot;
+  }
+  bool add(Json&& v) {
+    place(std::move(v));
+    return true;
+  }
+  bool open(Json&& container) {
+    std::string path = next_path();
+    levels_.push_back({place(std::move(container)), std::move(path), {}, {}});
+    return true;
+  }
+  bool close() {
+    levels_.pop_back();
+    return true;
+  }
+
+  std::string_view text_;
+  Json root_;
+  std::vector<Level> levels_;
+};
+
+Json parse_json_text(std::string_view text) {
+  DomBuilder builder(text);
+  Json::sax_parse(text.begin(), text.end(), &builder);
+  return builder.take();
+}
+
+}  // namespace
+
+ScenarioDocument parse_scenario_document(const nlohmann::json& j) {
+  if (!j.is_object()) fail("", "expected a JSON object at the top level, got " + json_type_name(j));
+  // The format tag first: a document of another version fails on that, not on its new keys.
+  const auto tag = j.find("schema");
+  if (tag == j.end()) fail("schema", "is required");
+  const std::string schema = read_string(*tag, "schema");
+  if (schema != kScenarioSchema)
+    fail("schema", std::string("must be \"") + kScenarioSchema + "\" (got \"" + schema + "\")");
+  const ObjectReader o(j, "", "scenario");
+
+  ScenarioDocument doc;
+  doc.description = o.string_or("description", "");
+  run::Scenario& sc = doc.scenario;
+  sc.site = detail::parse_site(o.require("site"), "site", doc.material_notes);
+  if (const Json* a = o.find("atmosphere")) sc.atmosphere = parse_atmosphere(*a, "atmosphere");
+  sc.gravity_mps2 = o.number_or("gravity_mps2", sc.gravity_mps2);
+  check_ge(sc.gravity_mps2, 0.0, "gravity_mps2");
+
+  const Json& groups = read_array(o.require("fragment_groups"), "fragment_groups");
+  if (groups.empty())
+    fail("fragment_groups", "must not be empty (give at least one fragment group)");
+  std::int64_t total_samples = 0;
+  for (std::size_t k = 0; k < groups.size(); ++k) {
+    sc.groups.push_back(detail::parse_fragment_group(groups[k], index_path("fragment_groups", k)));
+    total_samples += sc.groups.back().samples;  // <= 1e9 each: no overflow for any real count
+  }
+
+  if (const Json* s = o.find("settings")) sc.settings = parse_settings(*s, "settings");
+  if (sc.settings.record_fragments && total_samples > kMaxRecordedFragments)
+    fail("settings.record_fragments",
+         "would record " + std::to_string(total_samples) + " histories (limit " +
+             std::to_string(kMaxRecordedFragments) + "); turn it off or lower the samples");
+  return doc;
+}
+
+ScenarioDocument parse_scenario_document_text(std::string_view text) {
+  return parse_scenario_document(parse_json_text(text));
+}
+
+run::Scenario parse_scenario(const nlohmann::json& j) {
+  return parse_scenario_document(j).scenario;
+}
+
+run::Scenario parse_scenario_text(std::string_view text) {
+  return parse_scenario_document_text(text).scenario;
+}
+
+std::shared_ptr<const scene::Site> validate_scenario(const run::Scenario& scenario) {
+  return scene::Site::build(scenario.site);
+}
+
+namespace {
+
+Json scenario_json(const run::Scenario& sc, const std::string& description,
+                   const std::map<std::string, MaterialNotes>* notes) {
+  Json out = {{"schema", kScenarioSchema}};
+  if (!description.empty()) out["description"] = description;
+  out["site"] = detail::site_to_json(sc.site, notes);
+
+  Json atmosphere;
+  if (sc.atmosphere.model == flight::AtmosphereSpec::Model::kConstant) {
+    atmosphere = {{"model", "constant"},
+                  {"density_kg_m3", sc.atmosphere.density_kg_m3},
+                  {"sound_speed_mps", sc.atmosphere.sound_speed_mps}};
+  } else {
+    atmosphere = {{"model", "isa"}};
+  }
+  atmosphere["wind_mps"] = vec3_json(sc.atmosphere.wind_mps);
+  out["atmosphere"] = std::move(atmosphere);
+  out["gravity_mps2"] = sc.gravity_mps2;
+
+  Json groups = Json::array();
+  for (const auto& g : sc.groups) groups.push_back(detail::fragment_group_to_json(g));
+  out["fragment_groups"] = std::move(groups);
+
+  const run::Settings& s = sc.settings;
+  Json settings = {
+      {"seed", s.seed},
+      {"person_height_m", s.person_height_m},
+      {"hazardous_ke_j", s.hazardous_ke_j},
+      {"hfd_threshold_per_m2", s.hfd_threshold_per_m2},
+      {"max_flight_time_s", s.max_flight_time_s},
+      {"integrator", {{"rtol", s.rtol}, {"sagitta_m", s.sagitta_m}}},
+      {"bounce", s.bounce},
+      {"threads", s.threads},
+      {"chunk_histories", s.chunk_histories},
+      {"record_fragments", s.record_fragments},
+      {"record_trajectories", s.record_trajectories},
+      {"max_recorded_trajectories", s.max_recorded_trajectories},
+      {"profile", s.profile},
+  };
+  if (s.hfd_origin_m) settings["hfd_origin_m"] = vec3_json(*s.hfd_origin_m);
+  out["settings"] = std::move(settings);
+  return out;
+}
+
+}  // namespace
+
+nlohmann::json scenario_to_json(const run::Scenario& scenario) {
+  return scenario_json(scenario, "", nullptr);
+}
+
+nlohmann::json scenario_to_json(const ScenarioDocument& document) {
+  return scenario_json(document.scenario, document.description, &document.material_notes);
+}
+
+}  // namespace fragsim::api

@@ -1,0 +1,60 @@
+#pragma once
+// The scenario contract: JSON ("schema": "fragsim.scenario/1", docs/scenario.md,
+// api/schema/scenario.schema.json) <-> run::Scenario.
+//
+// Every problem throws fragsim::InputError(path, message) with the path of the offending value in
+// the document's own names and indices: "fragment_groups[1].mass_kg.sigma: must be > 0",
+// "site.terrain.grid.nx: expected integer, got string", "settings.integrater: unknown key (did
+// you mean "integrator"?)". parse_* checks everything except geometry; validate_scenario adds the
+// geometry checks of scene::Site::build (mesh indices, zero-area triangles, footprints), which
+// report paths in the same style.
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <string_view>
+
+#include "core/run/scenario.h"
+#include "core/scene/site.h"
+
+namespace fragsim::api {
+
+inline constexpr const char* kScenarioSchema = "fragsim.scenario/1";
+
+// Limits on values that are legal in principle but would exhaust a machine (or a daemon).
+inline constexpr std::int64_t kMaxSamplesPerGroup = 1'000'000'000;
+inline constexpr std::int64_t kMaxRecordedFragments = 10'000'000;  // with record_fragments
+inline constexpr std::int64_t kMaxThreads = 1024;
+
+// Material provenance the core does not need: kept so that outputs can say which inputs were
+// marked illustrative.
+struct MaterialNotes {
+  bool illustrative = false;
+  std::string source;
+};
+
+// A parsed scenario plus the parts of the document that are not simulation inputs.
+struct ScenarioDocument {
+  run::Scenario scenario;
+  std::string description;
+  std::map<std::string, MaterialNotes> material_notes;  // by material name; every material
+};
+
+ScenarioDocument parse_scenario_document(const nlohmann::json& j);
+// Text: malformed JSON -> InputError("", "malformed JSON at line L, column C: ..."); a key given
+// twice in one object -> InputError("<path>.<key>", "duplicate key").
+ScenarioDocument parse_scenario_document_text(std::string_view text);
+
+run::Scenario parse_scenario(const nlohmann::json& j);
+run::Scenario parse_scenario_text(std::string_view text);
+
+// Full validation: the geometry checks of scene::Site::build on top of what parsing checked.
+// Returns the built site so that a caller about to run does not build it twice.
+std::shared_ptr<const scene::Site> validate_scenario(const run::Scenario& scenario);
+
+// Normalised JSON (every default filled in, fixed distributions as plain numbers); parsing it
+// gives back the same scenario. Used for provenance (results.h5 stores it).
+nlohmann::json scenario_to_json(const run::Scenario& scenario);
+nlohmann::json scenario_to_json(const ScenarioDocument& document);
+
+}  // namespace fragsim::api

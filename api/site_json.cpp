@@ -1,0 +1,321 @@
+// The `site` object: origin, terrain (plane | grid | mesh), materials, buildings.
+// Type, range and reference checks happen here; geometry (mesh indices, zero-area triangles,
+// footprint polygons, closed building meshes) is checked by scene::Site::build.
+#include "api/site_json.h"
+
+#include <limits>
+#include <set>
+
+namespace fragsim::api::detail {
+
+namespace {
+
+constexpr std::int64_t kInt64Min = std::numeric_limits<std::int64_t>::min();
+constexpr std::int64_t kInt64Max = std::numeric_limits<std::int64_t>::max();
+constexpr std::int64_t kIntMax = std::numeric_limits<int>::max();
+
+// ---- Materials ----
+
+scene::RestitutionSpec parse_restitution(const Json& j, const std::string& path) {
+  scene::RestitutionSpec r;
+  if (j.is_number()) {
+    r.constant = read_number(j, path);
+    check_in(r.constant, 0.0, 1.0, path);
+    return r;
+  }
+  if (!j.is_object()) fail(path, "expected number or object, got " + json_type_name(j));
+  const ObjectReader o(j, path, "restitution_table");
+  r.normal_speed_mps = read_numbers(o.require("normal_speed_mps"), o.at("normal_speed_mps"));
+  r.e = read_numbers(o.require("e"), o.at("e"));
+  if (r.normal_speed_mps.empty()) fail(o.at("normal_speed_mps"), "must not be empty");
+  if (r.e.size() != r.normal_speed_mps.size())
+    fail(o.at("e"), "expected " + std::to_string(r.normal_speed_mps.size()) +
+                        " values (one per normal speed), got " + std::to_string(r.e.size()));
+  for (std::size_t k = 0; k < r.normal_speed_mps.size(); ++k) {
+    const std::string sp = index_path(o.at("normal_speed_mps"), k);
+    check_ge(r.normal_speed_mps[k], 0.0, sp);
+    if (k > 0 && !(r.normal_speed_mps[k] > r.normal_speed_mps[k - 1]))
+      fail(sp, "must be strictly increasing (got " + format_number(r.normal_speed_mps[k]) +
+                   " after " + format_number(r.normal_speed_mps[k - 1]) + ")");
+    check_in(r.e[k], 0.0, 1.0, index_path(o.at("e"), k));
+  }
+  r.constant = r.e.front();  // unused with a table; keeps the spec self-consistent
+  return r;
+}
+
+scene::MaterialSpec parse_material(const Json& j, const std::string& path, MaterialNotes& notes) {
+  const ObjectReader o(j, path, "material");
+  scene::MaterialSpec m;
+  m.friction = o.number_or("friction", m.friction);
+  check_ge(m.friction, 0.0, o.at("friction"));
+  if (const Json* r = o.find("restitution"))
+    m.restitution = parse_restitution(*r, o.at("restitution"));
+  if (const Json* p = o.find("penetration")) {
+    const ObjectReader pen(*p, o.at("penetration"), "penetration");
+    const double ke = pen.number("ke_per_area_j_per_m2");
+    check_gt(ke, 0.0, pen.at("ke_per_area_j_per_m2"));
+    m.penetration_ke_per_area_j_per_m2 = ke;
+  }
+  notes.illustrative = o.bool_or("illustrative", false);
+  notes.source = o.string_or("source", "");
+  return m;
+}
+
+// ---- Terrain ----
+
+std::vector<Vec3> parse_vertices(const Json& j, const std::string& path) {
+  read_array(j, path);
+  std::vector<Vec3> out;
+  out.reserve(j.size());
+  for (std::size_t k = 0; k < j.size(); ++k) out.push_back(read_vec3(j[k], index_path(path, k)));
+  return out;
+}
+
+// Indices are range-checked against the vertices by Site::build (same paths).
+std::vector<std::array<std::int64_t, 3>> parse_triangles(const Json& j, const std::string& path) {
+  read_array(j, path);
+  std::vector<std::array<std::int64_t, 3>> out;
+  out.reserve(j.size());
+  for (std::size_t t = 0; t < j.size(); ++t) {
+    const std::string tp = index_path(path, t);
+    const Json& tri = j[t];
+    if (!tri.is_array()) fail(tp, "expected array of 3 vertex indices, got " + json_type_name(tri));
+    if (tri.size() != 3) fail(tp, "expected 3 vertex indices, got " + std::to_string(tri.size()));
+    std::array<std::int64_t, 3> v{};
+    for (std::size_t k = 0; k < 3; ++k)
+      v[k] = read_integer(tri[k], index_path(tp, k), kInt64Min, kInt64Max);
+    out.push_back(v);
+  }
+  return out;
+}
+
+scene::TerrainSpec parse_terrain(const Json& j, const std::string& path,
+                                 const std::map<std::string, scene::MaterialSpec>& materials) {
+  const ObjectReader o(j, path, "terrain");
+  std::vector<std::string> forms;
+  for (const char* f : {"plane", "grid", "mesh"})
+    if (o.has(f)) forms.emplace_back(f);
+  if (forms.empty()) fail(path, "needs one of plane, grid or mesh");
+  if (forms.size() > 1)
+    fail(path,
+         "give exactly one of plane, grid or mesh (got " + forms[0] + " and " + forms[1] + ")");
+
+  scene::TerrainSpec t;
+  if (const Json* p = o.find("plane")) {
+    const ObjectReader r(*p, o.at("plane"), "terrain_plane");
+    scene::PlaneTerrainSpec plane;
+    plane.elevation_m = r.number_or("elevation_m", 0.0);
+    const Json& e = read_array(r.require("extent_m"), r.at("extent_m"), 4);
+    for (std::size_t k = 0; k < 4; ++k)
+      plane.extent_m[k] = read_number(e[k], index_path(r.at("extent_m"), k));
+    plane.cell_m = r.number_or("cell_m", plane.cell_m);
+    check_gt(plane.cell_m, 0.0, r.at("cell_m"));
+    t.geometry = plane;
+  } else if (const Json* g = o.find("grid")) {
+    const ObjectReader r(*g, o.at("grid"), "terrain_grid");
+    scene::GridTerrainSpec grid;
+    grid.origin_m = read_vec2(r.require("origin_m"), r.at("origin_m"));
+    grid.spacing_m = r.number("spacing_m");
+    check_gt(grid.spacing_m, 0.0, r.at("spacing_m"));
+    grid.nx = static_cast<int>(r.integer("nx", 2, kIntMax));
+    grid.ny = static_cast<int>(r.integer("ny", 2, kIntMax));
+    grid.elevation_m = read_numbers(r.require("elevation_m"), r.at("elevation_m"));
+    t.geometry = std::move(grid);
+  } else {
+    const ObjectReader r(o.require("mesh"), o.at("mesh"), "terrain_mesh");
+    scene::MeshSpec mesh;
+    mesh.vertices_m = parse_vertices(r.require("vertices_m"), r.at("vertices_m"));
+    mesh.triangles = parse_triangles(r.require("triangles"), r.at("triangles"));
+    t.geometry = std::move(mesh);
+  }
+  t.material = o.string("material");
+  if (!materials.count(t.material))
+    fail(o.at("material"), "unknown material \"" + t.material + "\"");
+  return t;
+}
+
+// ---- Buildings ----
+
+scene::SurfaceType parse_surface(const Json& j, const std::string& path) {
+  const std::string s = read_string(j, path);
+  if (s == "wall") return scene::SurfaceType::kWall;
+  if (s == "roof") return scene::SurfaceType::kRoof;
+  if (s == "window") return scene::SurfaceType::kWindow;
+  fail(path, "must be \"wall\", \"roof\" or \"window\" (got \"" + s + "\")");
+}
+
+scene::BuildingSpec parse_building(const Json& j, const std::string& path,
+                                   const std::map<std::string, scene::MaterialSpec>& materials) {
+  if (j.is_object() && j.contains("mesh") && j.contains("footprint_m"))
+    fail(path, "give either footprint_m or mesh, not both");
+  const bool mesh_form = j.is_object() && j.contains("mesh");
+  const ObjectReader o(j, path, mesh_form ? "building_mesh" : "building_footprint");
+  scene::BuildingSpec b;
+  b.id = o.string("id");
+  if (b.id.empty()) fail(o.at("id"), "must not be empty");
+  if (mesh_form) {
+    const ObjectReader m(o.require("mesh"), o.at("mesh"), "building_mesh_geometry");
+    scene::MeshSpec mesh;
+    mesh.vertices_m = parse_vertices(m.require("vertices_m"), m.at("vertices_m"));
+    mesh.triangles = parse_triangles(m.require("triangles"), m.at("triangles"));
+    const Json& surface = read_array(m.require("surface"), m.at("surface"));
+    for (std::size_t k = 0; k < surface.size(); ++k)
+      mesh.surface.push_back(parse_surface(surface[k], index_path(m.at("surface"), k)));
+    b.mesh = std::move(mesh);
+  } else {
+    const std::string fp = o.at("footprint_m");
+    const Json& footprint = read_array(o.require("footprint_m"), fp);
+    for (std::size_t k = 0; k < footprint.size(); ++k)
+      b.footprint_m.push_back(read_vec2(footprint[k], index_path(fp, k)));
+    b.height_m = o.number("height_m");
+    check_gt(b.height_m, 0.0, o.at("height_m"));
+    b.base_elevation_m = o.optional_number("base_elevation_m");
+  }
+  // The footprint form always has walls and a roof; a mesh names what its triangles use (checked
+  // against the surface types by Site::build).
+  const auto material = [&](const char* key, bool required) {
+    if (!required && !o.has(key)) return std::string();
+    const std::string name = o.string(key);
+    if (!materials.count(name)) fail(o.at(key), "unknown material \"" + name + "\"");
+    return name;
+  };
+  b.wall = material("wall", !mesh_form);
+  b.roof = material("roof", !mesh_form);
+  b.window = material("window", false);
+  return b;
+}
+
+// ---- Output ----
+
+Json vec2_json(const std::array<double, 2>& v) {
+  return Json::array({v[0], v[1]});
+}
+Json vec3_json(const Vec3& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
+
+Json mesh_json(const scene::MeshSpec& m, bool with_surface) {
+  Json vertices = Json::array();
+  for (const Vec3& v : m.vertices_m) vertices.push_back(vec3_json(v));
+  Json triangles = Json::array();
+  for (const auto& t : m.triangles) triangles.push_back(Json::array({t[0], t[1], t[2]}));
+  Json out = {{"vertices_m", std::move(vertices)}, {"triangles", std::move(triangles)}};
+  if (with_surface) {
+    Json surface = Json::array();
+    for (const auto s : m.surface) surface.push_back(scene::surface_type_name(s));
+    out["surface"] = std::move(surface);
+  }
+  return out;
+}
+
+Json restitution_json(const scene::RestitutionSpec& r) {
+  if (r.normal_speed_mps.empty()) return r.constant;
+  return {{"normal_speed_mps", r.normal_speed_mps}, {"e", r.e}};
+}
+
+}  // namespace
+
+scene::SiteSpec parse_site(const Json& j, const std::string& path,
+                           std::map<std::string, MaterialNotes>& notes) {
+  const ObjectReader o(j, path, "site");
+  scene::SiteSpec site;
+  if (const Json* origin = o.find("origin")) {
+    const ObjectReader r(*origin, o.at("origin"), "site_origin");
+    scene::SiteOrigin so;
+    so.crs = r.string_or("crs", "");
+    so.easting_m = r.number_or("easting_m", 0.0);
+    so.northing_m = r.number_or("northing_m", 0.0);
+    so.elevation_m = r.number_or("elevation_m", 0.0);
+    site.origin = so;
+  }
+
+  const std::string mp = o.at("materials");
+  const Json& materials = o.require("materials");
+  if (!materials.is_object()) fail(mp, "expected object, got " + json_type_name(materials));
+  for (const auto& item : materials.items()) {
+    if (item.key().empty()) fail(mp, "empty material name");
+    site.materials[item.key()] =
+        parse_material(item.value(), child_path(mp, item.key()), notes[item.key()]);
+  }
+
+  site.terrain = parse_terrain(o.require("terrain"), o.at("terrain"), site.materials);
+
+  if (const Json* buildings = o.find("buildings")) {
+    const std::string bp = o.at("buildings");
+    read_array(*buildings, bp);
+    std::map<std::string, std::size_t> seen;
+    for (std::size_t k = 0; k < buildings->size(); ++k) {
+      const std::string path_k = index_path(bp, k);
+      scene::BuildingSpec b = parse_building((*buildings)[k], path_k, site.materials);
+      if (const auto [it, fresh] = seen.emplace(b.id, k); !fresh)
+        fail(child_path(path_k, "id"),
+             "duplicate id \"" + b.id + "\" (also " + index_path(bp, it->second) + ")");
+      site.buildings.push_back(std::move(b));
+    }
+  }
+  return site;
+}
+
+Json site_to_json(const scene::SiteSpec& site, const std::map<std::string, MaterialNotes>* notes) {
+  Json out = Json::object();
+  if (site.origin) {
+    out["origin"] = {{"crs", site.origin->crs},
+                     {"easting_m", site.origin->easting_m},
+                     {"northing_m", site.origin->northing_m},
+                     {"elevation_m", site.origin->elevation_m}};
+  }
+
+  Json terrain = Json::object();
+  if (const auto* plane = std::get_if<scene::PlaneTerrainSpec>(&site.terrain.geometry)) {
+    terrain["plane"] = {{"elevation_m", plane->elevation_m},
+                        {"extent_m", plane->extent_m},
+                        {"cell_m", plane->cell_m}};
+  } else if (const auto* grid = std::get_if<scene::GridTerrainSpec>(&site.terrain.geometry)) {
+    terrain["grid"] = {{"origin_m", vec2_json(grid->origin_m)},
+                       {"spacing_m", grid->spacing_m},
+                       {"nx", grid->nx},
+                       {"ny", grid->ny},
+                       {"elevation_m", grid->elevation_m}};
+  } else {
+    terrain["mesh"] = mesh_json(std::get<scene::MeshSpec>(site.terrain.geometry), false);
+  }
+  terrain["material"] = site.terrain.material;
+  out["terrain"] = std::move(terrain);
+
+  Json materials = Json::object();
+  for (const auto& [name, m] : site.materials) {
+    Json mj = {{"friction", m.friction}, {"restitution", restitution_json(m.restitution)}};
+    if (m.penetration_ke_per_area_j_per_m2)
+      mj["penetration"] = {{"ke_per_area_j_per_m2", *m.penetration_ke_per_area_j_per_m2}};
+    if (notes) {
+      if (const auto it = notes->find(name); it != notes->end()) {
+        mj["illustrative"] = it->second.illustrative;
+        if (!it->second.source.empty()) mj["source"] = it->second.source;
+      }
+    }
+    materials[name] = std::move(mj);
+  }
+  out["materials"] = std::move(materials);
+
+  Json buildings = Json::array();
+  for (const auto& b : site.buildings) {
+    Json bj = {{"id", b.id}};
+    if (b.mesh) {
+      bj["mesh"] = mesh_json(*b.mesh, true);
+    } else {
+      Json footprint = Json::array();
+      for (const auto& p : b.footprint_m) footprint.push_back(vec2_json(p));
+      bj["footprint_m"] = std::move(footprint);
+      bj["height_m"] = b.height_m;
+      if (b.base_elevation_m) bj["base_elevation_m"] = *b.base_elevation_m;
+    }
+    if (!b.wall.empty()) bj["wall"] = b.wall;
+    if (!b.roof.empty()) bj["roof"] = b.roof;
+    if (!b.window.empty()) bj["window"] = b.window;
+    buildings.push_back(std::move(bj));
+  }
+  out["buildings"] = std::move(buildings);
+  return out;
+}
+
+}  // namespace fragsim::api::detail

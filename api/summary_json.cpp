@@ -1,0 +1,238 @@
+#include "api/summary_json.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "fragsim/version.h"
+
+namespace fragsim::api {
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+Json vec3_json(const Vec3& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
+
+Json estimate_pair(const run::Estimate& impacts, const run::Estimate& penetrations) {
+  return {{"expected_impacts", impacts.mean},
+          {"impacts_std_error", impacts.std_error},
+          {"expected_penetrations", penetrations.mean},
+          {"penetrations_std_error", penetrations.std_error}};
+}
+
+// ---- text rendering helpers ----
+
+double num(const Json& j, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end() || !it->is_number()) return std::numeric_limits<double>::quiet_NaN();
+  return it->get<double>();
+}
+
+std::string printf_string(const char* format, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+std::string g4(double v) {
+  return std::isfinite(v) ? printf_string("%.4g", v) : "n/a";
+}
+std::string f1(double v) {
+  return std::isfinite(v) ? printf_string("%.1f", v) : "n/a";
+}
+
+std::string vec3_text(const Json& j) {
+  if (!j.is_array() || j.size() != 3) return "n/a";
+  std::string out = "(";
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (k > 0) out += ", ";
+    out += f1(j[k].get<double>());
+  }
+  return out + ")";
+}
+
+// Characters as displayed: UTF-8 continuation bytes ("±" is two bytes) take no column.
+std::size_t display_width(const std::string& s) {
+  return static_cast<std::size_t>(std::count_if(
+      s.begin(), s.end(), [](char ch) { return (static_cast<unsigned char>(ch) & 0xC0) != 0x80; }));
+}
+
+std::string pad_right(std::string s, std::size_t width) {
+  const std::size_t w = display_width(s);
+  if (w < width) s.append(width - w, ' ');
+  return s;
+}
+
+std::string pad_left(std::string s, std::size_t width) {
+  const std::size_t w = display_width(s);
+  if (w < width) s.insert(0, width - w, ' ');
+  return s;
+}
+
+std::string plus_minus(double mean, double se) {
+  return g4(mean) + " ± " + g4(se);
+}
+
+}  // namespace
+
+Provenance build_provenance() {
+  return Provenance{kVersion, kGitSha, std::nullopt};
+}
+
+nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scenario& scenario,
+                                       const Provenance& provenance) {
+  Json out = {{"schema", kResultSchema},
+              {"cancelled", r.cancelled},
+              {"samples", r.samples},
+              {"histories_done", r.histories_done},
+              {"real_fragments", r.real_fragments},
+              {"seed", r.seed},
+              {"hazardous_ke_j", scenario.settings.hazardous_ke_j},
+              {"person_height_m", scenario.settings.person_height_m},
+              {"hfd_threshold_per_m2", scenario.settings.hfd_threshold_per_m2},
+              {"hfd_origin_m", vec3_json(r.hfd_origin_m)},
+              {"hazardous_fragment_distance_m", r.hazardous_fragment_distance_m},
+              {"hazardous_fragment_distance_band_m", {r.hfd_lower_m, r.hfd_upper_m}},
+              {"hfd_by_sector_m", r.hfd_by_sector_m},
+              {"max_ptn_density_per_m2", r.max_ptn_density_per_m2}};
+  if (r.max_ptn_triangle >= 0) {
+    out["max_ptn_triangle"] = r.max_ptn_triangle;
+    out["max_ptn_location_m"] = vec3_json(r.max_ptn_location_m);
+  } else {
+    out["max_ptn_triangle"] = nullptr;
+    out["max_ptn_location_m"] = nullptr;
+  }
+
+  Json buildings = Json::array();
+  for (const auto& b : r.buildings) {
+    Json bj = {{"id", b.id}};
+    bj.update(estimate_pair(b.impacts, b.penetrations));
+    Json by_surface = Json::object();
+    for (const auto s :
+         {scene::SurfaceType::kWall, scene::SurfaceType::kRoof, scene::SurfaceType::kWindow}) {
+      const auto k = static_cast<std::size_t>(s);
+      by_surface[scene::surface_type_name(s)] =
+          estimate_pair(b.impacts_by_surface[k], b.penetrations_by_surface[k]);
+    }
+    bj["by_surface"] = std::move(by_surface);
+    bj["residual_ke_j"] = b.residual_ke_j.mean;
+    bj["residual_ke_std_error_j"] = b.residual_ke_j.std_error;
+    buildings.push_back(std::move(bj));
+  }
+  out["buildings"] = std::move(buildings);
+
+  Json outcomes = Json::object();
+  for (int k = 0; k < run::kOutcomeCount; ++k) {
+    const auto o = static_cast<std::size_t>(k);
+    outcomes[run::outcome_name(static_cast<run::Outcome>(k))] = {
+        {"histories", r.outcome_histories[o]},
+        {"fragments", r.outcome_fragments[o].mean},
+        {"fragments_std_error", r.outcome_fragments[o].std_error}};
+  }
+  out["outcomes"] = std::move(outcomes);
+
+  const run::Timing& t = r.timing;
+  Json timing = {{"wall_s", t.wall_s},
+                 {"build_s", t.build_s},
+                 {"threads", t.threads},
+                 {"fragments_per_s", t.fragments_per_s},
+                 {"fragments_per_s_per_thread", t.fragments_per_s_per_thread}};
+  if (scenario.settings.profile) {  // only measured with settings.profile
+    timing["integration_s"] = t.integration_s;
+    timing["geometry_s"] = t.geometry_s;
+    timing["tally_s"] = t.tally_s;
+  }
+  out["timing"] = std::move(timing);
+
+  const run::RunStats& s = r.stats;
+  out["stats"] = {{"rhs_evaluations", s.rhs_evaluations},
+                  {"integrator_steps", s.integrator_steps},
+                  {"chords", s.chords},
+                  {"scene_queries", s.scene_queries},
+                  {"chords_skipped", s.chords_skipped},
+                  {"ptn_triangle_tests", s.ptn_triangle_tests}};
+
+  Json prov = {{"version", provenance.version}, {"git_sha", provenance.git_sha}};
+  if (provenance.scenario_sha256) prov["scenario_sha256"] = *provenance.scenario_sha256;
+  out["provenance"] = std::move(prov);
+  return out;
+}
+
+std::string render_summary_text(const nlohmann::ordered_json& s) {
+  std::string out;
+  const auto line = [&](const std::string& label, const std::string& value) {
+    out += pad_right(label, 30) + value + "\n";
+  };
+  if (s.value("cancelled", false))
+    out += "CANCELLED: partial result of " + std::to_string(s.value("histories_done", 0)) +
+           " histories, not a final result\n";
+  line("Samples (histories)", std::to_string(s.value("samples", std::int64_t{0})));
+  line("Real fragments", g4(num(s, "real_fragments")));
+  line("Seed", std::to_string(s.value("seed", std::uint64_t{0})));
+
+  std::string hfd = f1(num(s, "hazardous_fragment_distance_m")) + " m";
+  if (const auto band = s.find("hazardous_fragment_distance_band_m");
+      band != s.end() && band->is_array() && band->size() == 2)
+    hfd += "  (±1 se band " + f1((*band)[0].get<double>()) + " .. " + f1((*band)[1].get<double>()) +
+           " m)";
+  line("Hazardous fragment distance", hfd);
+  line("  threshold", g4(num(s, "hfd_threshold_per_m2")) + " per m² (1 per " +
+                          f1(1.0 / num(s, "hfd_threshold_per_m2")) + " m²), from " +
+                          vec3_text(s.value("hfd_origin_m", Json())));
+  std::string max_ptn = g4(num(s, "max_ptn_density_per_m2")) + " per m²";
+  if (s.contains("max_ptn_location_m") && s["max_ptn_location_m"].is_array())
+    max_ptn += " at " + vec3_text(s["max_ptn_location_m"]) + " (terrain triangle " +
+               std::to_string(s.value("max_ptn_triangle", std::int64_t{-1})) + ")";
+  line("Max PTN density", max_ptn);
+
+  const Json& buildings = s.contains("buildings") ? s["buildings"] : Json::array();
+  out += "\nBuildings";
+  if (buildings.empty()) {
+    out += ": none\n";
+  } else {
+    out += " (expected real fragments ± 1 standard error)\n";
+    std::size_t id_width = 8;
+    for (const auto& b : buildings)
+      id_width = std::max(id_width, display_width(b.value("id", "")) + 2);
+    out += "  " + pad_right("id", id_width) + pad_left("impacts", 24) +
+           pad_left("penetrations", 24) + "\n";
+    for (const auto& b : buildings) {
+      out += "  " + pad_right(b.value("id", ""), id_width) +
+             pad_left(plus_minus(num(b, "expected_impacts"), num(b, "impacts_std_error")), 24) +
+             pad_left(plus_minus(num(b, "expected_penetrations"), num(b, "penetrations_std_error")),
+                      24) +
+             "\n";
+    }
+  }
+
+  if (s.contains("outcomes") && s["outcomes"].is_object()) {
+    out += "\nOutcomes\n  " + pad_right("outcome", 22) + pad_left("histories", 12) +
+           pad_left("real fragments", 24) + "\n";
+    for (const auto& [name, o] : s["outcomes"].items()) {
+      out += "  " + pad_right(name, 22) +
+             pad_left(std::to_string(o.value("histories", std::int64_t{0})), 12) +
+             pad_left(plus_minus(num(o, "fragments"), num(o, "fragments_std_error")), 24) + "\n";
+    }
+  }
+
+  if (s.contains("timing") && s["timing"].is_object()) {
+    const Json& t = s["timing"];
+    const int threads = t.value("threads", 1);
+    out += "\nRun time " + printf_string("%.2f", num(t, "wall_s")) + " s (site build " +
+           printf_string("%.2f", num(t, "build_s")) + " s) on " + std::to_string(threads) +
+           (threads == 1 ? " thread" : " threads") + ": " +
+           printf_string("%.0f", num(t, "fragments_per_s")) + " fragments/s (" +
+           printf_string("%.0f", num(t, "fragments_per_s_per_thread")) + " per thread)\n";
+    if (t.contains("integration_s"))
+      out += "  profile: integration " + printf_string("%.2f", num(t, "integration_s")) +
+             " s, geometry " + printf_string("%.2f", num(t, "geometry_s")) + " s, tally " +
+             printf_string("%.2f", num(t, "tally_s")) + " s (summed over threads)\n";
+  }
+  return out;
+}
+
+}  // namespace fragsim::api

@@ -1,0 +1,33 @@
+#pragma once
+// summary.json ("schema": "fragsim.result/1"): the headline figures of one run, each tallied figure
+// with its standard error, plus timing, counters and provenance. Field list in docs/scenario.md.
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "core/run/result.h"
+#include "core/run/scenario.h"
+
+namespace fragsim::api {
+
+inline constexpr const char* kResultSchema = "fragsim.result/1";
+
+struct Provenance {
+  std::string version;                         // fragsim version (fragsim/version.h)
+  std::string git_sha;                         // of the build
+  std::optional<std::string> scenario_sha256;  // of the scenario file as read, when there is one
+};
+
+// This build's version and git sha.
+Provenance build_provenance();
+
+// Keys keep a fixed, readable order (schema first, outcomes in enum order).
+nlohmann::ordered_json summary_to_json(const run::RunResult& result, const run::Scenario& scenario,
+                                       const Provenance& provenance);
+
+// A plain-text report of a summary (as made by summary_to_json): headline figures, a table of
+// buildings (expected impacts and penetrations, each +/- one standard error), outcome counts,
+// run time and throughput.
+std::string render_summary_text(const nlohmann::ordered_json& summary);
+
+}  // namespace fragsim::api

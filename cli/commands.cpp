@@ -1,0 +1,180 @@
+#include "cli/commands.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+
+#include "api/output_dir.h"
+#include "api/results_h5.h"
+#include "api/scenario_json.h"
+#include "api/sha256.h"
+#include "api/summary_json.h"
+#include "core/common/error.h"
+#include "core/run/run.h"
+
+namespace fragsim::cli {
+
+namespace {
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError("", "cannot read " + path + ": " + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InputError("", "cannot read " + path + ": " + std::strerror(errno));
+  return text.str();
+}
+
+// Materials whose thresholds the scenario itself marks as illustrative (not for decisions).
+std::string illustrative_note(const api::ScenarioDocument& doc) {
+  std::string names;
+  for (const auto& [name, notes] : doc.material_notes) {
+    if (!notes.illustrative) continue;
+    names += names.empty() ? name : ", " + name;
+  }
+  return names.empty() ? "" : "note: materials marked illustrative: " + names + "\n";
+}
+
+const char* terrain_form(const scene::TerrainSpec& t) {
+  switch (t.geometry.index()) {
+    case 0:
+      return "plane";
+    case 1:
+      return "grid";
+    default:
+      return "mesh";
+  }
+}
+
+// --threads and --samples-scale act on the parsed scenario; the recorded scenario JSON shows them.
+void apply_overrides(const Options& o, run::Scenario& sc) {
+  if (o.threads) sc.settings.threads = *o.threads;
+  if (!o.samples_scale) return;
+  std::int64_t total = 0;
+  for (auto& g : sc.groups) {
+    const double scaled = std::round(static_cast<double>(g.samples) * *o.samples_scale);
+    if (scaled > static_cast<double>(api::kMaxSamplesPerGroup))
+      throw InputError("--samples-scale", "gives more than " +
+                                              std::to_string(api::kMaxSamplesPerGroup) +
+                                              " samples for group \"" + g.name + "\"");
+    g.samples = std::max<std::int64_t>(1, static_cast<std::int64_t>(scaled));
+    total += g.samples;
+  }
+  if (sc.settings.record_fragments && total > api::kMaxRecordedFragments)
+    throw InputError("--samples-scale", "would record " + std::to_string(total) +
+                                            " histories with settings.record_fragments (limit " +
+                                            std::to_string(api::kMaxRecordedFragments) + ")");
+}
+
+// Progress on stderr, rewritten in place; only when stderr is a terminal.
+class ProgressLine {
+ public:
+  explicit ProgressLine(bool enabled) : enabled_(enabled) {}
+  ~ProgressLine() { finish(); }
+  ProgressLine(const ProgressLine&) = delete;
+  ProgressLine& operator=(const ProgressLine&) = delete;
+
+  void update(const run::Progress& p) {
+    if (!enabled_) return;
+    const std::lock_guard<std::mutex> lock(mutex_);
+    const double pct = p.histories_total > 0 ? 100.0 * static_cast<double>(p.histories_done) /
+                                                   static_cast<double>(p.histories_total)
+                                             : 0.0;
+    std::fprintf(stderr, "\r%5.1f%%  %lld / %lld histories  %.1f s ", pct,
+                 static_cast<long long>(p.histories_done),
+                 static_cast<long long>(p.histories_total), p.elapsed_s);
+    std::fflush(stderr);
+    shown_ = true;
+  }
+  void finish() {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (shown_) std::fputc('\n', stderr);
+    shown_ = false;
+  }
+
+ private:
+  bool enabled_;
+  bool shown_ = false;
+  std::mutex mutex_;
+};
+
+}  // namespace
+
+int validate_command(const Options& o) {
+  const std::string text = read_file(o.scenario);
+  const api::ScenarioDocument doc = api::parse_scenario_document_text(text);
+  const auto site = api::validate_scenario(doc.scenario);
+  const run::Scenario& sc = doc.scenario;
+  std::int64_t samples = 0;
+  double fragments = 0.0;
+  for (const auto& g : sc.groups) {
+    samples += g.samples;
+    fragments += g.count;
+  }
+  std::cout << "ok: " << o.scenario << "\n"
+            << "  site: " << terrain_form(sc.site.terrain) << " terrain ("
+            << site->terrain_triangle_count() << " triangles), " << site->buildings().size()
+            << (site->buildings().size() == 1 ? " building, " : " buildings, ")
+            << sc.site.materials.size() << " materials\n"
+            << "  fragment groups: " << sc.groups.size() << " (" << samples << " samples, "
+            << fragments << " real fragments)\n";
+  std::cerr << illustrative_note(doc);
+  return kExitOk;
+}
+
+int run_command(const Options& o, const std::atomic<bool>& cancel) {
+  // Everything that can be wrong with the input is found before anything is created.
+  const std::string text = read_file(o.scenario);
+  api::ScenarioDocument doc = api::parse_scenario_document_text(text);
+  apply_overrides(o, doc.scenario);
+  const auto site = api::validate_scenario(doc.scenario);
+  std::error_code ec;
+  if (std::filesystem::exists(o.out, ec) && !std::filesystem::is_directory(o.out, ec))
+    throw InputError("--out", o.out + " exists and is not a directory");
+
+  api::Provenance provenance = api::build_provenance();
+  provenance.scenario_sha256 = api::sha256_hex(text);
+  const std::string scenario_json = api::scenario_to_json(doc).dump();
+  if (!o.quiet) std::cerr << illustrative_note(doc);
+
+  api::OutputDir out(o.out);  // removed again (if created here) unless commit() is reached
+  ProgressLine progress(!o.quiet && ::isatty(STDERR_FILENO) == 1);
+  run::RunControl control;
+  control.cancel = &cancel;
+  control.on_progress = [&progress](const run::Progress& p) { progress.update(p); };
+  const run::RunResult result = run::run(doc.scenario, site, control);
+  progress.finish();
+  if (result.cancelled || cancel.load()) {
+    std::cerr << "cancelled: no output written\n";
+    return kExitCancelled;
+  }
+
+  const nlohmann::ordered_json summary = api::summary_to_json(result, doc.scenario, provenance);
+  out.stage("results.h5", [&](const std::filesystem::path& path) {
+    api::write_results_h5(path, result, *site, doc.scenario, scenario_json, provenance);
+  });
+  out.stage_text("summary.json", summary.dump(2) + "\n");
+  if (cancel.load()) {
+    std::cerr << "cancelled: no output written\n";
+    return kExitCancelled;
+  }
+  out.commit();
+
+  if (!o.quiet) {
+    std::cout << api::render_summary_text(summary) << "\nWrote "
+              << (out.path() / "summary.json").string() << " and "
+              << (out.path() / "results.h5").string() << "\n";
+  }
+  return kExitOk;
+}
+
+}  // namespace fragsim::cli

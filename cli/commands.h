@@ -1,0 +1,19 @@
+#pragma once
+// The `fragsim` commands. Each returns the process exit code or throws: fragsim::InputError and
+// cli::UsageError mean invalid input (exit 2), anything else an internal error (exit 1).
+#include <atomic>
+
+#include "cli/args.h"
+
+namespace fragsim::cli {
+
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitInternal = 1;
+inline constexpr int kExitInvalidInput = 2;
+inline constexpr int kExitCancelled = 130;  // 128 + SIGINT, as shells report it
+
+int validate_command(const Options& options);
+// `cancel` is set by the SIGINT/SIGTERM handler.
+int run_command(const Options& options, const std::atomic<bool>& cancel);
+
+}  // namespace fragsim::cli

@@ -1,0 +1,321 @@
+// results.h5: write a synthetic RunResult on a real (small) site, read every part back.
+#include "api/results_h5.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <stdexcept>
+
+#include "fragsim/version.h"
+#include "test_support.h"
+
+namespace fragsim::api {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ResultsH5 : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("fragsim_h5_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    scenario_ = parse_scenario(testing::minimal_example());
+    // A coarse plane (4 x 4 cells) far from the origin, so that input != local coordinates.
+    auto& plane = std::get<scene::PlaneTerrainSpec>(scenario_.site.terrain.geometry);
+    plane.extent_m = {500000, 4000000, 500400, 4000400};
+    plane.cell_m = 100;
+    plane.elevation_m = 250;
+    scenario_.site.buildings[0].footprint_m = {
+        {500260, 4000190}, {500280, 4000190}, {500280, 4000210}, {500260, 4000210}};
+    site_ = scene::Site::build(scenario_.site);
+    result_ = make_result();
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  run::RunResult make_result() const {
+    run::RunResult r;
+    r.samples = 2000;
+    r.histories_done = 2000;
+    r.real_fragments = 1000;
+    r.seed = 0xfedcba9876543210ull;  // needs all 64 bits
+    const std::size_t m = site_->terrain_triangle_count();
+    for (std::size_t t = 0; t < m; ++t) {
+      r.ptn_density_per_m2.push_back(0.001 * static_cast<double>(t));
+      r.ptn_std_error_per_m2.push_back(0.0001 * static_cast<double>(t));
+    }
+    r.max_ptn_density_per_m2 = r.ptn_density_per_m2.back();
+    r.max_ptn_triangle = static_cast<std::int64_t>(m - 1);
+    r.hfd_origin_m = Vec3(500200, 4000200, 251);
+    r.hazardous_fragment_distance_m = 150.0;
+    r.hfd_lower_m = 140.0;
+    r.hfd_upper_m = 160.0;
+    r.hfd_by_sector_m[7] = 150.0;
+    run::BuildingResult b;
+    b.id = "B1";
+    b.impacts = {12.5, 0.25};
+    b.penetrations = {3.0, 0.5};
+    b.impacts_by_surface[1] = {10.0, 0.2};
+    b.impacts_by_surface[2] = {2.5, 0.1};
+    b.penetrations_by_surface[2] = {3.0, 0.5};
+    b.residual_ke_j = {4000.0, 300.0};
+    r.buildings.push_back(b);
+    r.outcome_histories = {48, 10, 0, 1942, 0, 0, 0};
+    r.outcome_fragments[0] = {24.0, 3.5};
+    r.outcome_fragments[1] = {5.0, 1.5};
+    r.outcome_fragments[3] = {971.0, 3.75};
+    for (std::uint32_t h = 0; h < 3; ++h) {
+      run::FragmentRecord f;
+      f.group = 0;
+      f.history = h;
+      f.weight = 0.5;
+      f.mass_kg = 0.05 + h;
+      f.area_m2 = 1e-4;
+      f.launch_position_m = Vec3(500200, 4000200, 251);
+      f.launch_velocity_mps = Vec3(300, h, 10);
+      f.outcome = h == 1 ? run::Outcome::kBuilding : run::Outcome::kGround;
+      f.end_time_s = 1.5 * h;
+      f.end_position_m = Vec3(500260, 4000200 + h, 252);
+      f.end_velocity_mps = Vec3(200, 0, -5);
+      f.impact_angle_deg = 30;
+      f.impact_ke_j = 1000;
+      f.building = h == 1 ? 0 : -1;
+      f.surface = h == 1 ? 1 : -1;
+      f.penetrated = h == 1;
+      f.residual_ke_j = h == 1 ? 400 : 0;
+      f.bounces = h;
+      f.ground_path_m = 2.0 * h;
+      r.fragments.push_back(f);
+    }
+    run::TrajectoryRecord a;
+    a.group = 0;
+    a.history = 0;
+    a.t_s = {0, 0.5, 1.0};
+    a.position_m = {Vec3(0, 0, 1), Vec3(10, 0, 3), Vec3(20, 0, 2)};
+    run::TrajectoryRecord c;
+    c.group = 0;
+    c.history = 5;
+    c.t_s = {0, 0.25};
+    c.position_m = {Vec3(0, 0, 1), Vec3(-5, 1, 2)};
+    r.trajectories = {a, c};
+    r.timing.wall_s = 1.25;
+    r.timing.threads = 2;
+    return r;
+  }
+
+  fs::path write(const std::string& name, const run::RunResult& r, bool record = true) {
+    run::Scenario sc = scenario_;
+    sc.settings.record_fragments = record;
+    sc.settings.record_trajectories = record;
+    Provenance p = build_provenance();
+    p.scenario_sha256 = std::string(64, 'a');
+    const fs::path path = dir_ / name;
+    write_results_h5(path, r, *site_, sc, scenario_to_json(sc).dump(), p);
+    return path;
+  }
+
+  fs::path dir_;
+  run::Scenario scenario_;
+  std::shared_ptr<const scene::Site> site_;
+  run::RunResult result_;
+};
+
+TEST_F(ResultsH5, RootAttributes) {
+  const fs::path f = write("r.h5", result_);
+  EXPECT_EQ(read_attribute_string(f, "/", "file_type"), "fragsim.results");
+  EXPECT_EQ(read_attribute_int64(f, "/", "format_version"), 1);
+  EXPECT_EQ(read_attribute_string(f, "/", "fragsim_version"), kVersion);
+  EXPECT_EQ(read_attribute_string(f, "/", "git_sha"), kGitSha);
+  EXPECT_EQ(read_attribute_string(f, "/", "scenario_sha256"), std::string(64, 'a'));
+  EXPECT_EQ(read_attribute_uint64(f, "/", "seed"), 0xfedcba9876543210ull);
+  EXPECT_EQ(read_attribute_int64(f, "/", "samples"), 2000);
+  EXPECT_EQ(read_attribute_int64(f, "/", "histories_done"), 2000);
+  EXPECT_EQ(read_attribute_double(f, "/", "real_fragments"), 1000.0);
+  EXPECT_EQ(read_attribute_int64(f, "/", "cancelled"), 0);
+  EXPECT_EQ(read_attribute_double(f, "/", "wall_s"), 1.25);
+  EXPECT_EQ(read_attribute_int64(f, "/", "threads"), 2);
+  const std::string created = read_attribute_string(f, "/", "created_utc");
+  EXPECT_EQ(created.size(), 20u) << created;  // 2024-01-02T03:04:05Z
+  // The scenario JSON reads back and parses to the same scenario.
+  const auto stored = nlohmann::json::parse(read_attribute_string(f, "/", "scenario_json"));
+  run::Scenario sc = scenario_;
+  sc.settings.record_fragments = sc.settings.record_trajectories = true;
+  EXPECT_EQ(stored, scenario_to_json(sc));
+}
+
+TEST_F(ResultsH5, TerrainInInputCoordinates) {
+  const fs::path f = write("r.h5", result_);
+  const std::size_t n = site_->terrain_vertices().size(), m = site_->terrain_triangle_count();
+  EXPECT_EQ(dataset_shape(f, "/terrain/vertices_m"), (std::vector<std::uint64_t>{n, 3}));
+  EXPECT_EQ(dataset_shape(f, "/terrain/triangles"), (std::vector<std::uint64_t>{m, 3}));
+  EXPECT_EQ(dataset_shape(f, "/terrain/area_m2"), (std::vector<std::uint64_t>{m}));
+  const auto v = read_dataset_double(f, "/terrain/vertices_m");
+  double xmin = 1e300, xmax = -1e300;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Vec3 expected = site_->to_input(site_->terrain_vertices()[k]);
+    EXPECT_EQ(v[3 * k], expected.x());
+    EXPECT_EQ(v[3 * k + 1], expected.y());
+    EXPECT_EQ(v[3 * k + 2], 250.0);  // the plane's input elevation
+    xmin = std::min(xmin, v[3 * k]);
+    xmax = std::max(xmax, v[3 * k]);
+  }
+  EXPECT_EQ(xmin, 500000.0);
+  EXPECT_EQ(xmax, 500400.0);
+  const auto t = read_dataset_int64(f, "/terrain/triangles");
+  for (std::size_t k = 0; k < m; ++k)
+    for (std::size_t c = 0; c < 3; ++c)
+      EXPECT_EQ(t[3 * k + c], static_cast<std::int64_t>(site_->terrain_triangles()[k][c]));
+  double total = 0;
+  for (double a : read_dataset_double(f, "/terrain/area_m2")) total += a;
+  EXPECT_NEAR(total, 400.0 * 400.0, 1e-6);
+}
+
+TEST_F(ResultsH5, PtnHfdBuildingsOutcomes) {
+  const fs::path f = write("r.h5", result_);
+  EXPECT_EQ(read_dataset_double(f, "/ptn/density_per_m2"), result_.ptn_density_per_m2);
+  EXPECT_EQ(read_dataset_double(f, "/ptn/std_error_per_m2"), result_.ptn_std_error_per_m2);
+  EXPECT_EQ(read_attribute_double(f, "/ptn", "max_density_per_m2"), result_.max_ptn_density_per_m2);
+  EXPECT_EQ(read_attribute_int64(f, "/ptn", "max_triangle"), result_.max_ptn_triangle);
+  EXPECT_EQ(dataset_shape(f, "/hfd/hazardous_fragment_distance_m"), std::vector<std::uint64_t>{});
+  EXPECT_EQ(read_dataset_double(f, "/hfd/hazardous_fragment_distance_m"),
+            std::vector<double>{150.0});
+  EXPECT_EQ(read_dataset_double(f, "/hfd/band_m"), (std::vector<double>{140.0, 160.0}));
+  EXPECT_EQ(read_dataset_double(f, "/hfd/origin_m"), (std::vector<double>{500200, 4000200, 251}));
+  EXPECT_EQ(read_dataset_double(f, "/hfd/by_sector_m").size(), 36u);
+  EXPECT_EQ(read_dataset_double(f, "/hfd/by_sector_m")[7], 150.0);
+  EXPECT_EQ(read_dataset_double(f, "/hfd/threshold_per_m2"),
+            std::vector<double>{scenario_.settings.hfd_threshold_per_m2});
+
+  EXPECT_EQ(read_dataset_strings(f, "/buildings/id"), std::vector<std::string>{"B1"});
+  EXPECT_EQ(read_dataset_double(f, "/buildings/expected_impacts"), std::vector<double>{12.5});
+  EXPECT_EQ(read_dataset_double(f, "/buildings/impacts_std_error"), std::vector<double>{0.25});
+  EXPECT_EQ(read_dataset_double(f, "/buildings/expected_penetrations"), std::vector<double>{3.0});
+  EXPECT_EQ(read_dataset_double(f, "/buildings/penetrations_std_error"), std::vector<double>{0.5});
+  EXPECT_EQ(read_dataset_double(f, "/buildings/residual_ke_j"), std::vector<double>{4000.0});
+  EXPECT_EQ(read_dataset_double(f, "/buildings/residual_ke_std_error_j"),
+            std::vector<double>{300.0});
+  EXPECT_EQ(dataset_shape(f, "/buildings/impacts_by_surface"), (std::vector<std::uint64_t>{1, 4}));
+  EXPECT_EQ(read_dataset_double(f, "/buildings/impacts_by_surface"),
+            (std::vector<double>{0, 10.0, 2.5, 0}));
+  EXPECT_EQ(read_dataset_double(f, "/buildings/impacts_by_surface_std_error"),
+            (std::vector<double>{0, 0.2, 0.1, 0}));
+  EXPECT_EQ(read_dataset_double(f, "/buildings/penetrations_by_surface"),
+            (std::vector<double>{0, 0, 3.0, 0}));
+  const std::size_t bt = site_->building_triangles().size();
+  EXPECT_EQ(dataset_shape(f, "/buildings/triangles"), (std::vector<std::uint64_t>{bt, 3}));
+  EXPECT_EQ(read_dataset_int64(f, "/buildings/triangle_building"),
+            std::vector<std::int64_t>(bt, 0));
+  const auto bv = read_dataset_double(f, "/buildings/vertices_m");
+  for (std::size_t k = 0; k < bv.size(); k += 3) {
+    EXPECT_GE(bv[k], 500260.0);
+    EXPECT_LE(bv[k], 500280.0);
+  }
+
+  EXPECT_EQ(read_dataset_strings(f, "/outcomes/name"),
+            (std::vector<std::string>{"ground", "building", "max_flight_time", "left_site",
+                                      "started_inside", "harmless", "integration_failed"}));
+  EXPECT_EQ(read_dataset_int64(f, "/outcomes/histories"),
+            (std::vector<std::int64_t>{48, 10, 0, 1942, 0, 0, 0}));
+  EXPECT_EQ(read_dataset_double(f, "/outcomes/fragments"),
+            (std::vector<double>{24.0, 5.0, 0, 971.0, 0, 0, 0}));
+  EXPECT_EQ(read_dataset_double(f, "/outcomes/fragments_std_error")[3], 3.75);
+}
+
+TEST_F(ResultsH5, FragmentAndTrajectoryRecords) {
+  const fs::path f = write("r.h5", result_);
+  EXPECT_EQ(read_dataset_int64(f, "/fragments/history"), (std::vector<std::int64_t>{0, 1, 2}));
+  EXPECT_EQ(read_dataset_double(f, "/fragments/mass_kg"), (std::vector<double>{0.05, 1.05, 2.05}));
+  EXPECT_EQ(dataset_shape(f, "/fragments/launch_velocity_mps"), (std::vector<std::uint64_t>{3, 3}));
+  EXPECT_EQ(read_dataset_double(f, "/fragments/launch_velocity_mps"),
+            (std::vector<double>{300, 0, 10, 300, 1, 10, 300, 2, 10}));
+  EXPECT_EQ(read_dataset_double(f, "/fragments/end_position_m")[4], 4000201.0);
+  EXPECT_EQ(read_dataset_int64(f, "/fragments/outcome"), (std::vector<std::int64_t>{0, 1, 0}));
+  EXPECT_EQ(read_dataset_int64(f, "/fragments/building"), (std::vector<std::int64_t>{-1, 0, -1}));
+  EXPECT_EQ(read_dataset_int64(f, "/fragments/surface"), (std::vector<std::int64_t>{-1, 1, -1}));
+  EXPECT_EQ(read_dataset_int64(f, "/fragments/penetrated"), (std::vector<std::int64_t>{0, 1, 0}));
+  EXPECT_EQ(read_dataset_int64(f, "/fragments/bounces"), (std::vector<std::int64_t>{0, 1, 2}));
+  EXPECT_EQ(read_dataset_double(f, "/fragments/residual_ke_j"), (std::vector<double>{0, 400, 0}));
+  EXPECT_EQ(read_dataset_double(f, "/fragments/ground_path_m"), (std::vector<double>{0, 2, 4}));
+  EXPECT_EQ(read_dataset_double(f, "/fragments/end_time_s"), (std::vector<double>{0, 1.5, 3.0}));
+  EXPECT_EQ(read_attribute_string(f, "/fragments/outcome", "names"),
+            "ground,building,max_flight_time,left_site,started_inside,harmless,integration_failed");
+
+  EXPECT_EQ(read_dataset_int64(f, "/trajectories/history"), (std::vector<std::int64_t>{0, 5}));
+  EXPECT_EQ(read_dataset_int64(f, "/trajectories/offsets"), (std::vector<std::int64_t>{0, 3, 5}));
+  EXPECT_EQ(read_dataset_double(f, "/trajectories/t_s"),
+            (std::vector<double>{0, 0.5, 1.0, 0, 0.25}));
+  EXPECT_EQ(dataset_shape(f, "/trajectories/position_m"), (std::vector<std::uint64_t>{5, 3}));
+  EXPECT_EQ(read_dataset_double(f, "/trajectories/position_m")[12], -5.0);
+}
+
+TEST_F(ResultsH5, RecordsAreAbsentUnlessRequested) {
+  const fs::path f = write("r.h5", result_, /*record=*/false);
+  for (const std::string& name : list_datasets(f)) {
+    EXPECT_NE(name.rfind("/fragments/", 0), 0u) << name;
+    EXPECT_NE(name.rfind("/trajectories/", 0), 0u) << name;
+  }
+  EXPECT_THROW(read_dataset_double(f, "/fragments/mass_kg"), std::runtime_error);
+}
+
+TEST_F(ResultsH5, IdenticalResultsGiveBitIdenticalDatasets) {
+  const fs::path a = write("a.h5", result_);
+  const fs::path b = write("b.h5", result_);
+  const auto names = list_datasets(a);
+  EXPECT_EQ(names, list_datasets(b));
+  EXPECT_GT(names.size(), 40u);
+  for (const auto& name : names)
+    EXPECT_EQ(read_dataset_raw(a, name), read_dataset_raw(b, name)) << name;
+  // The comparison can fail: one changed bit in one value shows up.
+  run::RunResult changed = result_;
+  changed.ptn_density_per_m2[3] = std::nextafter(changed.ptn_density_per_m2[3], 1.0);
+  const fs::path c = write("c.h5", changed);
+  EXPECT_NE(read_dataset_raw(a, "/ptn/density_per_m2"), read_dataset_raw(c, "/ptn/density_per_m2"));
+  EXPECT_EQ(read_dataset_raw(a, "/ptn/std_error_per_m2"),
+            read_dataset_raw(c, "/ptn/std_error_per_m2"));
+}
+
+TEST_F(ResultsH5, LargeFieldsAreCompressedAndReadBackExactly) {
+  // More than 2^16 values: the chunked + deflate path.
+  scenario_.site.terrain.geometry = scene::PlaneTerrainSpec{0.0, {0, 0, 2000, 2000}, 10.0};
+  scenario_.site.buildings.clear();
+  site_ = scene::Site::build(scenario_.site);
+  run::RunResult r = make_result();
+  r.buildings.clear();
+  ASSERT_GT(r.ptn_density_per_m2.size(), 65536u);
+  const fs::path f = write("big.h5", r);
+  EXPECT_EQ(read_dataset_double(f, "/ptn/density_per_m2"), r.ptn_density_per_m2);
+  EXPECT_EQ(read_dataset_strings(f, "/buildings/id"), std::vector<std::string>{});
+  EXPECT_EQ(dataset_shape(f, "/buildings/impacts_by_surface"), (std::vector<std::uint64_t>{0, 4}));
+  EXPECT_LT(fs::file_size(f), r.ptn_density_per_m2.size() * 8u * 2u);  // compression did something
+}
+
+TEST_F(ResultsH5, ScenarioJsonAttributeOfAnySize) {
+  const std::string big(
+      300000, 'x');  // the demo scenario is ~220 kB; attributes > 64 kB need dense storage
+  const fs::path f = dir_ / "big_attr.h5";
+  write_results_h5(f, result_, *site_, scenario_, big, build_provenance());
+  EXPECT_EQ(read_attribute_string(f, "/", "scenario_json"), big);
+}
+
+TEST_F(ResultsH5, MismatchedResultIsALogicError) {
+  run::RunResult r = result_;
+  r.ptn_density_per_m2.pop_back();
+  EXPECT_THROW(write("bad.h5", r), std::logic_error);
+  EXPECT_FALSE(fs::exists(dir_ / "bad.h5"));
+  r = result_;
+  r.buildings.clear();
+  EXPECT_THROW(write("bad.h5", r), std::logic_error);
+}
+
+TEST_F(ResultsH5, NeverOverwritesAndReportsMissingObjects) {
+  const fs::path f = write("r.h5", result_);
+  EXPECT_THROW(write("r.h5", result_), std::runtime_error);
+  EXPECT_THROW(read_dataset_double(f, "/no/such"), std::runtime_error);
+  EXPECT_THROW(read_attribute_string(f, "/", "no_such"), std::runtime_error);
+  EXPECT_THROW(list_datasets(dir_ / "missing.h5"), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace fragsim::api

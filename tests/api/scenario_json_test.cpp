@@ -1,0 +1,638 @@
+// Scenario parsing: one test per class of input error, with the exact field path and message;
+// defaults; distributions; the normalised JSON round trip.
+#include "api/scenario_json.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "test_support.h"
+
+namespace fragsim::api {
+namespace {
+
+using testing::FieldMessage;
+using testing::Json;
+using testing::kitchen_sink;
+using testing::minimal_example;
+using testing::parse_error;
+using testing::parse_text_error;
+using testing::validation_error;
+
+Json::json_pointer ptr(const std::string& p) {
+  return Json::json_pointer(p);
+}
+
+Json with(Json j, const std::string& pointer, Json value) {
+  j[ptr(pointer)] = std::move(value);
+  return j;
+}
+
+Json without(Json j, const std::string& parent, const std::string& key) {
+  j[ptr(parent)].erase(key);
+  return j;
+}
+
+// A 5 x 5 grid terrain (100 m spacing) in place of the minimal example's plane.
+Json with_grid_terrain(Json j) {
+  j["site"]["terrain"] = {{"grid",
+                           {{"origin_m", {-200, -200}},
+                            {"spacing_m", 100},
+                            {"nx", 5},
+                            {"ny", 5},
+                            {"elevation_m", std::vector<double>(25, 0.0)}}},
+                          {"material", "soil"}};
+  return j;
+}
+
+// A square mesh terrain of two triangles.
+Json with_mesh_terrain(Json j, Json triangles) {
+  j["site"]["terrain"] = {
+      {"mesh",
+       {{"vertices_m", {{-200, -200, 0}, {200, -200, 0}, {200, 200, 0}, {-200, 200, 0}}},
+        {"triangles", std::move(triangles)}}},
+      {"material", "soil"}};
+  return j;
+}
+
+// ---- The examples ----
+
+TEST(ScenarioJson, MinimalExampleParsesAndBuilds) {
+  const ScenarioDocument doc = parse_scenario_document(minimal_example());
+  const run::Scenario& sc = doc.scenario;
+  ASSERT_EQ(sc.groups.size(), 1u);
+  EXPECT_EQ(sc.groups[0].name, "steel spheres");
+  EXPECT_EQ(sc.groups[0].count, 1000.0);
+  EXPECT_EQ(sc.groups[0].samples, 2000);
+  EXPECT_EQ(sc.groups[0].frame.origin_m, Vec3(0, 0, 1));
+  EXPECT_EQ(sc.groups[0].shape.type, fragments::ShapeType::kSphere);
+  EXPECT_EQ(sc.groups[0].shape.density_kg_m3, 7850.0);
+  EXPECT_EQ(sc.groups[0].cd.constant, 0.47);
+  EXPECT_EQ(sc.settings.seed, 42u);
+  EXPECT_TRUE(sc.settings.record_fragments);
+  ASSERT_EQ(sc.site.buildings.size(), 1u);
+  EXPECT_EQ(sc.site.buildings[0].id, "B1");
+  EXPECT_EQ(sc.site.buildings[0].height_m, 6.0);
+  const auto& wall = sc.site.materials.at("concrete_wall");
+  EXPECT_EQ(wall.restitution.normal_speed_mps, (std::vector<double>{3, 30, 300}));
+  EXPECT_EQ(wall.restitution.e, (std::vector<double>{0.5, 0.3, 0.1}));
+  EXPECT_EQ(wall.penetration_ke_per_area_j_per_m2, 2.0e6);
+  EXPECT_FALSE(sc.site.materials.at("soil").penetration_ke_per_area_j_per_m2.has_value());
+  EXPECT_TRUE(doc.material_notes.at("soil").illustrative);
+  EXPECT_NE(doc.description.find("Smallest useful scenario"), std::string::npos);
+  const auto site = validate_scenario(sc);
+  EXPECT_EQ(site->buildings().size(), 1u);
+}
+
+TEST(ScenarioJson, DemoAndKitchenSinkParseAndBuild) {
+  EXPECT_EQ(validation_error(testing::demo_example()), (FieldMessage{"<no error>", ""}));
+  EXPECT_EQ(validation_error(kitchen_sink()), (FieldMessage{"<no error>", ""}));
+}
+
+// ---- Malformed text ----
+
+TEST(ScenarioJson, MalformedJsonNamesLineAndColumn) {
+  const auto [field, message] =
+      parse_text_error("{\n  \"schema\": \"fragsim.scenario/1\",\n  \"site\": {,\n}");
+  EXPECT_EQ(field, "");
+  EXPECT_EQ(message.rfind("malformed JSON at line 3, column 12: syntax error", 0), 0u) << message;
+}
+
+TEST(ScenarioJson, EmptyTextIsMalformed) {
+  const auto [field, message] = parse_text_error("");
+  EXPECT_EQ(field, "");
+  EXPECT_EQ(message.rfind("malformed JSON at line 1, column 1:", 0), 0u) << message;
+}
+
+TEST(ScenarioJson, DuplicateKeyIsRejectedWithItsPath) {
+  EXPECT_EQ(parse_text_error(R"({"schema": "fragsim.scenario/1",
+      "fragment_groups": [{"name": "a"}, {"samples": 1, "samples": 2}]})"),
+            (FieldMessage{"fragment_groups[1].samples", "duplicate key"}));
+  EXPECT_EQ(parse_text_error(R"({"site": {"materials": {"a": {}, "a": {}}}})"),
+            (FieldMessage{"site.materials.a", "duplicate key"}));
+}
+
+TEST(ScenarioJson, TopLevelMustBeAnObject) {
+  EXPECT_EQ(parse_text_error("[1, 2]"),
+            (FieldMessage{"", "expected a JSON object at the top level, got array"}));
+}
+
+// ---- Schema tag, required keys, types ----
+
+TEST(ScenarioJson, SchemaTagMustMatch) {
+  EXPECT_EQ(
+      parse_error(with(minimal_example(), "/schema", "fragsim.scenario/2")),
+      (FieldMessage{"schema", "must be \"fragsim.scenario/1\" (got \"fragsim.scenario/2\")"}));
+  EXPECT_EQ(parse_error(without(minimal_example(), "", "schema")),
+            (FieldMessage{"schema", "is required"}));
+  // A newer document fails on its version, not on keys this version does not know.
+  Json newer = with(minimal_example(), "/schema", "fragsim.scenario/2");
+  newer["site_id"] = "demo";
+  EXPECT_EQ(parse_error(newer).first, "schema");
+}
+
+TEST(ScenarioJson, MissingRequiredKeys) {
+  EXPECT_EQ(parse_error(without(minimal_example(), "/fragment_groups/0", "count")),
+            (FieldMessage{"fragment_groups[0].count", "is required"}));
+  EXPECT_EQ(parse_error(without(minimal_example(), "", "site")),
+            (FieldMessage{"site", "is required"}));
+  EXPECT_EQ(parse_error(without(minimal_example(), "/fragment_groups/0", "cd")),
+            (FieldMessage{"fragment_groups[0].cd", "is required"}));
+  EXPECT_EQ(parse_error(without(minimal_example(), "/fragment_groups/0/frame", "origin_m")),
+            (FieldMessage{"fragment_groups[0].frame.origin_m", "is required"}));
+  EXPECT_EQ(parse_error(without(minimal_example(), "/site/terrain", "material")),
+            (FieldMessage{"site.terrain.material", "is required"}));
+  EXPECT_EQ(parse_error(without(minimal_example(), "/fragment_groups/0/mass_kg", "sigma_ln")),
+            (FieldMessage{"fragment_groups[0].mass_kg.sigma_ln", "is required"}));
+}
+
+TEST(ScenarioJson, WrongTypes) {
+  EXPECT_EQ(parse_error(with(with_grid_terrain(minimal_example()), "/site/terrain/grid/nx", "5")),
+            (FieldMessage{"site.terrain.grid.nx", "expected integer, got string"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/count", "1000")),
+            (FieldMessage{"fragment_groups[0].count", "expected number, got string"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/samples", 2.5)),
+            (FieldMessage{"fragment_groups[0].samples", "expected integer, got 2.5"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/settings/bounce", 1)),
+            (FieldMessage{"settings.bounce", "expected boolean, got integer"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/frame/origin_m", {0, 0})),
+            (FieldMessage{"fragment_groups[0].frame.origin_m", "expected 3 elements, got 2"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/frame/origin_m/1", nullptr)),
+            (FieldMessage{"fragment_groups[0].frame.origin_m[1]", "expected number, got null"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/site/materials/soil", Json::array())),
+            (FieldMessage{"site.materials.soil", "expected object, got array"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups", Json::object())),
+            (FieldMessage{"fragment_groups", "expected array, got object"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/cd", "0.47")),
+            (FieldMessage{"fragment_groups[0].cd", "expected number or object, got string"}));
+}
+
+TEST(ScenarioJson, IntegralNumbersAreAcceptedAsIntegers) {
+  const run::Scenario sc =
+      parse_scenario(with(minimal_example(), "/fragment_groups/0/samples", 2e3));
+  EXPECT_EQ(sc.groups[0].samples, 2000);
+}
+
+TEST(ScenarioJson, UnknownKeysAreRejected) {
+  Json j = minimal_example();
+  j["settings"]["integrater"] = {{"rtol", 1e-6}};
+  EXPECT_EQ(parse_error(j),
+            (FieldMessage{"settings.integrater", "unknown key (did you mean \"integrator\"?)"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/site/zzz", 1)),
+            (FieldMessage{"site.zzz", "unknown key"}));
+  // A missing unit suffix gets the suffixed name suggested.
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/mass", 1)),
+            (FieldMessage{"fragment_groups[0].mass", "unknown key (did you mean \"mass_kg\"?)"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/site_id", "demo")),
+            (FieldMessage{"site_id", "unknown key"}));
+  // A key of another distribution kind is not accepted.
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/speed_mps/median", 300)),
+            (FieldMessage{"fragment_groups[0].speed_mps.median", "unknown key"}));
+  // Keys that are not identifier-like are quoted in the path.
+  EXPECT_EQ(parse_error(with(minimal_example(), "/settings/bad key", 1)),
+            (FieldMessage{"settings[\"bad key\"]", "unknown key"}));
+}
+
+TEST(ScenarioJson, NonFiniteNumbersAreRejected) {
+  // nlohmann reads 1e999 as infinity.
+  std::string text = minimal_example().dump();
+  const std::string count = "\"count\":1000";
+  ASSERT_NE(text.find(count), std::string::npos);
+  text.replace(text.find(count), count.size(), "\"count\":1e999");
+  EXPECT_EQ(parse_text_error(text), (FieldMessage{"fragment_groups[0].count", "not finite"}));
+  EXPECT_EQ(parse_error(
+                with(minimal_example(), "/gravity_mps2", std::numeric_limits<double>::quiet_NaN())),
+            (FieldMessage{"gravity_mps2", "not finite"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/samples",
+                             std::numeric_limits<double>::infinity())),
+            (FieldMessage{"fragment_groups[0].samples", "not finite"}));
+}
+
+// ---- Ranges ----
+
+struct RangeCase {
+  std::string pointer;
+  Json value;
+  FieldMessage expected;
+};
+
+TEST(ScenarioJson, OutOfRangeValues) {
+  const std::vector<RangeCase> cases = {
+      {"/fragment_groups/0/count", 0, {"fragment_groups[0].count", "must be > 0 (got 0)"}},
+      {"/fragment_groups/0/samples", 0, {"fragment_groups[0].samples", "must be >= 1 (got 0)"}},
+      {"/fragment_groups/0/samples",
+       2000000000,
+       {"fragment_groups[0].samples", "must be <= 1000000000 (got 2000000000)"}},
+      {"/settings/person_height_m", 0, {"settings.person_height_m", "must be > 0 (got 0)"}},
+      {"/settings/hazardous_ke_j", -5, {"settings.hazardous_ke_j", "must be > 0 (got -5)"}},
+      {"/settings/hfd_threshold_per_m2",
+       0,
+       {"settings.hfd_threshold_per_m2", "must be > 0 (got 0)"}},
+      {"/settings/max_flight_time_s", 0, {"settings.max_flight_time_s", "must be > 0 (got 0)"}},
+      {"/settings/integrator/rtol",
+       0.1,
+       {"settings.integrator.rtol", "must be in [1e-12, 0.01] (got 0.1)"}},
+      {"/settings/integrator/rtol",
+       1e-13,
+       {"settings.integrator.rtol", "must be in [1e-12, 0.01] (got 1e-13)"}},
+      {"/settings/integrator/sagitta_m",
+       0,
+       {"settings.integrator.sagitta_m", "must be > 0 (got 0)"}},
+      {"/settings/threads", -1, {"settings.threads", "must be >= 0 (got -1)"}},
+      {"/settings/threads", 5000, {"settings.threads", "must be <= 1024 (got 5000)"}},
+      {"/settings/seed", -1, {"settings.seed", "must be >= 0 (got -1)"}},
+      {"/settings/chunk_histories", 0, {"settings.chunk_histories", "must be >= 1 (got 0)"}},
+      {"/gravity_mps2", -1, {"gravity_mps2", "must be >= 0 (got -1)"}},
+      {"/fragment_groups/0/direction/elevation_deg",
+       {0, 95},
+       {"fragment_groups[0].direction.elevation_deg[1]", "must be in [-90, 90] (got 95)"}},
+      {"/fragment_groups/0/direction/elevation_deg",
+       {45, 0},
+       {"fragment_groups[0].direction.elevation_deg", "min must be <= max (got [45, 0])"}},
+      {"/fragment_groups/0/direction/azimuth_deg",
+       {-180, 200},
+       {"fragment_groups[0].direction.azimuth_deg", "span must be <= 360 deg (got 380)"}},
+      {"/fragment_groups/0/direction/azimuth_deg",
+       {10, -10},
+       {"fragment_groups[0].direction.azimuth_deg", "min must be <= max (got [10, -10])"}},
+      {"/fragment_groups/0/cd", -0.1, {"fragment_groups[0].cd", "must be >= 0 (got -0.1)"}},
+      {"/fragment_groups/0/cd",
+       {{"mach", {0, 1, 1}}, {"cd", {1, 1, 1}}},
+       {"fragment_groups[0].cd.mach[2]", "must be strictly increasing (got 1 after 1)"}},
+      {"/fragment_groups/0/cd",
+       {{"mach", {0, 1, 2}}, {"cd", {1, 0, 1}}},
+       {"fragment_groups[0].cd.cd[1]", "must be > 0 (got 0)"}},
+      {"/fragment_groups/0/cd",
+       {{"mach", {0, 1}}, {"cd", {1}}},
+       {"fragment_groups[0].cd.cd", "expected 2 values (one per Mach number), got 1"}},
+      {"/fragment_groups/0/cd",
+       {{"mach", {0}}, {"cd", {1}}},
+       {"fragment_groups[0].cd.mach", "needs at least 2 points (got 1)"}},
+      {"/fragment_groups/0/area_m2", 0, {"fragment_groups[0].area_m2", "must be > 0 (got 0)"}},
+      {"/site/materials/soil/restitution",
+       1.5,
+       {"site.materials.soil.restitution", "must be in [0, 1] (got 1.5)"}},
+      {"/site/materials/soil/friction",
+       -0.1,
+       {"site.materials.soil.friction", "must be >= 0 (got -0.1)"}},
+      {"/site/materials/concrete_wall/restitution/e",
+       {0.5, 1.2, 0.1},
+       {"site.materials.concrete_wall.restitution.e[1]", "must be in [0, 1] (got 1.2)"}},
+      {"/site/materials/concrete_wall/restitution/normal_speed_mps",
+       {3, 3, 300},
+       {"site.materials.concrete_wall.restitution.normal_speed_mps[1]",
+        "must be strictly increasing (got 3 after 3)"}},
+      {"/site/materials/concrete_wall/restitution/e",
+       {0.5, 0.3},
+       {"site.materials.concrete_wall.restitution.e",
+        "expected 3 values (one per normal speed), got 2"}},
+      {"/site/materials/metal_roof/penetration/ke_per_area_j_per_m2",
+       0,
+       {"site.materials.metal_roof.penetration.ke_per_area_j_per_m2", "must be > 0 (got 0)"}},
+      {"/site/terrain/plane/cell_m", 0, {"site.terrain.plane.cell_m", "must be > 0 (got 0)"}},
+      {"/site/buildings/0/height_m", -6, {"site.buildings[0].height_m", "must be > 0 (got -6)"}},
+      {"/atmosphere",
+       {{"model", "constant"}, {"sound_speed_mps", 0}},
+       {"atmosphere.sound_speed_mps", "must be > 0 (got 0)"}},
+  };
+  for (const RangeCase& c : cases)
+    EXPECT_EQ(parse_error(with(minimal_example(), c.pointer, c.value)), c.expected) << c.pointer;
+}
+
+TEST(ScenarioJson, GridDimensionsAreChecked) {
+  EXPECT_EQ(parse_error(with(with_grid_terrain(minimal_example()), "/site/terrain/grid/nx", 1)),
+            (FieldMessage{"site.terrain.grid.nx", "must be >= 2 (got 1)"}));
+  EXPECT_EQ(
+      parse_error(with(with_grid_terrain(minimal_example()), "/site/terrain/grid/spacing_m", 0)),
+      (FieldMessage{"site.terrain.grid.spacing_m", "must be > 0 (got 0)"}));
+  // The elevation count is a geometry check of Site::build.
+  EXPECT_EQ(validation_error(with(with_grid_terrain(minimal_example()),
+                                  "/site/terrain/grid/elevation_m", std::vector<double>(24, 0.0))),
+            (FieldMessage{"site.terrain.grid.elevation_m", "has 24 values; nx * ny = 25"}));
+  EXPECT_EQ(validation_error(with_grid_terrain(minimal_example())),
+            (FieldMessage{"<no error>", ""}));
+}
+
+TEST(ScenarioJson, RecordedFragmentsAreCapped) {
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/samples", 20000000)),
+            (FieldMessage{"settings.record_fragments",
+                          "would record 20000000 histories (limit 10000000); turn it off or lower "
+                          "the samples"}));
+  EXPECT_EQ(parse_error(with(with(minimal_example(), "/fragment_groups/0/samples", 20000000),
+                             "/settings/record_fragments", false)),
+            (FieldMessage{"<no error>", ""}));
+}
+
+// ---- References and required structure ----
+
+TEST(ScenarioJson, MaterialsMustExist) {
+  EXPECT_EQ(parse_error(with(minimal_example(), "/site/terrain/material", "rock")),
+            (FieldMessage{"site.terrain.material", "unknown material \"rock\""}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/site/buildings/0/roof", "tin")),
+            (FieldMessage{"site.buildings[0].roof", "unknown material \"tin\""}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/site/buildings/0/window", "glass")),
+            (FieldMessage{"site.buildings[0].window", "unknown material \"glass\""}));
+  EXPECT_EQ(parse_error(without(minimal_example(), "/site/buildings/0", "wall")),
+            (FieldMessage{"site.buildings[0].wall", "is required"}));
+}
+
+TEST(ScenarioJson, MaterialNamesThatAreNotIdentifiersAreQuoted) {
+  Json j = minimal_example();
+  j["site"]["materials"]["wet soil"] = {{"friction", -1}};
+  EXPECT_EQ(parse_error(j),
+            (FieldMessage{"site.materials[\"wet soil\"].friction", "must be >= 0 (got -1)"}));
+}
+
+TEST(ScenarioJson, FragmentGroupsMustNotBeEmpty) {
+  EXPECT_EQ(
+      parse_error(with(minimal_example(), "/fragment_groups", Json::array())),
+      (FieldMessage{"fragment_groups", "must not be empty (give at least one fragment group)"}));
+}
+
+TEST(ScenarioJson, TerrainNeedsExactlyOneForm) {
+  EXPECT_EQ(parse_error(without(minimal_example(), "/site/terrain", "plane")),
+            (FieldMessage{"site.terrain", "needs one of plane, grid or mesh"}));
+  Json j = with_grid_terrain(minimal_example());
+  j["site"]["terrain"]["plane"] = minimal_example()["site"]["terrain"]["plane"];
+  EXPECT_EQ(parse_error(j),
+            (FieldMessage{"site.terrain",
+                          "give exactly one of plane, grid or mesh (got plane and grid)"}));
+}
+
+TEST(ScenarioJson, Buildings) {
+  Json twice = minimal_example();
+  twice["site"]["buildings"].push_back(twice["site"]["buildings"][0]);
+  EXPECT_EQ(parse_error(twice),
+            (FieldMessage{"site.buildings[1].id", "duplicate id \"B1\" (also site.buildings[0])"}));
+  Json both = kitchen_sink();
+  both["site"]["buildings"][1]["footprint_m"] = both["site"]["buildings"][0]["footprint_m"];
+  EXPECT_EQ(parse_error(both),
+            (FieldMessage{"site.buildings[1]", "give either footprint_m or mesh, not both"}));
+  EXPECT_EQ(parse_error(with(kitchen_sink(), "/site/buildings/1/mesh/surface/4", "door")),
+            (FieldMessage{"site.buildings[1].mesh.surface[4]",
+                          "must be \"wall\", \"roof\" or \"window\" (got \"door\")"}));
+  EXPECT_EQ(parse_error(with(kitchen_sink(), "/site/buildings/1/height_m", 5)),
+            (FieldMessage{"site.buildings[1].height_m", "unknown key"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/site/buildings/0/id", "")),
+            (FieldMessage{"site.buildings[0].id", "must not be empty"}));
+
+  const run::Scenario sc = parse_scenario(kitchen_sink());
+  ASSERT_EQ(sc.site.buildings.size(), 2u);
+  EXPECT_EQ(sc.site.buildings[0].base_elevation_m, 0.0);
+  EXPECT_EQ(sc.site.buildings[0].window, "glass");
+  ASSERT_TRUE(sc.site.buildings[1].mesh.has_value());
+  EXPECT_EQ(sc.site.buildings[1].mesh->triangles.size(), 12u);
+  EXPECT_EQ(sc.site.buildings[1].mesh->surface[4], scene::SurfaceType::kWindow);
+  EXPECT_EQ(sc.site.buildings[1].mesh->surface[2], scene::SurfaceType::kRoof);
+}
+
+TEST(ScenarioJson, Shapes) {
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/shape", {{"type", "point"}})),
+            (FieldMessage{"fragment_groups[0].area_m2", "is required for shape type point"}));
+  Json point = with(minimal_example(), "/fragment_groups/0/shape", {{"type", "point"}});
+  point["fragment_groups"][0]["area_m2"] = 0.002;
+  EXPECT_EQ(parse_error(point), (FieldMessage{"<no error>", ""}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/shape",
+                             {{"type", "point"}, {"dims_m", {0.1}}})),
+            (FieldMessage{"fragment_groups[0].shape.dims_m",
+                          "not used by a point mass (give the group's area_m2)"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/shape/dims_m", {0.01})),
+            (FieldMessage{"fragment_groups[0].shape",
+                          "give either dims_m (fixed size) or density_kg_m3 (size from mass), not "
+                          "both"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/shape", {{"type", "sphere"}})),
+            (FieldMessage{"fragment_groups[0].shape",
+                          "needs dims_m (fixed size) or density_kg_m3 (size from mass)"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/shape",
+                             {{"type", "cylinder"}, {"dims_m", {0.1}}})),
+            (FieldMessage{"fragment_groups[0].shape.dims_m",
+                          "expected 2 values, got 1; a cylinder takes 2 ([diameter, length])"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/shape",
+                             {{"type", "sphere"}, {"dims_m", {0}}})),
+            (FieldMessage{"fragment_groups[0].shape.dims_m[0]", "must be > 0 (got 0)"}));
+  EXPECT_EQ(
+      parse_error(with(minimal_example(), "/fragment_groups/0/shape/type", "cube")),
+      (FieldMessage{"fragment_groups[0].shape.type",
+                    "must be one of sphere, cuboid, ellipsoid, cylinder, point (got \"cube\")"}));
+  EXPECT_EQ(
+      parse_error(with(minimal_example(), "/fragment_groups/0/shape",
+                       {{"type", "cuboid"}, {"dims_m", {0.1, 0.1, 0.1}}, {"aspect", {1, 1, 1}}})),
+      (FieldMessage{"fragment_groups[0].shape.aspect", "only used with density_kg_m3"}));
+  const run::Scenario sc = parse_scenario(kitchen_sink());
+  EXPECT_EQ(sc.groups[0].shape.type, fragments::ShapeType::kCuboid);
+  EXPECT_EQ(sc.groups[0].shape.aspect, (std::vector<double>{1, 0.5, 0.2}));
+  EXPECT_EQ(sc.groups[1].shape.dims_m, (std::vector<double>{0.02}));
+  EXPECT_EQ(sc.groups[2].shape.type, fragments::ShapeType::kPoint);
+  EXPECT_EQ(sc.groups[2].area_m2, 0.001);
+}
+
+TEST(ScenarioJson, Atmosphere) {
+  EXPECT_EQ(parse_error(with(minimal_example(), "/atmosphere/density_kg_m3", 1.0)),
+            (FieldMessage{"atmosphere.density_kg_m3", "only used with model \"constant\""}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/atmosphere/model", "us76")),
+            (FieldMessage{"atmosphere.model", "must be \"isa\" or \"constant\" (got \"us76\")"}));
+  const run::Scenario constant =
+      parse_scenario(with(minimal_example(), "/atmosphere", {{"model", "constant"}}));
+  EXPECT_EQ(constant.atmosphere.model, flight::AtmosphereSpec::Model::kConstant);
+  EXPECT_EQ(constant.atmosphere.density_kg_m3, flight::AtmosphereSpec{}.density_kg_m3);
+  EXPECT_EQ(constant.atmosphere.sound_speed_mps, flight::AtmosphereSpec{}.sound_speed_mps);
+  const run::Scenario ks = parse_scenario(kitchen_sink());
+  EXPECT_EQ(ks.atmosphere.density_kg_m3, 1.2);
+  EXPECT_EQ(ks.atmosphere.sound_speed_mps, 340.0);
+  EXPECT_EQ(ks.atmosphere.wind_mps, Vec3(2, -1, 0));
+}
+
+// ---- Distributions ----
+
+TEST(ScenarioJson, DistributionErrorsAreRootedAtTheirPath) {
+  Json j = minimal_example();
+  j["fragment_groups"].push_back(j["fragment_groups"][0]);
+  j["fragment_groups"][1]["mass_kg"] = {{"dist", "normal"}, {"mean", 0.05}, {"sigma", 0}};
+  EXPECT_EQ(parse_error(j), (FieldMessage{"fragment_groups[1].mass_kg.sigma", "must be > 0"}));
+
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/mass_kg", 0)),
+            (FieldMessage{"fragment_groups[0].mass_kg", "must be > 0"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/speed_mps", -1)),
+            (FieldMessage{"fragment_groups[0].speed_mps", "must be >= 0"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/mass_kg",
+                             {{"dist", "fixed"}, {"value", -1}})),
+            (FieldMessage{"fragment_groups[0].mass_kg.value", "must be > 0"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/speed_mps",
+                             {{"dist", "uniform"}, {"min", 300}, {"max", 200}})),
+            (FieldMessage{"fragment_groups[0].speed_mps.max", "must be > min"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/mass_kg",
+                             {{"dist", "table"}, {"values", {0.1}}, {"cdf", {1}}})),
+            (FieldMessage{"fragment_groups[0].mass_kg.values", "needs at least 2 entries"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/mass_kg",
+                             {{"dist", "table"}, {"values", {0.1, 0.2}}, {"cdf", {0, 0.9}}})),
+            (FieldMessage{"fragment_groups[0].mass_kg.cdf", "must end at 1"}));
+  EXPECT_EQ(
+      parse_error(with(minimal_example(), "/fragment_groups/0/mass_kg/dist", "gaussian")),
+      (FieldMessage{"fragment_groups[0].mass_kg.dist",
+                    "must be one of fixed, uniform, normal, lognormal, table (got \"gaussian\")"}));
+  EXPECT_EQ(parse_error(without(minimal_example(), "/fragment_groups/0/mass_kg", "dist")),
+            (FieldMessage{"fragment_groups[0].mass_kg.dist", "is required"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/spin_radps", -3)),
+            (FieldMessage{"fragment_groups[0].spin_radps", "must be >= 0"}));
+}
+
+TEST(ScenarioJson, DistributionsOfEveryKind) {
+  using Kind = fragments::Distribution::Kind;
+  const run::Scenario mini = parse_scenario(minimal_example());
+  const auto& mass = mini.groups[0].mass_kg;
+  EXPECT_EQ(mass.kind, Kind::kLognormal);
+  EXPECT_EQ(mass.median, 0.05);
+  EXPECT_EQ(mass.sigma_ln, 0.5);
+  EXPECT_TRUE(mass.has_min && mass.has_max);
+  EXPECT_EQ(mass.min, 0.005);
+  EXPECT_EQ(mass.max, 1.0);
+  const auto& speed = mini.groups[0].speed_mps;
+  EXPECT_EQ(speed.kind, Kind::kNormal);
+  EXPECT_EQ(speed.mean, 300.0);
+  EXPECT_EQ(speed.sigma, 40.0);
+  EXPECT_FALSE(speed.has_min || speed.has_max);
+
+  const run::Scenario ks = parse_scenario(kitchen_sink());
+  EXPECT_EQ(ks.groups[0].mass_kg.kind, Kind::kUniform);
+  EXPECT_EQ(ks.groups[0].mass_kg.min, 0.01);
+  EXPECT_EQ(ks.groups[0].mass_kg.max, 0.2);
+  EXPECT_EQ(ks.groups[0].spin_radps.kind, Kind::kNormal);
+  EXPECT_TRUE(ks.groups[0].spin_radps.has_min);
+  EXPECT_FALSE(ks.groups[0].spin_radps.has_max);
+  EXPECT_EQ(ks.groups[1].mass_kg.kind, Kind::kFixed);
+  EXPECT_EQ(ks.groups[1].mass_kg.value, 0.0327);
+  EXPECT_EQ(ks.groups[1].speed_mps.kind, Kind::kTable);
+  EXPECT_EQ(ks.groups[1].speed_mps.table_values, (std::vector<double>{100, 200, 400}));
+  EXPECT_EQ(ks.groups[1].speed_mps.table_cdf, (std::vector<double>{0, 0.5, 1}));
+  EXPECT_EQ(ks.groups[2].mass_kg.kind, Kind::kFixed);  // a plain number
+  EXPECT_EQ(ks.groups[2].mass_kg.value, 0.05);
+  EXPECT_EQ(ks.groups[0].cd.mach, (std::vector<double>{0, 0.8, 1.2, 3}));
+  EXPECT_EQ(ks.groups[0].cd.cd, (std::vector<double>{0.9, 1.0, 1.4, 1.2}));
+}
+
+// ---- Defaults ----
+
+TEST(ScenarioJson, DefaultsFollowTheCoreStructs) {
+  Json j = minimal_example();
+  j.erase("atmosphere");
+  j.erase("gravity_mps2");
+  j.erase("settings");
+  j["site"].erase("origin");
+  j["fragment_groups"][0].erase("direction");
+  j["fragment_groups"][0]["frame"] = {{"origin_m", {0, 0, 1}}};
+  j["site"]["terrain"]["plane"].erase("cell_m");
+  j["site"]["terrain"]["plane"].erase("elevation_m");
+  j["site"]["materials"]["soil"] = Json::object();
+  const run::Scenario sc = parse_scenario(j);
+
+  const run::Settings d;
+  const run::Settings& s = sc.settings;
+  EXPECT_EQ(s.seed, d.seed);
+  EXPECT_EQ(s.person_height_m, d.person_height_m);
+  EXPECT_EQ(s.hazardous_ke_j, d.hazardous_ke_j);
+  EXPECT_EQ(s.hfd_threshold_per_m2, d.hfd_threshold_per_m2);
+  EXPECT_FALSE(s.hfd_origin_m.has_value());
+  EXPECT_EQ(s.max_flight_time_s, d.max_flight_time_s);
+  EXPECT_EQ(s.rtol, d.rtol);
+  EXPECT_EQ(s.sagitta_m, d.sagitta_m);
+  EXPECT_EQ(s.bounce, d.bounce);
+  EXPECT_EQ(s.threads, d.threads);
+  EXPECT_EQ(s.chunk_histories, d.chunk_histories);
+  EXPECT_EQ(s.record_fragments, d.record_fragments);
+  EXPECT_EQ(s.record_trajectories, d.record_trajectories);
+  EXPECT_EQ(s.max_recorded_trajectories, d.max_recorded_trajectories);
+  EXPECT_EQ(s.profile, d.profile);
+
+  EXPECT_EQ(sc.gravity_mps2, kStandardGravity_mps2);
+  EXPECT_EQ(sc.atmosphere.model, flight::AtmosphereSpec::Model::kIsa);
+  EXPECT_EQ(sc.atmosphere.wind_mps, Vec3::Zero());
+  EXPECT_FALSE(sc.site.origin.has_value());
+
+  const auto& g = sc.groups[0];
+  const fragments::DirectionSpec full;
+  EXPECT_EQ(g.direction.elevation_min_deg, full.elevation_min_deg);
+  EXPECT_EQ(g.direction.elevation_max_deg, full.elevation_max_deg);
+  EXPECT_EQ(g.direction.azimuth_min_deg, full.azimuth_min_deg);
+  EXPECT_EQ(g.direction.azimuth_max_deg, full.azimuth_max_deg);
+  EXPECT_EQ(g.frame.yaw_deg, 0.0);
+  EXPECT_EQ(g.frame.velocity_mps, Vec3::Zero());
+  EXPECT_EQ(g.spin_radps.kind, fragments::Distribution::Kind::kFixed);
+  EXPECT_EQ(g.spin_radps.value, 0.0);
+  EXPECT_FALSE(g.area_m2.has_value());
+
+  const auto& plane = std::get<scene::PlaneTerrainSpec>(sc.site.terrain.geometry);
+  EXPECT_EQ(plane.cell_m, scene::PlaneTerrainSpec{}.cell_m);
+  EXPECT_EQ(plane.elevation_m, 0.0);
+  const scene::MaterialSpec dm;
+  EXPECT_EQ(sc.site.materials.at("soil").friction, dm.friction);
+  EXPECT_EQ(sc.site.materials.at("soil").restitution.constant, dm.restitution.constant);
+}
+
+// ---- Geometry (Site::build through validate_scenario) ----
+
+TEST(ScenarioJson, BadMeshIndexIsReportedByValidate) {
+  const Json j = with_mesh_terrain(minimal_example(), {{0, 1, 7}, {0, 2, 3}});
+  EXPECT_EQ(parse_error(j), (FieldMessage{"<no error>", ""}));  // not a parse-level problem
+  EXPECT_EQ(validation_error(j), (FieldMessage{"site.terrain.mesh.triangles[0][2]",
+                                               "vertex index 7 out of range (vertices: 4)"}));
+}
+
+TEST(ScenarioJson, ZeroAreaTriangleIsReportedByValidate) {
+  EXPECT_EQ(validation_error(with_mesh_terrain(minimal_example(), {{0, 1, 2}, {0, 2, 2}})),
+            (FieldMessage{"site.terrain.mesh.triangles[1]", "zero-area triangle"}));
+}
+
+TEST(ScenarioJson, NonFiniteVertexIsRejected) {
+  std::string text = with_mesh_terrain(minimal_example(), {{0, 1, 2}, {0, 2, 3}}).dump();
+  const std::string vertex = "[200,-200,0]";
+  ASSERT_NE(text.find(vertex), std::string::npos);
+  text.replace(text.find(vertex), vertex.size(), "[200,-200,1e999]");
+  EXPECT_EQ(parse_text_error(text),
+            (FieldMessage{"site.terrain.mesh.vertices_m[1][2]", "not finite"}));
+}
+
+TEST(ScenarioJson, SelfCrossingFootprintIsReportedByValidate) {
+  const Json j = with(minimal_example(), "/site/buildings/0/footprint_m",
+                      {{60, -10}, {80, 10}, {80, -10}, {60, 10}});
+  EXPECT_EQ(validation_error(j), (FieldMessage{"site.buildings[0].footprint_m",
+                                               "self-crossing polygon (edges 0 and 2 cross)"}));
+}
+
+// ---- Normalised JSON ----
+
+void expect_round_trip(const Json& input) {
+  const ScenarioDocument doc = parse_scenario_document(input);
+  const Json normalised = scenario_to_json(doc);
+  const ScenarioDocument again = parse_scenario_document(normalised);
+  EXPECT_EQ(scenario_to_json(again), normalised);
+  EXPECT_EQ(again.description, doc.description);
+}
+
+TEST(ScenarioJson, NormalisedJsonRoundTrips) {
+  expect_round_trip(minimal_example());
+  expect_round_trip(testing::demo_example());
+  expect_round_trip(kitchen_sink());
+}
+
+TEST(ScenarioJson, NormalisedJsonFillsDefaultsAndKeepsProvenance) {
+  const Json n = scenario_to_json(parse_scenario_document(minimal_example()));
+  EXPECT_EQ(n["schema"], kScenarioSchema);
+  EXPECT_EQ(n["settings"]["chunk_histories"], 256);
+  EXPECT_EQ(n["settings"]["max_recorded_trajectories"], 1000);
+  EXPECT_EQ(n["fragment_groups"][0]["spin_radps"], 0.0);
+  EXPECT_EQ(n["fragment_groups"][0]["mass_kg"]["dist"], "lognormal");
+  EXPECT_EQ(n["fragment_groups"][0]["cd"], 0.47);
+  EXPECT_EQ(n["site"]["materials"]["soil"]["illustrative"], true);
+  const Json ks = scenario_to_json(parse_scenario_document(kitchen_sink()));
+  EXPECT_EQ(ks["site"]["materials"]["wet soil"]["source"], "test value");
+  EXPECT_EQ(ks["fragment_groups"][2]["mass_kg"], 0.05);
+  EXPECT_EQ(ks["settings"]["hfd_origin_m"], Json::array({0.0, 0.0, 0.0}));
+  // Without the document only the scenario is written: no provenance keys.
+  const Json bare = scenario_to_json(parse_scenario(minimal_example()));
+  EXPECT_FALSE(bare["site"]["materials"]["soil"].contains("illustrative"));
+  EXPECT_FALSE(bare.contains("description"));
+}
+
+}  // namespace
+}  // namespace fragsim::api

@@ -1,0 +1,197 @@
+// summary.json fields from a synthetic RunResult, and the text report.
+#include "api/summary_json.h"
+
+#include <gtest/gtest.h>
+
+#include "fragsim/version.h"
+
+namespace fragsim::api {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+run::RunResult synthetic_result() {
+  run::RunResult r;
+  r.samples = 2000;
+  r.histories_done = 2000;
+  r.real_fragments = 1000.0;
+  r.seed = 42;
+  r.ptn_density_per_m2 = {0.1, 0.02, 0.0};
+  r.ptn_std_error_per_m2 = {0.01, 0.005, 0.0};
+  r.max_ptn_density_per_m2 = 0.1;
+  r.max_ptn_triangle = 0;
+  r.max_ptn_location_m = Vec3(3.5, -2.0, 0.25);
+  r.hfd_origin_m = Vec3(0, 0, 1);
+  r.hazardous_fragment_distance_m = 266.5;
+  r.hfd_lower_m = 248.0;
+  r.hfd_upper_m = 273.25;
+  for (std::size_t k = 0; k < r.hfd_by_sector_m.size(); ++k)
+    r.hfd_by_sector_m[k] = 10.0 * static_cast<double>(k);
+  run::BuildingResult b;
+  b.id = "B1";
+  b.impacts = {12.5, 0.25};
+  b.penetrations = {3.0, 0.5};
+  b.impacts_by_surface[1] = {10.0, 0.2};
+  b.impacts_by_surface[2] = {2.5, 0.1};
+  b.penetrations_by_surface[2] = {3.0, 0.5};
+  b.residual_ke_j = {4000.0, 300.0};
+  r.buildings.push_back(b);
+  run::BuildingResult far;
+  far.id = "far_store";
+  r.buildings.push_back(far);
+  r.outcome_histories[0] = 48;
+  r.outcome_fragments[0] = {24.0, 3.5};
+  r.outcome_histories[3] = 1952;
+  r.outcome_fragments[3] = {976.0, 3.75};
+  r.timing.wall_s = 2.0;
+  r.timing.build_s = 0.125;
+  r.timing.threads = 4;
+  r.timing.fragments_per_s = 1000.0;
+  r.timing.fragments_per_s_per_thread = 250.0;
+  r.timing.integration_s = 5.0;
+  r.timing.geometry_s = 2.0;
+  r.timing.tally_s = 0.5;
+  r.stats.rhs_evaluations = 117814;
+  r.stats.integrator_steps = 18969;
+  r.stats.chords = 6538;
+  r.stats.scene_queries = 74;
+  r.stats.chords_skipped = 9;
+  r.stats.ptn_triangle_tests = 16486;
+  return r;
+}
+
+TEST(SummaryJson, HeadlineFields) {
+  run::Scenario sc;
+  Provenance p = build_provenance();
+  p.scenario_sha256 = "abc123";
+  const Json s = summary_to_json(synthetic_result(), sc, p);
+  EXPECT_EQ(s.begin().key(), "schema");  // first, for anyone reading the file
+  EXPECT_EQ(s["schema"], "fragsim.result/1");
+  EXPECT_EQ(s["samples"], 2000);
+  EXPECT_EQ(s["histories_done"], 2000);
+  EXPECT_EQ(s["real_fragments"], 1000.0);
+  EXPECT_EQ(s["seed"], 42);
+  EXPECT_EQ(s["cancelled"], false);
+  EXPECT_EQ(s["hazardous_fragment_distance_m"], 266.5);
+  EXPECT_EQ(s["hazardous_fragment_distance_band_m"], Json::array({248.0, 273.25}));
+  EXPECT_EQ(s["hfd_origin_m"], Json::array({0.0, 0.0, 1.0}));
+  EXPECT_EQ(s["hfd_threshold_per_m2"], sc.settings.hfd_threshold_per_m2);
+  EXPECT_EQ(s["hazardous_ke_j"], sc.settings.hazardous_ke_j);
+  EXPECT_EQ(s["person_height_m"], sc.settings.person_height_m);
+  ASSERT_EQ(s["hfd_by_sector_m"].size(), 36u);
+  EXPECT_EQ(s["hfd_by_sector_m"][35], 350.0);
+  EXPECT_EQ(s["max_ptn_density_per_m2"], 0.1);
+  EXPECT_EQ(s["max_ptn_triangle"], 0);
+  EXPECT_EQ(s["max_ptn_location_m"], Json::array({3.5, -2.0, 0.25}));
+  EXPECT_EQ(s["provenance"]["version"], kVersion);
+  EXPECT_EQ(s["provenance"]["git_sha"], kGitSha);
+  EXPECT_EQ(s["provenance"]["scenario_sha256"], "abc123");
+}
+
+TEST(SummaryJson, Buildings) {
+  const Json s = summary_to_json(synthetic_result(), run::Scenario{}, build_provenance());
+  ASSERT_EQ(s["buildings"].size(), 2u);
+  const Json& b = s["buildings"][0];
+  EXPECT_EQ(b["id"], "B1");
+  EXPECT_EQ(b["expected_impacts"], 12.5);
+  EXPECT_EQ(b["impacts_std_error"], 0.25);
+  EXPECT_EQ(b["expected_penetrations"], 3.0);
+  EXPECT_EQ(b["penetrations_std_error"], 0.5);
+  EXPECT_EQ(b["residual_ke_j"], 4000.0);
+  EXPECT_EQ(b["residual_ke_std_error_j"], 300.0);
+  EXPECT_EQ(b["by_surface"].size(), 3u);  // wall, roof, window: a building has no terrain surface
+  EXPECT_EQ(b["by_surface"]["wall"]["expected_impacts"], 10.0);
+  EXPECT_EQ(b["by_surface"]["wall"]["impacts_std_error"], 0.2);
+  EXPECT_EQ(b["by_surface"]["roof"]["expected_impacts"], 2.5);
+  EXPECT_EQ(b["by_surface"]["roof"]["expected_penetrations"], 3.0);
+  EXPECT_EQ(b["by_surface"]["roof"]["penetrations_std_error"], 0.5);
+  EXPECT_EQ(b["by_surface"]["window"]["expected_impacts"], 0.0);
+  EXPECT_EQ(s["buildings"][1]["id"], "far_store");
+}
+
+TEST(SummaryJson, OutcomesInEnumOrder) {
+  const Json s = summary_to_json(synthetic_result(), run::Scenario{}, build_provenance());
+  ASSERT_EQ(s["outcomes"].size(), static_cast<std::size_t>(run::kOutcomeCount));
+  int k = 0;
+  for (const auto& [name, o] : s["outcomes"].items())
+    EXPECT_EQ(name, run::outcome_name(static_cast<run::Outcome>(k++)));
+  EXPECT_EQ(s["outcomes"]["ground"]["histories"], 48);
+  EXPECT_EQ(s["outcomes"]["ground"]["fragments"], 24.0);
+  EXPECT_EQ(s["outcomes"]["ground"]["fragments_std_error"], 3.5);
+  EXPECT_EQ(s["outcomes"]["left_site"]["histories"], 1952);
+  EXPECT_EQ(s["outcomes"]["integration_failed"]["histories"], 0);
+}
+
+TEST(SummaryJson, TimingStatsAndProfile) {
+  run::Scenario sc;
+  Json s = summary_to_json(synthetic_result(), sc, build_provenance());
+  EXPECT_EQ(s["timing"]["wall_s"], 2.0);
+  EXPECT_EQ(s["timing"]["build_s"], 0.125);
+  EXPECT_EQ(s["timing"]["threads"], 4);
+  EXPECT_EQ(s["timing"]["fragments_per_s"], 1000.0);
+  EXPECT_EQ(s["timing"]["fragments_per_s_per_thread"], 250.0);
+  EXPECT_FALSE(s["timing"].contains("integration_s"));  // not measured without profile
+  EXPECT_FALSE(s["provenance"].contains("scenario_sha256"));
+  EXPECT_EQ(s["stats"]["rhs_evaluations"], 117814);
+  EXPECT_EQ(s["stats"]["integrator_steps"], 18969);
+  EXPECT_EQ(s["stats"]["chords"], 6538);
+  EXPECT_EQ(s["stats"]["scene_queries"], 74);
+  EXPECT_EQ(s["stats"]["chords_skipped"], 9);
+  EXPECT_EQ(s["stats"]["ptn_triangle_tests"], 16486);
+  sc.settings.profile = true;
+  s = summary_to_json(synthetic_result(), sc, build_provenance());
+  EXPECT_EQ(s["timing"]["integration_s"], 5.0);
+  EXPECT_EQ(s["timing"]["geometry_s"], 2.0);
+  EXPECT_EQ(s["timing"]["tally_s"], 0.5);
+}
+
+TEST(SummaryJson, NoHazardousTriangleGivesNullLocation) {
+  run::RunResult r = synthetic_result();
+  r.max_ptn_triangle = -1;
+  r.max_ptn_density_per_m2 = 0.0;
+  const Json s = summary_to_json(r, run::Scenario{}, build_provenance());
+  EXPECT_TRUE(s["max_ptn_triangle"].is_null());
+  EXPECT_TRUE(s["max_ptn_location_m"].is_null());
+  EXPECT_NE(render_summary_text(s).find("Max PTN density"), std::string::npos);
+}
+
+TEST(SummaryText, ReportsHeadlinesAndTheBuildingTable) {
+  const Json s = summary_to_json(synthetic_result(), run::Scenario{}, build_provenance());
+  const std::string text = render_summary_text(s);
+  const auto has = [&](const std::string& part) {
+    EXPECT_NE(text.find(part), std::string::npos) << "missing \"" << part << "\" in\n" << text;
+  };
+  has("Samples (histories)           2000");
+  has("Real fragments                1000");
+  has("Hazardous fragment distance   266.5 m  (±1 se band 248.0 .. 273.2 m)");
+  has("Max PTN density               0.1 per m² at (3.5, -2.0, 0.2) (terrain triangle 0)");
+  // Building rows: id (column as wide as the longest id + 2), impacts +/- se, penetrations
+  // +/- se, each right-aligned in 24 columns ("±" is one column).
+  const auto sp = [](std::size_t n) { return std::string(n, ' '); };
+  has("  B1" + sp(9) + sp(13) + "12.5 ± 0.25" + sp(17) + "3 ± 0.5\n");
+  has("  far_store" + sp(2) + sp(19) + "0 ± 0" + sp(19) + "0 ± 0\n");
+  has("  ground" + sp(16) + sp(10) + "48" + sp(16) + "24 ± 3.5\n");
+  has("Run time 2.00 s (site build 0.12 s) on 4 threads: 1000 fragments/s (250 per thread)");
+  EXPECT_EQ(text.find("CANCELLED"), std::string::npos);
+  EXPECT_EQ(text.find("profile:"), std::string::npos);
+}
+
+TEST(SummaryText, MarksCancelledResults) {
+  run::RunResult r = synthetic_result();
+  r.cancelled = true;
+  r.histories_done = 700;
+  const std::string text =
+      render_summary_text(summary_to_json(r, run::Scenario{}, build_provenance()));
+  EXPECT_EQ(text.rfind("CANCELLED: partial result of 700 histories", 0), 0u) << text;
+}
+
+TEST(SummaryText, NoBuildings) {
+  run::RunResult r = synthetic_result();
+  r.buildings.clear();
+  const std::string text =
+      render_summary_text(summary_to_json(r, run::Scenario{}, build_provenance()));
+  EXPECT_NE(text.find("Buildings: none"), std::string::npos) << text;
+}
+
+}  // namespace
+}  // namespace fragsim::api

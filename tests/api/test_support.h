@@ -1,0 +1,70 @@
+#pragma once
+// Shared helpers for the api tests: fixtures from the source tree and error capture.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <utility>
+
+#include "api/scenario_json.h"
+#include "core/common/error.h"
+
+namespace fragsim::api::testing {
+
+using Json = nlohmann::json;
+using FieldMessage = std::pair<std::string, std::string>;
+
+inline std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  EXPECT_TRUE(in.good()) << "cannot read " << path;
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+inline std::filesystem::path source_path(const std::string& relative) {
+  return std::filesystem::path(FRAGSIM_SOURCE_DIR) / relative;
+}
+
+inline Json minimal_example() {
+  return Json::parse(read_text(source_path("examples/minimal/scenario.json")));
+}
+inline Json demo_example() {
+  return Json::parse(read_text(source_path("examples/demo/scenario.json")));
+}
+inline Json kitchen_sink() {
+  return Json::parse(read_text(source_path("tests/api/data/kitchen_sink.json")));
+}
+
+// (field, message) of the InputError that parsing throws; ("<no error>", "") if it parses.
+inline FieldMessage parse_error(const Json& j) {
+  try {
+    parse_scenario_document(j);
+  } catch (const InputError& e) {
+    return {e.field(), e.message()};
+  }
+  return {"<no error>", ""};
+}
+
+inline FieldMessage parse_text_error(const std::string& text) {
+  try {
+    parse_scenario_document_text(text);
+  } catch (const InputError& e) {
+    return {e.field(), e.message()};
+  }
+  return {"<no error>", ""};
+}
+
+// Parsing and the geometry checks of Site::build.
+inline FieldMessage validation_error(const Json& j) {
+  try {
+    validate_scenario(parse_scenario(j));
+  } catch (const InputError& e) {
+    return {e.field(), e.message()};
+  }
+  return {"<no error>", ""};
+}
+
+}  // namespace fragsim::api::testing

@@ -1,0 +1,316 @@
+// The `fragsim` executable as a subprocess: exit codes, error messages naming the field, no
+// output directory after bad input, cancellation, and bit-identical results.h5 datasets for any
+// thread count and chunk size.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "api/results_h5.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write_text(const fs::path& p, const std::string& text) {
+  std::ofstream(p, std::ios::binary) << text;
+}
+
+Json minimal_example() {
+  return Json::parse(read_text(fs::path(FRAGSIM_SOURCE_DIR) / "examples/minimal/scenario.json"));
+}
+
+struct CliResult {
+  int exit_code = -1;  // -1 when killed by a signal
+  std::string out;
+  std::string err;
+};
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("fragsim_cli_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Starts the CLI with stdout/stderr going to files in the test directory.
+  pid_t spawn(const std::vector<std::string>& args) {
+    const std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
+    std::vector<std::string> argv_s = {FRAGSIM_CLI};
+    argv_s.insert(argv_s.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& a : argv_s) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      const int fo = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      const int fe = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(fo, STDOUT_FILENO);
+      ::dup2(fe, STDERR_FILENO);
+      ::execv(FRAGSIM_CLI, argv.data());
+      ::_exit(127);
+    }
+    return pid;
+  }
+
+  CliResult wait(pid_t pid) {
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    CliResult r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = read_text(dir_ / "stdout.txt");
+    r.err = read_text(dir_ / "stderr.txt");
+    return r;
+  }
+
+  CliResult run(const std::vector<std::string>& args) { return wait(spawn(args)); }
+
+  fs::path scenario_file(const std::string& name, const std::string& text) {
+    const fs::path p = dir_ / name;
+    write_text(p, text);
+    return p;
+  }
+
+  // `run` on bad input: exit 2, exactly one error line naming the field, and no output
+  // directory afterwards; `validate` agrees.
+  void expect_rejected(const std::string& text, const std::string& expected_error_prefix) {
+    const fs::path scenario = scenario_file("bad.json", text);
+    const fs::path out = dir_ / "out" / "nested";
+    const CliResult r = run({"run", scenario.string(), "--out", out.string(), "--threads", "1"});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(r.err.rfind("error: " + expected_error_prefix, 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / "out")) << "the output directory was created";
+    const CliResult v = run({"validate", scenario.string()});
+    EXPECT_EQ(v.exit_code, 2);
+    EXPECT_EQ(v.err, r.err);
+  }
+
+  fs::path dir_;
+};
+
+// A square mesh terrain (4 vertices) for the geometry cases.
+Json with_mesh_terrain(Json j) {
+  j["site"]["terrain"] = {
+      {"mesh",
+       {{"vertices_m", {{-200, -200, 0}, {200, -200, 0}, {200, 200, 0}, {-200, 200, 0}}},
+        {"triangles", {{0, 1, 2}, {0, 2, 3}}}}},
+      {"material", "soil"}};
+  return j;
+}
+
+TEST_F(Cli, VersionAndHelp) {
+  const CliResult v = run({"--version"});
+  EXPECT_EQ(v.exit_code, 0);
+  EXPECT_EQ(v.out.rfind("fragsim ", 0), 0u) << v.out;
+  EXPECT_NE(v.out.find("(git "), std::string::npos);
+  const CliResult h = run({"--help"});
+  EXPECT_EQ(h.exit_code, 0);
+  EXPECT_NE(h.out.find("fragsim run SCENARIO.json --out DIR"), std::string::npos);
+}
+
+TEST_F(Cli, UsageErrorsExitTwo) {
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{},
+        {"frobnicate"},
+        {"run", "x.json"},
+        {"validate"},
+        {"run", "x.json", "--out", "o", "--threads", "many"},
+        {"run", "x.json", "--out", "o", "--samples-scale", "0"},
+        {"validate", "x.json", "--bogus"}}) {
+    const CliResult r = run(args);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << r.err;
+  }
+  EXPECT_FALSE(fs::exists("o"));
+}
+
+TEST_F(Cli, MissingScenarioFile) {
+  const CliResult r = run({"validate", (dir_ / "nope.json").string()});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("cannot read"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, ValidateMinimalExample) {
+  const CliResult r = run({"validate", FRAGSIM_SOURCE_DIR "/examples/minimal/scenario.json"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.rfind("ok: ", 0), 0u) << r.out;
+  EXPECT_NE(r.out.find("1 building"), std::string::npos) << r.out;
+}
+
+// ---- One test per class of bad input ----
+
+TEST_F(Cli, MalformedJson) {
+  expect_rejected("{\"schema\": \"fragsim.scenario/1\",\n \"site\": }",
+                  "malformed JSON at line 2, column 10: ");
+}
+
+TEST_F(Cli, WrongType) {
+  Json j = minimal_example();
+  j["fragment_groups"][0]["samples"] = "2000";
+  expect_rejected(j.dump(2), "fragment_groups[0].samples: expected integer, got string\n");
+}
+
+TEST_F(Cli, OutOfRangeValue) {
+  Json j = minimal_example();
+  j["fragment_groups"][0]["speed_mps"]["sigma"] = -40;
+  expect_rejected(j.dump(2), "fragment_groups[0].speed_mps.sigma: must be > 0\n");
+}
+
+TEST_F(Cli, BadMeshIndex) {
+  Json j = with_mesh_terrain(minimal_example());
+  j["site"]["terrain"]["mesh"]["triangles"][1][1] = 9;
+  expect_rejected(j.dump(2),
+                  "site.terrain.mesh.triangles[1][1]: vertex index 9 out of range (vertices: 4)\n");
+}
+
+TEST_F(Cli, InfiniteVertex) {
+  std::string text = with_mesh_terrain(minimal_example()).dump();
+  const std::string vertex = "[200,200,0]";
+  ASSERT_NE(text.find(vertex), std::string::npos);
+  text.replace(text.find(vertex), vertex.size(), "[200,200,1e999]");
+  expect_rejected(text, "site.terrain.mesh.vertices_m[2][2]: not finite\n");
+}
+
+TEST_F(Cli, EmptyFragmentGroups) {
+  Json j = minimal_example();
+  j["fragment_groups"] = Json::array();
+  expect_rejected(j.dump(2),
+                  "fragment_groups: must not be empty (give at least one fragment group)\n");
+}
+
+TEST_F(Cli, BadInputLeavesAnExistingDirectoryUntouched) {
+  Json j = minimal_example();
+  j["settings"]["integrater"] = Json::object();
+  const fs::path scenario = scenario_file("bad.json", j.dump());
+  fs::create_directories(dir_ / "existing");
+  write_text(dir_ / "existing" / "keep.txt", "x");
+  const CliResult r = run({"run", scenario.string(), "--out", (dir_ / "existing").string()});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "error: settings.integrater: unknown key (did you mean \"integrator\"?)\n");
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir_ / "existing"))
+    names.push_back(e.path().filename());
+  EXPECT_EQ(names, std::vector<std::string>{"keep.txt"});
+}
+
+// ---- Runs ----
+
+TEST_F(Cli, RunWritesSummaryAndResults) {
+  const fs::path out = dir_ / "run";
+  const CliResult r = run({"run", FRAGSIM_SOURCE_DIR "/examples/minimal/scenario.json", "--out",
+                           out.string(), "--threads", "2", "--samples-scale", "0.5"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(out)) names.push_back(e.path().filename());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"results.h5", "summary.json"}));  // no temporaries
+  const Json s = Json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(s["schema"], "fragsim.result/1");
+  EXPECT_EQ(s["samples"], 1000);  // 2000 scaled by 0.5
+  EXPECT_EQ(s["seed"], 42);
+  EXPECT_EQ(s["cancelled"], false);
+  EXPECT_EQ(s["timing"]["threads"], 2);
+  EXPECT_EQ(s["buildings"][0]["id"], "B1");
+  EXPECT_EQ(s["provenance"]["scenario_sha256"].get<std::string>().size(), 64u);
+  // The report on stdout.
+  for (const char* part : {"Samples (histories)", "Real fragments", "Hazardous fragment distance",
+                           "Max PTN density", "B1", "Outcomes", "fragments/s", "per thread"})
+    EXPECT_NE(r.out.find(part), std::string::npos) << part << " missing in\n" << r.out;
+  // The recorded scenario shows the overrides.
+  const Json stored =
+      Json::parse(fragsim::api::read_attribute_string(out / "results.h5", "/", "scenario_json"));
+  EXPECT_EQ(stored["fragment_groups"][0]["samples"], 1000);
+  EXPECT_EQ(stored["settings"]["threads"], 2);
+}
+
+TEST_F(Cli, QuietRunPrintsNothing) {
+  const CliResult r = run({"run", FRAGSIM_SOURCE_DIR "/examples/minimal/scenario.json", "--out",
+                           (dir_ / "q").string(), "--quiet", "--samples-scale", "0.1"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(r.err, "");
+  EXPECT_TRUE(fs::exists(dir_ / "q" / "summary.json"));
+}
+
+TEST_F(Cli, DeterministicForThreadsAndChunkSize) {
+  const std::string minimal = FRAGSIM_SOURCE_DIR "/examples/minimal/scenario.json";
+  Json chunked = minimal_example();
+  chunked["settings"]["chunk_histories"] = 37;
+  const fs::path chunked_file = scenario_file("chunked.json", chunked.dump(2));
+  const std::vector<std::pair<std::string, std::vector<std::string>>> runs = {
+      {"t1", {"run", minimal, "--out", (dir_ / "t1").string(), "--threads", "1", "--quiet"}},
+      {"t2", {"run", minimal, "--out", (dir_ / "t2").string(), "--threads", "2", "--quiet"}},
+      {"c37",
+       {"run", chunked_file.string(), "--out", (dir_ / "c37").string(), "--threads", "2",
+        "--quiet"}},
+  };
+  for (const auto& [name, args] : runs) ASSERT_EQ(run(args).exit_code, 0) << name;
+
+  const fs::path reference = dir_ / "t1" / "results.h5";
+  const auto names = fragsim::api::list_datasets(reference);
+  EXPECT_NE(std::find(names.begin(), names.end(), "/ptn/density_per_m2"), names.end());
+  EXPECT_NE(std::find(names.begin(), names.end(), "/fragments/end_position_m"), names.end());
+  for (const char* other : {"t2", "c37"}) {
+    const fs::path file = dir_ / other / "results.h5";
+    ASSERT_EQ(fragsim::api::list_datasets(file), names) << other;
+    for (const auto& name : names)
+      EXPECT_EQ(fragsim::api::read_dataset_raw(reference, name),
+                fragsim::api::read_dataset_raw(file, name))
+          << name << " differs between t1 and " << other;
+  }
+  // The run produced something to compare: fragments reached the ground near the origin.
+  double max_density = 0;
+  for (double d : fragsim::api::read_dataset_double(reference, "/ptn/density_per_m2"))
+    max_density = std::max(max_density, d);
+  EXPECT_GT(max_density, 0.0);
+  // summary.json agrees too, apart from timing.
+  Json a = Json::parse(read_text(dir_ / "t1" / "summary.json"));
+  Json b = Json::parse(read_text(dir_ / "c37" / "summary.json"));
+  a.erase("timing");
+  b.erase("timing");
+  a["provenance"].erase("scenario_sha256");
+  b["provenance"].erase("scenario_sha256");
+  EXPECT_EQ(a, b);
+}
+
+TEST_F(Cli, InterruptCancelsWithoutLeavingOutput) {
+  // The demo scaled up takes long enough (tens of seconds) to be interrupted mid-run.
+  const fs::path out = dir_ / "cancelled";
+  const pid_t pid = spawn({"run", FRAGSIM_SOURCE_DIR "/examples/demo/scenario.json", "--out",
+                           out.string(), "--samples-scale", "5", "--threads", "2", "--quiet"});
+  // The directory appears once validation passed and the run is about to start (the handler is
+  // installed by then).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!fs::exists(out) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(fs::exists(out));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ::kill(pid, SIGINT);
+  const CliResult r = wait(pid);
+  EXPECT_EQ(r.exit_code, 130) << r.err;
+  EXPECT_NE(r.err.find("cancelled"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out)) << "output left behind";
+}
+
+}  // namespace
