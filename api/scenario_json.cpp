@@ -55,6 +55,11 @@ run::Settings parse_settings(const Json& j, const std::string& path) {
     check_gt(s.sagitta_m, 0.0, r.at("sagitta_m"));
   }
   s.bounce = o.bool_or("bounce", s.bounce);
+  // No bounce model in this version: refuse rather than silently end histories at first contact.
+  if (s.bounce)
+    fail(o.at("bounce"),
+         "bounce, slide and roll are not implemented in this version; set false (the first ground "
+         "impact ends a history)");
   s.threads = static_cast<int>(o.integer_or("threads", s.threads, 0, kMaxThreads));
   s.chunk_histories = o.integer_or("chunk_histories", s.chunk_histories, 1, kMaxSamplesPerGroup);
   s.record_fragments = o.bool_or("record_fragments", s.record_fragments);

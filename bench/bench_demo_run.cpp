@@ -3,7 +3,13 @@
 // time split between integration, geometry queries and tallies. Results are written down in
 // docs/benchmarks.md.
 //
-//   build/bench/bench_demo_run [scenario.json] [--repeat N]
+// With --rtol-sweep it also runs the scenario at integrator.rtol 1e-3 .. 1e-8 and compares each
+// result with a 1e-10 reference run. The histories are the same random draws at every rtol
+// (common random numbers), so the differences are integration error, not Monte Carlo noise.
+//
+//   build/bench/bench_demo_run [scenario.json] [--repeat N] [--rtol-sweep]
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -33,14 +39,53 @@ void print_row(const char* label, const run::RunResult& r) {
               static_cast<double>(r.stats.ptn_triangle_tests) / n);
 }
 
+double total_impacts(const run::RunResult& r) {
+  double s = 0.0;
+  for (const auto& b : r.buildings) s += b.impacts.mean;
+  return s;
+}
+
+// Largest |difference| of the PTN density over all triangles, relative to the largest density.
+double max_density_error(const run::RunResult& r, const run::RunResult& ref) {
+  double e = 0.0;
+  for (std::size_t t = 0; t < r.ptn_density_per_m2.size(); ++t)
+    e = std::max(e, std::abs(r.ptn_density_per_m2[t] - ref.ptn_density_per_m2[t]));
+  return ref.max_ptn_density_per_m2 > 0.0 ? e / ref.max_ptn_density_per_m2 : e;
+}
+
+void sweep_rtol(run::Scenario sc, const std::shared_ptr<const scene::Site>& site) {
+  sc.settings.threads = 1;
+  sc.settings.profile = false;
+  sc.settings.rtol = 1e-10;
+  const run::RunResult ref = run::run(sc, site);
+  std::printf("\n# rtol sweep, 1 thread, reference rtol 1e-10: HFD %.2f m, max density %.4f /m2, "
+              "building impacts %.4f\n",
+              ref.hazardous_fragment_distance_m, ref.max_ptn_density_per_m2, total_impacts(ref));
+  std::printf("rtol     us/fragment  rhs/frag  |dHFD| m  max|dD|/Dmax  |d impacts|  "
+              "HFD se band (m)\n");
+  for (double rtol : {1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8}) {
+    sc.settings.rtol = rtol;
+    const run::RunResult r = run::run(sc, site);
+    const double n = static_cast<double>(r.histories_done);
+    std::printf("%.0e  %11.2f  %8.1f  %8.3f  %12.3e  %11.3e  %.1f .. %.1f\n", rtol,
+                1e6 * r.timing.wall_s / n, static_cast<double>(r.stats.rhs_evaluations) / n,
+                std::abs(r.hazardous_fragment_distance_m - ref.hazardous_fragment_distance_m),
+                max_density_error(r, ref), std::abs(total_impacts(r) - total_impacts(ref)),
+                r.hfd_lower_m, r.hfd_upper_m);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string path = std::string(FRAGSIM_SOURCE_DIR) + "/examples/demo/scenario.json";
   int repeat = 3;
+  bool rtol_sweep = false;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
       repeat = std::atoi(argv[++i]);
+    } else if (std::strcmp(argv[i], "--rtol-sweep") == 0) {
+      rtol_sweep = true;
     } else {
       path = argv[i];
     }
@@ -80,5 +125,6 @@ int main(int argc, char** argv) {
               p.timing.wall_s, p.timing.integration_s, 100 * p.timing.integration_s / p.timing.wall_s,
               p.timing.geometry_s, 100 * p.timing.geometry_s / p.timing.wall_s, p.timing.tally_s,
               100 * p.timing.tally_s / p.timing.wall_s, p.timing.wall_s - split);
+  if (rtol_sweep) sweep_rtol(sc, site);
   return 0;
 }

@@ -211,6 +211,14 @@ TEST(ScenarioJson, NonFiniteNumbersAreRejected) {
 
 // ---- Ranges ----
 
+// The bounce model is its own issue; until it exists, asking for it is an error, not a no-op.
+TEST(ScenarioJson, BounceIsRefusedUntilImplemented) {
+  const FieldMessage e = parse_error(with(minimal_example(), "/settings/bounce", true));
+  EXPECT_EQ(e.first, "settings.bounce");
+  EXPECT_NE(e.second.find("not implemented"), std::string::npos) << e.second;
+  EXPECT_EQ(parse_error(with(minimal_example(), "/settings/bounce", false)).first, "<no error>");
+}
+
 struct RangeCase {
   std::string pointer;
   Json value;
