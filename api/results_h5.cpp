@@ -342,6 +342,9 @@ void write_fragments(Writer& w, const std::vector<run::FragmentRecord>& records)
   column("end_time_s", [](const R& r) { return r.end_time_s; });
   vectors("end_position_m", [](const R& r) { return r.end_position_m; });
   vectors("end_velocity_mps", [](const R& r) { return r.end_velocity_mps; });
+  column("first_impact_time_s", [](const R& r) { return r.first_impact_time_s; });
+  vectors("first_impact_position_m", [](const R& r) { return r.first_impact_position_m; });
+  vectors("first_impact_velocity_mps", [](const R& r) { return r.first_impact_velocity_mps; });
   column("impact_angle_deg", [](const R& r) { return r.impact_angle_deg; });
   column("impact_ke_j", [](const R& r) { return r.impact_ke_j; });
   column("building", [](const R& r) { return r.building; });

@@ -55,11 +55,13 @@ run::Settings parse_settings(const Json& j, const std::string& path) {
     check_gt(s.sagitta_m, 0.0, r.at("sagitta_m"));
   }
   s.bounce = o.bool_or("bounce", s.bounce);
-  // No bounce model in this version: refuse rather than silently end histories at first contact.
-  if (s.bounce)
-    fail(o.at("bounce"),
-         "bounce, slide and roll are not implemented in this version; set false (the first ground "
-         "impact ends a history)");
+  if (const Json* limits = o.find("bounce_limits")) {
+    const ObjectReader r(*limits, o.at("bounce_limits"), "bounce_limits");
+    s.min_rebound_speed_mps = r.number_or("min_rebound_speed_mps", s.min_rebound_speed_mps);
+    check_ge(s.min_rebound_speed_mps, 0.0, r.at("min_rebound_speed_mps"));
+    s.max_bounces = r.integer_or("max_bounces", s.max_bounces, 1, 1'000'000);
+    s.max_ground_steps = r.integer_or("max_ground_steps", s.max_ground_steps, 1, 100'000'000);
+  }
   s.threads = static_cast<int>(o.integer_or("threads", s.threads, 0, kMaxThreads));
   s.chunk_histories = o.integer_or("chunk_histories", s.chunk_histories, 1, kMaxSamplesPerGroup);
   s.record_fragments = o.bool_or("record_fragments", s.record_fragments);
@@ -265,6 +267,10 @@ Json scenario_json(const run::Scenario& sc, const std::string& description,
       {"max_flight_time_s", s.max_flight_time_s},
       {"integrator", {{"rtol", s.rtol}, {"sagitta_m", s.sagitta_m}}},
       {"bounce", s.bounce},
+      {"bounce_limits",
+       {{"min_rebound_speed_mps", s.min_rebound_speed_mps},
+        {"max_bounces", s.max_bounces},
+        {"max_ground_steps", s.max_ground_steps}}},
       {"threads", s.threads},
       {"chunk_histories", s.chunk_histories},
       {"record_fragments", s.record_fragments},

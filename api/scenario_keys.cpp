@@ -16,7 +16,8 @@ const std::map<std::string, std::vector<std::string>, std::less<>>& scenario_obj
       {"terrain_plane", {"elevation_m", "extent_m", "cell_m"}},
       {"terrain_grid", {"origin_m", "spacing_m", "nx", "ny", "elevation_m"}},
       {"terrain_mesh", {"vertices_m", "triangles"}},
-      {"material", {"friction", "restitution", "penetration", "illustrative", "source"}},
+      {"material", {"friction", "rolling_resistance", "restitution", "penetration", "illustrative",
+                    "source"}},
       {"restitution_table", {"normal_speed_mps", "e"}},
       {"penetration", {"ke_per_area_j_per_m2"}},
       {"building_footprint",
@@ -41,9 +42,10 @@ const std::map<std::string, std::vector<std::string>, std::less<>>& scenario_obj
       // Settings
       {"settings",
        {"seed", "person_height_m", "hazardous_ke_j", "hfd_threshold_per_m2", "hfd_origin_m",
-        "max_flight_time_s", "integrator", "bounce", "threads", "chunk_histories",
+        "max_flight_time_s", "integrator", "bounce", "bounce_limits", "threads", "chunk_histories",
         "record_fragments", "record_trajectories", "max_recorded_trajectories", "profile"}},
       {"integrator", {"rtol", "sagitta_m"}},
+      {"bounce_limits", {"min_rebound_speed_mps", "max_bounces", "max_ground_steps"}},
   };
   return kKeys;
 }

@@ -48,6 +48,8 @@ scene::MaterialSpec parse_material(const Json& j, const std::string& path, Mater
   scene::MaterialSpec m;
   m.friction = o.number_or("friction", m.friction);
   check_ge(m.friction, 0.0, o.at("friction"));
+  m.rolling_resistance = o.number_or("rolling_resistance", m.rolling_resistance);
+  check_ge(m.rolling_resistance, 0.0, o.at("rolling_resistance"));
   if (const Json* r = o.find("restitution"))
     m.restitution = parse_restitution(*r, o.at("restitution"));
   if (const Json* p = o.find("penetration")) {
@@ -238,6 +240,28 @@ scene::SiteSpec parse_site(const Json& j, const std::string& path,
         parse_material(item.value(), child_path(mp, item.key()), notes[item.key()]);
   }
 
+  // The built-in ground materials ("hard", "soft"; scene::builtin_ground_material) join the
+  // site's materials when a surface names one the site does not define. They are then written
+  // into the normalised scenario like any other, so a result records the values it used.
+  const auto adopt_builtin = [&](const Json* holder, const char* key) {
+    if (holder == nullptr || !holder->is_object()) return;
+    const auto it = holder->find(key);
+    if (it == holder->end() || !it->is_string()) return;
+    const std::string name = it->get<std::string>();
+    if (site.materials.count(name)) return;
+    if (auto m = scene::builtin_ground_material(name)) {
+      site.materials[name] = *m;
+      notes[name] = {true, "fragsim built-in ground material: friction from Gan & Chrostowski "
+                           "(DDESB 2010); restitution table illustrative (docs/physics.md)"};
+    }
+  };
+  adopt_builtin(o.find("terrain"), "material");
+  if (const Json* bs = o.find("buildings"); bs != nullptr && bs->is_array()) {
+    for (const Json& b : *bs) {
+      for (const char* key : {"wall", "roof", "window"}) adopt_builtin(&b, key);
+    }
+  }
+
   site.terrain = parse_terrain(o.require("terrain"), o.at("terrain"), site.materials);
 
   if (const Json* buildings = o.find("buildings")) {
@@ -284,7 +308,9 @@ Json site_to_json(const scene::SiteSpec& site, const std::map<std::string, Mater
 
   Json materials = Json::object();
   for (const auto& [name, m] : site.materials) {
-    Json mj = {{"friction", m.friction}, {"restitution", restitution_json(m.restitution)}};
+    Json mj = {{"friction", m.friction},
+               {"rolling_resistance", m.rolling_resistance},
+               {"restitution", restitution_json(m.restitution)}};
     if (m.penetration_ke_per_area_j_per_m2)
       mj["penetration"] = {{"ke_per_area_j_per_m2", *m.penetration_ke_per_area_j_per_m2}};
     if (notes) {

@@ -154,7 +154,10 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
                   {"chords", s.chords},
                   {"scene_queries", s.scene_queries},
                   {"chords_skipped", s.chords_skipped},
-                  {"ptn_triangle_tests", s.ptn_triangle_tests}};
+                  {"ptn_triangle_tests", s.ptn_triangle_tests},
+                  {"bounces", s.bounces},
+                  {"ground_steps", s.ground_steps},
+                  {"ground_step_caps", s.ground_step_caps}};
 
   Json prov = {{"version", provenance.version}, {"git_sha", provenance.git_sha}};
   if (provenance.scenario_sha256) prov["scenario_sha256"] = *provenance.scenario_sha256;

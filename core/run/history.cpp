@@ -5,8 +5,10 @@
 #include <cmath>
 
 #include "core/flight/trajectory.h"
+#include "core/fragments/support.h"
+#include "core/impact/bounce.h"
 #include "core/impact/contacts.h"
-#include "core/impact/ground_response.h"
+#include "core/impact/ground_motion.h"
 
 namespace fragsim::run {
 namespace {
@@ -49,12 +51,719 @@ struct EndState {
   double t = 0.0;
   Vec3 p{0, 0, 0};
   Vec3 v{0, 0, 0};
-  double angle_deg = 0.0;
   std::int32_t building = -1;
   std::int32_t surface = -1;
   bool penetrated = false;
   double residual_ke_j = 0.0;
 };
+
+// The first impact of a history (terrain or building).
+struct FirstImpact {
+  bool seen = false;
+  double t = 0.0;
+  Vec3 p{0, 0, 0};
+  Vec3 v{0, 0, 0};
+  double angle_deg = 0.0;
+};
+
+// What ended one flight segment.
+enum class FlightEnd {
+  kTerrain,    // terrain contact at (t, p, v) on `triangle`
+  kBuilding,   // building hit
+  kLeftSite,
+  kMaxTime,
+  kHarmless,
+  kIntegrationFailed,
+};
+
+struct FlightEvent {
+  FlightEnd end = FlightEnd::kTerrain;
+  double t = 0.0;
+  Vec3 p{0, 0, 0};
+  Vec3 v{0, 0, 0};
+  Vec3 normal = Vec3::UnitZ();
+  std::uint32_t triangle = 0;  // terrain triangle or building triangle
+  std::uint32_t building = 0;
+  scene::SurfaceType surface = scene::SurfaceType::kTerrain;
+  std::uint16_t material = 0;
+};
+
+// One history: sampling, then flight segments separated by bounces, then (with bounce) a slide
+// or roll to rest. Tallies accumulate in the scratch list and are written at the end.
+class History {
+ public:
+  History(const RunContext& ctx, std::uint32_t group, std::int64_t history, bool record_trajectory,
+          HistoryScratch& scratch, ChunkOutput& out)
+      : ctx_(ctx),
+        sc_(*ctx.scenario),
+        st_(sc_.settings),
+        site_(*ctx.site),
+        group_(group),
+        history_(history),
+        record_trajectory_(record_trajectory),
+        scratch_(scratch),
+        out_(out),
+        prof_(st_.profile),
+        init_(fragments::sample_fragment(sc_.groups[group], group,
+                                         static_cast<std::uint64_t>(history), st_.seed)),
+        mass_(init_.body.mass_kg),
+        weight_(init_.weight),
+        g_(sc_.gravity_mps2),
+        body_(fragments::contact_body(init_.shape, init_.body)) {
+    model_.atmosphere = &ctx.atmosphere;
+    model_.cd = &ctx.cd[group];
+    model_.gravity_mps2 = g_;
+    model_.area_m2 = init_.body.presented_area_m2;
+    model_.mass_kg = mass_;
+    model_.altitude_offset_m = site_.altitude_offset_m();
+    radius_m_ = st_.bounce ? fragments::bounding_radius(body_) : 0.0;
+    flat_tol_m_ = 1e-6 * radius_m_;
+  }
+
+  void simulate();
+
+ private:
+  // Can this fragment ever matter again? Drag and impacts only remove energy, so its kinetic
+  // energy can never exceed KE + m g (z - lowest terrain). Below the hazardous threshold it
+  // cannot add to the PTN density; with no buildings on the site nothing else is tallied.
+  bool can_never_matter(const Vec3& p, const Vec3& v) const {
+    if (site_.has_buildings()) return false;
+    const double ke_max = 0.5 * mass_ * v.squaredNorm() + mass_ * g_ * (p.z() - ctx_.terrain_min_z);
+    return ke_max < st_.hazardous_ke_j;
+  }
+
+  // PTN contributions of the straight piece a -> b (times ta, tb); velocity_at(s) gives the
+  // velocity at chord parameter s in [0, 1].
+  template <class VelocityFn>
+  void add_ptn_segment(const Vec3& a, const Vec3& b, const VelocityFn& velocity_at) {
+    if (std::min(a.z(), b.z()) > ctx_.prisms.top_z()) return;
+    SectionTimer timer(prof_, out_.tally_s);
+    site_.terrain_index().for_each_candidate(
+        Vec2(a.x(), a.y()), Vec2(b.x(), b.y()), [&](std::uint32_t tri) {
+          ++out_.stats.ptn_triangle_tests;
+          double s_in, s_out;
+          if (!ctx_.prisms.clip(tri, a, b, s_in, s_out)) return;
+          // State where the path enters the prism.
+          const Vec3 v = velocity_at(s_in);
+          const double speed2 = v.squaredNorm();
+          if (0.5 * mass_ * speed2 < st_.hazardous_ke_j || !(speed2 > 0.0)) return;
+          const double area = ctx_.prisms.projected_area(tri, v / std::sqrt(speed2));
+          if (area > 0.0) scratch_.ptn.push_back({tri, weight_ / area});
+        });
+  }
+
+  // Rotation state at time t of the current flight segment (torque-free from its start). Times
+  // are asked for in nearly increasing order, so the propagation starts from the latest cached
+  // state at or before t: each call integrates a short interval, never the whole segment again.
+  flight::RotationState rotation(double t) const {
+    if (rot_.omega_body.squaredNorm() == 0.0 || t == rot_t_) return rot_;
+    if (t == cache_t_) return cache_rot_;
+    if (t == base_t_) return base_rot_;
+    // Start from the latest known state at or before t: the cache, the base, or the segment's
+    // start.
+    const flight::RotationState* from = &rot_;
+    double t_from = rot_t_;
+    if (base_t_ > t_from && base_t_ < t) {
+      from = &base_rot_;
+      t_from = base_t_;
+    }
+    if (cache_t_ > t_from && cache_t_ < t) {
+      from = &cache_rot_;
+      t_from = cache_t_;
+    }
+    const flight::RotationState s =
+        flight::propagate_torque_free(body_.inertia_kg_m2, *from, t - t_from, rot_rtol_);
+    if (t > cache_t_) {
+      cache_t_ = t;
+      cache_rot_ = s;
+    }
+    return s;
+  }
+  // No later query of this segment is before t: keep its state as the base (each query then
+  // integrates at most from the start of the chord being examined).
+  void advance_rotation_base(double t) const {
+    if (rot_.omega_body.squaredNorm() == 0.0 || t <= base_t_) return;
+    base_rot_ = rotation(t);
+    base_t_ = t;
+  }
+  Quat attitude(double t) const { return rotation(t).q.normalized(); }
+  // Starts a flight segment's rotation at time t.
+  void set_rotation(const flight::RotationState& s, double t) {
+    rot_ = s;
+    rot_t_ = t;
+    cache_t_ = base_t_ = t;
+    cache_rot_ = base_rot_ = s;
+  }
+
+  // Is the body's lowest point on triangle `tri` moving into its plane at time t?
+  bool contact_approaching(const flight::TrajectoryIntegrator& integ, std::uint32_t tri,
+                           double t) const {
+    const Vec3& n = site_.terrain_triangle_normal(tri);
+    const flight::RotationState s = rotation(t);
+    const Quat q = s.q.normalized();
+    const Vec3 r = fragments::contact_point(body_, q, n, flat_tol_m_);
+    return (integ.velocity(t) + (q * s.omega_body).cross(r)).dot(n) < 0.0;
+  }
+
+  // Signed clearance of the body from the plane of terrain triangle `tri` at time t: the centre's
+  // height above the plane along its normal minus the body's reach toward it (support
+  // function). <= 0: touching or overlapping.
+  double clearance(const flight::TrajectoryIntegrator& integ, std::uint32_t tri, double t) const {
+    const Vec3& n = site_.terrain_triangle_normal(tri);
+    const Vec3& v0 = site_.terrain_vertices()[site_.terrain_triangles()[tri][0]];
+    return n.dot(integ.position(t) - v0) - fragments::support_extent(body_, attitude(t), -n);
+  }
+
+  // The first time in [ta, tb] at which the body touches the plane of `tri` while approaching
+  // it (clearance falls from > 0 to <= 0), or NaN. Sampled at a few points, then refined.
+  double first_touch(const flight::TrajectoryIntegrator& integ, std::uint32_t tri, double ta,
+                     double tb) const;
+
+  // Body contact with the terrain within the chord [ta, tb] (bounce mode), no later than t_limit
+  // (a building hit or the path's own terrain crossing). Returns the contact, or nothing.
+  std::optional<FlightEvent> body_terrain_contact(const flight::TrajectoryIntegrator& integ,
+                                                  double ta, double tb, std::int64_t hint) const;
+
+  FlightEvent fly(const Vec3& p_start, const Vec3& v_start, double t_start);
+  void slide(const Vec3& p, const Vec3& v, double t, double clearance_m);
+  void building_hit(const FlightEvent& ev);
+  void note_first_impact(double t, const Vec3& p, const Vec3& v, const Vec3& normal) {
+    if (first_.seen) return;
+    first_ = {true, t, p, v, impact::impact_angle_deg(v, normal)};
+  }
+  void finish();
+
+  // Private Members
+  const RunContext& ctx_;
+  const Scenario& sc_;
+  const Settings& st_;
+  const scene::Site& site_;
+  std::uint32_t group_;
+  std::int64_t history_;
+  bool record_trajectory_;
+  HistoryScratch& scratch_;
+  ChunkOutput& out_;
+  bool prof_;
+  fragments::FragmentInit init_;
+  double mass_, weight_, g_;
+  fragments::ContactBody body_;
+  flight::FlightModel model_;
+  double radius_m_ = 0.0;   // bounding radius with bounce, 0 without (the path is the centre's)
+  double flat_tol_m_ = 0.0;
+  flight::RotationState rot_;  // attitude at rot_t_ (start of the current flight segment)
+  double rot_t_ = 0.0;
+  mutable flight::RotationState cache_rot_;  // latest state computed in this segment
+  mutable double cache_t_ = 0.0;
+  mutable flight::RotationState base_rot_;  // state at base_t_: no query comes before it
+  mutable double base_t_ = 0.0;
+  double rot_rtol_ = 1e-9;
+  EndState end_;
+  FirstImpact first_;
+  std::uint32_t bounces_ = 0;
+  double ground_path_m_ = 0.0;
+  TrajectoryRecord traj_;
+};
+
+double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint32_t tri,
+                            double ta, double tb) const {
+  constexpr int kSamples = 4;
+  advance_rotation_base(ta);
+  double t_prev = ta;
+  double g_prev = clearance(integ, tri, ta);
+  for (int k = 1; k <= kSamples; ++k) {
+    const double t = (k == kSamples) ? tb : ta + (tb - ta) * k / kSamples;
+    const double gk = clearance(integ, tri, t);
+    if (gk <= 0.0) {
+      if (g_prev > 0.0) {
+        auto g = [&](double s) { return clearance(integ, tri, s); };
+        // Illinois regula falsi on the clearance (continuous on the bracket: one plane).
+        double lo = t_prev, hi = t, glo = g_prev, ghi = gk;
+        int side = 0;
+        for (int it = 0; it < 60 && hi - lo > 1e-13 * std::max(1.0, std::abs(hi)); ++it) {
+          const double m = (lo * ghi - hi * glo) / (ghi - glo);
+          const double gm = g(m);
+          if (gm > 0.0) {
+            lo = m;
+            glo = gm;
+            if (side == -1) ghi *= 0.5;
+            side = -1;
+          } else {
+            hi = m;
+            ghi = gm;
+            if (side == 1) glo *= 0.5;
+            side = 1;
+          }
+        }
+        return hi;  // the side that touches: clearance <= 0
+      }
+      // Already touching at the start of this sample interval. Right after a bounce the body
+      // sits on the plane and is leaving it: look further. Otherwise (touching and approaching)
+      // the contact is now.
+      if (k == 1 && t_prev > rot_t_ && contact_approaching(integ, tri, t_prev)) return t_prev;
+    }
+    t_prev = t;
+    g_prev = gk;
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+std::optional<FlightEvent> History::body_terrain_contact(const flight::TrajectoryIntegrator& integ,
+                                                         double ta, double tb,
+                                                         std::int64_t hint) const {
+  // The contact plane: the terrain triangle under the centre at the chord's end (or the one its
+  // path crossed), then the triangle under the contact point if that differs (a contact that
+  // moves onto a neighbouring triangle), at most twice.
+  std::int64_t tri = hint;
+  if (tri < 0) {
+    const Vec3 pb = integ.position(tb);
+    tri = site_.terrain_triangle_at(pb.x(), pb.y());
+  }
+  if (tri < 0) return std::nullopt;
+  double tc = first_touch(integ, static_cast<std::uint32_t>(tri), ta, tb);
+  for (int pass = 0; pass < 2 && !std::isnan(tc); ++pass) {
+    const Vec3& n = site_.terrain_triangle_normal(static_cast<std::uint32_t>(tri));
+    const Vec3 c = integ.position(tc) + fragments::contact_point(body_, attitude(tc), n, flat_tol_m_);
+    const std::int64_t under = site_.terrain_triangle_at(c.x(), c.y());
+    if (under < 0 || under == tri) break;
+    const double t2 = first_touch(integ, static_cast<std::uint32_t>(under), ta, tb);
+    if (std::isnan(t2)) break;  // the neighbour's plane is not reached: keep the first
+    tri = under;
+    tc = t2;
+  }
+  if (std::isnan(tc)) return std::nullopt;
+  FlightEvent ev;
+  ev.end = FlightEnd::kTerrain;
+  ev.t = tc;
+  ev.p = integ.position(tc);
+  ev.v = integ.velocity(tc);
+  ev.triangle = static_cast<std::uint32_t>(tri);
+  ev.normal = site_.terrain_triangle_normal(ev.triangle);
+  ev.material = site_.terrain_material();
+  return ev;
+}
+
+FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_start) {
+  const Box3& bb = site_.buildings_bounds();
+  const bool plane = site_.terrain_is_plane();
+  const bool body_contacts = st_.bounce && radius_m_ > 0.0;
+  // With a finite body the terrain is met up to one bounding radius before the centre's path
+  // reaches it: steps and chords that low are examined.
+  const double top_z = ctx_.top_z + radius_m_;
+  const double terrain_top_z = ctx_.terrain_max_z + radius_m_;
+
+  flight::TrajectoryIntegrator integ(model_, st_.rtol);
+  integ.reset(t_start, p_start, v_start);
+  Vec3 p0 = p_start, v0 = v_start;
+  Vec3 a0 = model_.acceleration(p0, v0);
+  FlightEvent ev;
+  while (true) {
+    bool ok;
+    {
+      SectionTimer timer(prof_, out_.integration_s);
+      ok = integ.step(st_.max_flight_time_s);
+    }
+    if (!ok) {
+      ev.end = integ.t() >= st_.max_flight_time_s ? FlightEnd::kMaxTime : FlightEnd::kIntegrationFailed;
+      ev.t = integ.t();
+      ev.p = integ.position();
+      ev.v = integ.velocity();
+      break;
+    }
+    ++out_.stats.integrator_steps;
+    const double t0 = integ.t_prev(), t1 = integ.t();
+    const Vec3 p1 = integ.position(), v1 = integ.velocity(), a1 = integ.acceleration();
+    if (record_trajectory_) {
+      traj_.t_s.push_back(t1);
+      traj_.position_m.push_back(site_.to_input(p1));
+    }
+
+    bool done = false;
+    // Under gravity and drag in still or sinking air z(t) has no interior minimum within a step
+    // (z'' = -g - k|v_rel| (v_z - w_z) < 0 where v_z = 0 and w_z <= 0), so the step's lowest
+    // point is one of its ends and steps above everything are free. An updraft (w_z > 0) can
+    // make z'' > 0 at rest: then every step is examined.
+    if (!ctx_.step_min_at_ends || std::min(p0.z(), p1.z()) <= top_z) {
+      // Curvature at both ends and in the middle (an apex inside the step is where it peaks).
+      const double tm = 0.5 * (t0 + t1);
+      const Vec3 vm = integ.velocity(tm);
+      const double kappa = std::max(
+          {impact::path_curvature(v0, a0), impact::path_curvature(v1, a1),
+           impact::path_curvature(vm, model_.acceleration(integ.position(tm), vm))});
+      const int n = impact::chord_count((p1 - p0).norm(), kappa, st_.sagitta_m);
+      out_.stats.chords += n;
+      Vec3 pa = p0;
+      double ta = t0;
+      for (int k = 1; k <= n && !done; ++k) {
+        const double tb = (k == n) ? t1 : t0 + (t1 - t0) * k / n;
+        const Vec3 pb = (k == n) ? p1 : integ.position(tb);
+        const double zlo = std::min(pa.z(), pb.z());
+        if (zlo > top_z) {
+          ++out_.stats.chords_skipped;
+          pa = pb;
+          ta = tb;
+          continue;
+        }
+        unsigned mask = 0;
+        if (zlo <= ctx_.terrain_max_z) mask |= scene::kQueryTerrain;
+        if (site_.has_buildings() && zlo <= bb.hi.z() &&
+            std::max(pa.x(), pb.x()) >= bb.lo.x() && std::min(pa.x(), pb.x()) <= bb.hi.x() &&
+            std::max(pa.y(), pb.y()) >= bb.lo.y() && std::min(pa.y(), pb.y()) <= bb.hi.y()) {
+          mask |= scene::kQueryBuildings;
+        }
+        std::optional<scene::SceneHit> hit;
+        if (mask != 0) {
+          SectionTimer timer(prof_, out_.geometry_s);
+          ++out_.stats.scene_queries;
+          // tfar slightly beyond 1: a hit exactly at a chord junction is never lost.
+          const Vec3 d = pb - pa;
+          double tnear = 0.0;
+          hit = site_.intersect(pa, d, tnear, 1.0 + 1e-7, mask);
+          // A surface met from behind (moving away from it) is where the path starts on it,
+          // e.g. a launch from ground level or a bounce: look past it. Bounded: at most a few
+          // surfaces can pass through one point.
+          for (int skip = 0; hit && hit->normal.dot(d) >= 0.0 && skip < 4; ++skip) {
+            tnear = hit->t + 1e-9;
+            hit = site_.intersect(pa, d, tnear, 1.0 + 1e-7, mask);
+          }
+          if (hit && hit->normal.dot(d) >= 0.0) hit.reset();
+        }
+        // The centre's path meets a surface: refine on the interpolant against the hit
+        // triangle's plane (the chord hit point is on that plane). Bracket within the step.
+        double t_hit = tb;
+        if (hit) {
+          const Vec3 q = pa + hit->t * (pb - pa);
+          auto pos = [&](double t) { return integ.position(t); };
+          double th = impact::refine_plane_crossing(pos, hit->normal, q, ta, tb);
+          if (std::isnan(th)) th = impact::refine_plane_crossing(pos, hit->normal, q, t0, t1);
+          if (std::isnan(th)) th = ta + hit->t * (tb - ta);  // arc skims the plane: chord hit
+          t_hit = th;
+        }
+        // A finite body touches the terrain before its centre gets there.
+        std::optional<FlightEvent> touch;
+        if (body_contacts && zlo <= terrain_top_z) {
+          SectionTimer timer(prof_, out_.geometry_s);
+          touch = body_terrain_contact(integ, ta, t_hit,
+                                       hit && hit->terrain ? static_cast<std::int64_t>(hit->triangle) : -1);
+        }
+        if (touch) {
+          ev = *touch;
+          done = true;
+        } else if (hit) {
+          ev.t = t_hit;
+          ev.p = integ.position(t_hit);
+          ev.v = integ.velocity(t_hit);
+          ev.normal = hit->normal;
+          ev.triangle = hit->triangle;
+          ev.material = hit->material;
+          ev.end = hit->terrain ? FlightEnd::kTerrain : FlightEnd::kBuilding;
+          ev.building = hit->building;
+          ev.surface = hit->surface;
+          done = true;
+        }
+        // The path for the PTN tally: the chord, up to the contact (chord parameter ~ time).
+        double s_end = 1.0;
+        if (touch) {
+          s_end = tb > ta ? std::clamp((touch->t - ta) / (tb - ta), 0.0, 1.0) : 0.0;
+        } else if (hit) {
+          s_end = std::min(hit->t, 1.0);
+        }
+        add_ptn_segment(pa, pa + s_end * (pb - pa), [&](double s) {
+          return integ.velocity(ta + s * s_end * (tb - ta));
+        });
+        pa = pb;
+        ta = tb;
+      }
+      // Guard: a path that slipped through the terrain (e.g. exactly through a shared vertex
+      // in float precision) is caught here and its crossing located on the interpolant.
+      if (!done && !plane && p1.z() <= ctx_.terrain_max_z) {
+        const double h1 = site_.terrain_height(p1.x(), p1.y());
+        if (!std::isnan(h1) && p1.z() < h1 - 1e-6) {
+          double lo = t0, hi = t1;
+          for (int it = 0; it < 60; ++it) {
+            const double t_mid = 0.5 * (lo + hi);
+            const Vec3 pm = integ.position(t_mid);
+            const double hm = site_.terrain_height(pm.x(), pm.y());
+            if (std::isnan(hm) || pm.z() >= hm) lo = t_mid; else hi = t_mid;
+          }
+          ev.end = FlightEnd::kTerrain;
+          ev.t = hi;
+          ev.p = integ.position(hi);
+          ev.v = integ.velocity(hi);
+          const std::int64_t tri = site_.terrain_triangle_at(ev.p.x(), ev.p.y());
+          ev.triangle = tri < 0 ? 0u : static_cast<std::uint32_t>(tri);
+          ev.normal = tri < 0 ? Vec3::UnitZ() : site_.terrain_triangle_normal(ev.triangle);
+          ev.material = site_.terrain_material();
+          done = true;
+        }
+      }
+    }
+    if (done) break;
+    if (!site_.terrain_bounds().contains_xy(p1.x(), p1.y())) {
+      ev = {FlightEnd::kLeftSite, t1, p1, v1};
+      break;
+    }
+    if (can_never_matter(p1, v1)) {
+      ev = {FlightEnd::kHarmless, t1, p1, v1};
+      break;
+    }
+    p0 = p1;
+    v0 = v1;
+    a0 = a1;
+  }
+  out_.stats.rhs_evaluations += integ.rhs_evaluations();
+  return ev;
+}
+
+void History::building_hit(const FlightEvent& ev) {
+  const scene::Material& mat = site_.materials()[ev.material];
+  const double vn = ev.v.dot(ev.normal);
+  const double ke = 0.5 * mass_ * ev.v.squaredNorm();
+  const double ke_normal = 0.5 * mass_ * vn * vn;
+  const double area = init_.body.presented_area_m2;
+  end_.outcome = Outcome::kBuilding;
+  end_.building = static_cast<std::int32_t>(ev.building);
+  end_.surface = static_cast<std::int32_t>(ev.surface);
+  // Penetration: normal kinetic energy per presented area above the material's threshold; the
+  // wall absorbs the threshold energy, the rest is residual.
+  end_.penetrated = ke_normal > mat.penetration_ke_per_area_j_per_m2 * area;
+  end_.residual_ke_j = end_.penetrated ? ke - mat.penetration_ke_per_area_j_per_m2 * area : 0.0;
+}
+
+void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) {
+  impact::GroundMotionInput in;
+  in.t_s = t;
+  in.position_m = p;
+  in.velocity_mps = v;
+  in.clearance_m = clearance_m;
+  in.rolling = body_.type == fragments::ShapeType::kSphere;
+  in.gravity_mps2 = g_;
+  in.t_max_s = st_.max_flight_time_s;
+  in.max_steps = st_.max_ground_steps;
+  const bool buildings = site_.has_buildings();
+  const Box3& bb = site_.buildings_bounds();
+  std::optional<FlightEvent> hit_building;
+  bool harmless = false;
+  const auto on_segment = [&](const Vec3& a, const Vec3& b, double ta, double tb, const Vec3& va,
+                              const Vec3& vb) {
+    if (record_trajectory_) {
+      traj_.t_s.push_back(tb);
+      traj_.position_m.push_back(site_.to_input(b));
+    }
+    double s_end = 1.0;
+    if (buildings && std::max(a.x(), b.x()) >= bb.lo.x() && std::min(a.x(), b.x()) <= bb.hi.x() &&
+        std::max(a.y(), b.y()) >= bb.lo.y() && std::min(a.y(), b.y()) <= bb.hi.y() &&
+        std::min(a.z(), b.z()) <= bb.hi.z()) {
+      SectionTimer timer(prof_, out_.geometry_s);
+      ++out_.stats.scene_queries;
+      const auto h = site_.intersect(a, b - a, 0.0, 1.0, scene::kQueryBuildings);
+      if (h && h->normal.dot(b - a) < 0.0) {
+        s_end = h->t;
+        FlightEvent ev;
+        ev.end = FlightEnd::kBuilding;
+        ev.t = ta + h->t * (tb - ta);
+        ev.p = a + h->t * (b - a);
+        ev.v = va + h->t * (vb - va);
+        ev.normal = h->normal;
+        ev.triangle = h->triangle;
+        ev.building = h->building;
+        ev.surface = h->surface;
+        ev.material = h->material;
+        hit_building = ev;
+      }
+    }
+    add_ptn_segment(a, a + s_end * (b - a), [&](double s) { return va + s * s_end * (vb - va); });
+    if (hit_building) return true;
+    harmless = can_never_matter(b, vb);
+    return harmless;
+  };
+  const impact::GroundMotionResult r = impact::move_on_ground(site_, in, on_segment);
+  out_.stats.ground_steps += r.steps;
+  ground_path_m_ = r.path_m;
+  end_.t = r.t_s;
+  end_.p = r.position_m;
+  end_.v = r.velocity_mps;
+  if (hit_building) {
+    note_first_impact(hit_building->t, hit_building->p, hit_building->v, hit_building->normal);
+    building_hit(*hit_building);
+    end_.t = hit_building->t;
+    end_.p = hit_building->p;
+    end_.v = hit_building->v;
+    return;
+  }
+  switch (r.end) {
+    case impact::GroundEnd::kRest:
+      end_.outcome = Outcome::kGround;
+      break;
+    case impact::GroundEnd::kLeftSite:
+      end_.outcome = Outcome::kLeftSite;
+      break;
+    case impact::GroundEnd::kMaxTime:
+      end_.outcome = Outcome::kMaxFlightTime;
+      break;
+    case impact::GroundEnd::kStoppedByCaller:
+      end_.outcome = harmless ? Outcome::kHarmless : Outcome::kGround;
+      break;
+    case impact::GroundEnd::kStepCap:
+      ++out_.stats.ground_step_caps;
+      end_.outcome = Outcome::kGround;  // counted in stats; not expected on a valid site
+      break;
+  }
+}
+
+void History::simulate() {
+  scratch_.ptn.clear();
+  if (record_trajectory_) {
+    traj_.group = group_;
+    traj_.history = static_cast<std::uint64_t>(history_);
+  }
+  const Vec3 p_launch = site_.to_local(init_.position_m);
+  end_.p = p_launch;
+  end_.v = init_.velocity_mps;
+  set_rotation({init_.orientation, init_.omega_body_radps}, 0.0);
+  rot_rtol_ = st_.rtol;  // the attitude at a contact as accurate as the path
+
+  bool flying = true;
+  // ---- launch checks ----
+  if (!site_.terrain_bounds().contains_xy(p_launch.x(), p_launch.y())) {
+    end_.outcome = Outcome::kLeftSite;
+    flying = false;
+  } else {
+    const double h = site_.terrain_height(p_launch.x(), p_launch.y());
+    if ((!std::isnan(h) && p_launch.z() < h - 1e-6) ||
+        (site_.has_buildings() && site_.inside_building(p_launch))) {
+      end_.outcome = Outcome::kStartedInside;
+      flying = false;
+    } else if (can_never_matter(p_launch, init_.velocity_mps)) {
+      end_.outcome = Outcome::kHarmless;
+      flying = false;
+    }
+  }
+  if (flying && record_trajectory_) {
+    traj_.t_s.push_back(0.0);
+    traj_.position_m.push_back(site_.to_input(p_launch));
+  }
+
+  Vec3 p = p_launch, v = init_.velocity_mps;
+  double t = 0.0;
+  while (flying) {
+    const FlightEvent ev = fly(p, v, t);
+    end_.t = ev.t;
+    end_.p = ev.p;
+    end_.v = ev.v;
+    flying = false;
+    switch (ev.end) {
+      case FlightEnd::kBuilding:
+        note_first_impact(ev.t, ev.p, ev.v, ev.normal);
+        building_hit(ev);
+        break;
+      case FlightEnd::kLeftSite:
+        end_.outcome = Outcome::kLeftSite;
+        break;
+      case FlightEnd::kMaxTime:
+        end_.outcome = Outcome::kMaxFlightTime;
+        break;
+      case FlightEnd::kHarmless:
+        end_.outcome = Outcome::kHarmless;
+        break;
+      case FlightEnd::kIntegrationFailed:
+        end_.outcome = Outcome::kIntegrationFailed;
+        break;
+      case FlightEnd::kTerrain: {
+        note_first_impact(ev.t, ev.p, ev.v, ev.normal);
+        end_.outcome = Outcome::kGround;
+        if (!st_.bounce) break;  // without bounce the first ground impact ends the history
+        // ---- bounce (paper eqs. 6-36) ----
+        const flight::RotationState rs = rotation(ev.t);
+        const Quat q = rs.q.normalized();
+        const Vec3 omega = q * rs.omega_body;
+        const scene::Material& mat = site_.materials()[ev.material];
+        const impact::TerrainBounce b =
+            impact::bounce_on_terrain(body_, mass_, q, ev.v, omega, ev.normal, mat, flat_tol_m_);
+        ++bounces_;
+        ++out_.stats.bounces;
+        const Vec3 v_after = b.collision.impact ? b.collision.velocity_mps : ev.v;
+        const Vec3 w_after = b.collision.impact ? b.collision.omega_radps : omega;
+        const double rebound = v_after.dot(ev.normal);
+        const double clearance_m = fragments::support_extent(body_, q, -ev.normal);
+        if (rebound < st_.min_rebound_speed_mps || bounces_ >= st_.max_bounces) {
+          slide(ev.p, v_after, ev.t, clearance_m);
+        } else if (can_never_matter(ev.p, v_after)) {
+          end_.outcome = Outcome::kHarmless;
+        } else {
+          p = ev.p;
+          v = v_after;
+          t = ev.t;
+          set_rotation({q, q.conjugate() * w_after}, t);
+          flying = true;
+        }
+        break;
+      }
+    }
+  }
+  if (record_trajectory_ && end_.outcome != Outcome::kMaxFlightTime &&
+      end_.outcome != Outcome::kStartedInside && end_.outcome != Outcome::kLeftSite &&
+      (traj_.t_s.empty() || traj_.t_s.back() != end_.t)) {
+    traj_.t_s.push_back(end_.t);
+    traj_.position_m.push_back(site_.to_input(end_.p));
+  }
+  finish();
+}
+
+void History::finish() {
+  // ---- per-history tally records (deduplicated: a prism counts once per history) ----
+  {
+    SectionTimer timer(prof_, out_.tally_s);
+    auto& v = scratch_.ptn;
+    std::stable_sort(v.begin(), v.end(), [](const PtnContribution& x, const PtnContribution& y) {
+      return x.triangle < y.triangle;
+    });
+    std::uint32_t last = std::numeric_limits<std::uint32_t>::max();
+    for (const auto& c : v) {
+      if (c.triangle == last) continue;  // first crossing of that prism wins
+      out_.ptn.push_back(c);
+      last = c.triangle;
+    }
+    out_.ptn_end.push_back(static_cast<std::uint32_t>(out_.ptn.size()));
+    if (end_.outcome == Outcome::kBuilding) {
+      out_.building_index.push_back(static_cast<std::int32_t>(out_.buildings.size()));
+      out_.buildings.push_back({static_cast<std::uint32_t>(end_.building),
+                                static_cast<std::uint8_t>(end_.surface), end_.penetrated,
+                                end_.residual_ke_j});
+    } else {
+      out_.building_index.push_back(-1);
+    }
+    out_.outcomes.push_back(end_.outcome);
+  }
+  if (st_.record_fragments) {
+    FragmentRecord r;
+    r.group = group_;
+    r.history = static_cast<std::uint64_t>(history_);
+    r.weight = weight_;
+    r.mass_kg = mass_;
+    r.area_m2 = init_.body.presented_area_m2;
+    r.launch_position_m = init_.position_m;
+    r.launch_velocity_mps = init_.velocity_mps;
+    r.outcome = end_.outcome;
+    r.end_time_s = end_.t;
+    r.end_position_m = site_.to_input(end_.p);
+    r.end_velocity_mps = end_.v;
+    if (first_.seen) {
+      r.first_impact_time_s = first_.t;
+      r.first_impact_position_m = site_.to_input(first_.p);
+      r.first_impact_velocity_mps = first_.v;
+      r.impact_angle_deg = first_.angle_deg;
+      r.impact_ke_j = 0.5 * mass_ * first_.v.squaredNorm();
+    }
+    r.building = end_.building;
+    r.surface = end_.surface;
+    r.penetrated = end_.penetrated;
+    r.residual_ke_j = end_.residual_ke_j;
+    r.bounces = bounces_;
+    r.ground_path_m = ground_path_m_;
+    out_.records.push_back(r);
+  }
+  if (record_trajectory_) out_.trajectories.push_back(std::move(traj_));
+}
 
 }  // namespace
 
@@ -74,297 +783,8 @@ RunContext::RunContext(const Scenario& sc, const scene::Site& s)
 
 void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,
                       bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out) {
-  const Scenario& sc = *ctx.scenario;
-  const Settings& st = sc.settings;
-  const scene::Site& site = *ctx.site;
-  const auto& grp = sc.groups[group];
-  const bool prof = st.profile;
-
-  const fragments::FragmentInit init =
-      fragments::sample_fragment(grp, group, static_cast<std::uint64_t>(history), st.seed);
-  const double mass = init.body.mass_kg;
-  const double weight = init.weight;
-  const double g = sc.gravity_mps2;
-
-  flight::FlightModel model;
-  model.atmosphere = &ctx.atmosphere;
-  model.cd = &ctx.cd[group];
-  model.gravity_mps2 = g;
-  model.area_m2 = init.body.presented_area_m2;
-  model.mass_kg = mass;
-  model.altitude_offset_m = site.altitude_offset_m();
-
-  scratch.ptn.clear();
-  TrajectoryRecord traj;
-  if (record_trajectory) {
-    traj.group = group;
-    traj.history = static_cast<std::uint64_t>(history);
-  }
-
-  const Vec3 p_launch = site.to_local(init.position_m);
-  EndState end;
-  end.p = p_launch;
-  end.v = init.velocity_mps;
-
-  // Can this fragment ever matter again? Drag only removes energy, so its kinetic energy can never
-  // exceed KE + m g (z - lowest terrain). Below the hazardous threshold it cannot add to the PTN
-  // density; with no buildings on the site nothing else is tallied, so tracking stops.
-  auto can_never_matter = [&](const Vec3& p, const Vec3& v) {
-    if (site.has_buildings()) return false;
-    const double ke_max = 0.5 * mass * v.squaredNorm() + mass * g * (p.z() - ctx.terrain_min_z);
-    return ke_max < st.hazardous_ke_j;
-  };
-
-  auto add_ptn_segment = [&](const Vec3& a, const Vec3& b, double ta, double tb,
-                             const flight::TrajectoryIntegrator& integ) {
-    if (std::min(a.z(), b.z()) > ctx.prisms.top_z()) return;
-    SectionTimer timer(prof, out.tally_s);
-    site.terrain_index().for_each_candidate(
-        Vec2(a.x(), a.y()), Vec2(b.x(), b.y()), [&](std::uint32_t tri) {
-          ++out.stats.ptn_triangle_tests;
-          double s_in, s_out;
-          if (!ctx.prisms.clip(tri, a, b, s_in, s_out)) return;
-          // State where the path enters the prism (chord parameter ~ time within one chord).
-          const Vec3 v = integ.velocity(ta + s_in * (tb - ta));
-          const double speed2 = v.squaredNorm();
-          if (0.5 * mass * speed2 < st.hazardous_ke_j || !(speed2 > 0.0)) return;
-          const double area = ctx.prisms.projected_area(tri, v / std::sqrt(speed2));
-          if (area > 0.0) scratch.ptn.push_back({tri, weight / area});
-        });
-  };
-
-  bool done = false;
-  // ---- launch checks ----
-  if (!site.terrain_bounds().contains_xy(p_launch.x(), p_launch.y())) {
-    end.outcome = Outcome::kLeftSite;
-    done = true;
-  } else {
-    const double h = site.terrain_height(p_launch.x(), p_launch.y());
-    if ((!std::isnan(h) && p_launch.z() < h - 1e-6) ||
-        (site.has_buildings() && site.inside_building(p_launch))) {
-      end.outcome = Outcome::kStartedInside;
-      done = true;
-    } else if (can_never_matter(p_launch, init.velocity_mps)) {
-      end.outcome = Outcome::kHarmless;
-      done = true;
-    }
-  }
-
-  if (!done) {
-    flight::TrajectoryIntegrator integ(model, st.rtol);
-    integ.reset(0.0, p_launch, init.velocity_mps);
-    if (record_trajectory) {
-      traj.t_s.push_back(0.0);
-      traj.position_m.push_back(site.to_input(p_launch));
-    }
-    Vec3 p0 = p_launch, v0 = init.velocity_mps;
-    Vec3 a0 = model.acceleration(p0, v0);
-    const bool plane = site.terrain_is_plane();
-    const Box3& bb = site.buildings_bounds();
-    while (!done) {
-      bool ok;
-      {
-        SectionTimer timer(prof, out.integration_s);
-        ok = integ.step(st.max_flight_time_s);
-      }
-      if (!ok) {
-        end.outcome = integ.t() >= st.max_flight_time_s ? Outcome::kMaxFlightTime
-                                                         : Outcome::kIntegrationFailed;
-        end.t = integ.t();
-        end.p = integ.position();
-        end.v = integ.velocity();
-        break;
-      }
-      ++out.stats.integrator_steps;
-      const double t0 = integ.t_prev(), t1 = integ.t();
-      const Vec3 p1 = integ.position(), v1 = integ.velocity(), a1 = integ.acceleration();
-      if (record_trajectory) {
-        traj.t_s.push_back(t1);
-        traj.position_m.push_back(site.to_input(p1));
-      }
-
-      // Under gravity and drag in still or sinking air z(t) has no interior minimum within a step
-      // (z'' = -g - k|v_rel| (v_z - w_z) < 0 where v_z = 0 and w_z <= 0), so the step's lowest
-      // point is one of its ends and steps above everything are free. An updraft (w_z > 0) can
-      // make z'' > 0 at rest: then every step is examined.
-      if (!ctx.step_min_at_ends || std::min(p0.z(), p1.z()) <= ctx.top_z) {
-        // Curvature at both ends and in the middle (an apex inside the step is where it peaks).
-        const double tm = 0.5 * (t0 + t1);
-        const Vec3 vm = integ.velocity(tm);
-        const double kappa = std::max(
-            {impact::path_curvature(v0, a0), impact::path_curvature(v1, a1),
-             impact::path_curvature(vm, model.acceleration(integ.position(tm), vm))});
-        const int n = impact::chord_count((p1 - p0).norm(), kappa, st.sagitta_m);
-        out.stats.chords += n;
-        Vec3 pa = p0;
-        double ta = t0;
-        for (int k = 1; k <= n && !done; ++k) {
-          const double tb = (k == n) ? t1 : t0 + (t1 - t0) * k / n;
-          const Vec3 pb = (k == n) ? p1 : integ.position(tb);
-          const double zlo = std::min(pa.z(), pb.z());
-          if (zlo > ctx.top_z) {
-            ++out.stats.chords_skipped;
-            pa = pb;
-            ta = tb;
-            continue;
-          }
-          unsigned mask = 0;
-          if (zlo <= ctx.terrain_max_z) mask |= scene::kQueryTerrain;
-          if (site.has_buildings() && zlo <= bb.hi.z() &&
-              std::max(pa.x(), pb.x()) >= bb.lo.x() && std::min(pa.x(), pb.x()) <= bb.hi.x() &&
-              std::max(pa.y(), pb.y()) >= bb.lo.y() && std::min(pa.y(), pb.y()) <= bb.hi.y()) {
-            mask |= scene::kQueryBuildings;
-          }
-          std::optional<scene::SceneHit> hit;
-          if (mask != 0) {
-            SectionTimer timer(prof, out.geometry_s);
-            ++out.stats.scene_queries;
-            // tfar slightly beyond 1: a hit exactly at a chord junction is never lost.
-            const Vec3 d = pb - pa;
-            double tnear = 0.0;
-            hit = site.intersect(pa, d, tnear, 1.0 + 1e-7, mask);
-            // A surface met from behind (moving away from it) is where the path starts on it,
-            // e.g. a launch from ground level: look past it. Bounded: at most a few surfaces
-            // can pass through one point.
-            for (int skip = 0; hit && hit->normal.dot(d) >= 0.0 && skip < 4; ++skip) {
-              tnear = hit->t + 1e-9;
-              hit = site.intersect(pa, d, tnear, 1.0 + 1e-7, mask);
-            }
-            if (hit && hit->normal.dot(d) >= 0.0) hit.reset();
-          }
-          const double s_end = hit ? std::min(hit->t, 1.0) : 1.0;
-          add_ptn_segment(pa, pa + s_end * (pb - pa), ta, ta + s_end * (tb - ta), integ);
-          if (hit) {
-            // Refine on the interpolant against the hit triangle's plane; the chord hit point
-            // is on that plane. Bracket generously within the step.
-            const Vec3 q = pa + hit->t * (pb - pa);
-            auto pos = [&](double t) { return integ.position(t); };
-            double th = impact::refine_plane_crossing(pos, hit->normal, q, ta, tb);
-            if (std::isnan(th)) th = impact::refine_plane_crossing(pos, hit->normal, q, t0, t1);
-            if (std::isnan(th)) th = ta + hit->t * (tb - ta);  // arc skims the plane: chord hit
-            end.t = th;
-            end.p = integ.position(th);
-            end.v = integ.velocity(th);
-            end.angle_deg = impact::impact_angle_deg(end.v, hit->normal);
-            if (hit->terrain) {
-              impact::GroundImpact gi{th, end.p, end.v, hit->normal, hit->triangle, hit->material};
-              if (impact::respond_to_ground_impact(gi) == impact::GroundResponse::kStop) {
-                end.outcome = Outcome::kGround;
-                done = true;
-              }
-            } else {
-              const scene::Material& mat = site.materials()[hit->material];
-              const double vn = end.v.dot(hit->normal);
-              const double ke = 0.5 * mass * end.v.squaredNorm();
-              const double ke_normal = 0.5 * mass * vn * vn;
-              const double area = init.body.presented_area_m2;
-              end.outcome = Outcome::kBuilding;
-              end.building = static_cast<std::int32_t>(hit->building);
-              end.surface = static_cast<std::int32_t>(hit->surface);
-              // Penetration: normal kinetic energy per presented area above the material's
-              // threshold; the wall absorbs the threshold energy, the rest is residual.
-              end.penetrated = ke_normal > mat.penetration_ke_per_area_j_per_m2 * area;
-              end.residual_ke_j =
-                  end.penetrated ? ke - mat.penetration_ke_per_area_j_per_m2 * area : 0.0;
-              done = true;
-            }
-          }
-          pa = pb;
-          ta = tb;
-        }
-        // Guard: a path that slipped through the terrain (e.g. exactly through a shared vertex
-        // in float precision) is caught here and its crossing located on the interpolant.
-        if (!done && !plane && p1.z() <= ctx.terrain_max_z) {
-          const double h1 = site.terrain_height(p1.x(), p1.y());
-          if (!std::isnan(h1) && p1.z() < h1 - 1e-6) {
-            double lo = t0, hi = t1;
-            for (int it = 0; it < 60; ++it) {
-              const double t_mid = 0.5 * (lo + hi);
-              const Vec3 pm = integ.position(t_mid);
-              const double hm = site.terrain_height(pm.x(), pm.y());
-              if (std::isnan(hm) || pm.z() >= hm) lo = t_mid; else hi = t_mid;
-            }
-            end.t = hi;
-            end.p = integ.position(hi);
-            end.v = integ.velocity(hi);
-            end.angle_deg = impact::impact_angle_deg(end.v, Vec3::UnitZ());
-            end.outcome = Outcome::kGround;
-            done = true;
-          }
-        }
-      }
-      if (done) break;
-      if (!site.terrain_bounds().contains_xy(p1.x(), p1.y())) {
-        end.outcome = Outcome::kLeftSite;
-        end.t = t1;
-        end.p = p1;
-        end.v = v1;
-        break;
-      }
-      if (can_never_matter(p1, v1)) {
-        end.outcome = Outcome::kHarmless;
-        end.t = t1;
-        end.p = p1;
-        end.v = v1;
-        break;
-      }
-      p0 = p1;
-      v0 = v1;
-      a0 = a1;
-    }
-    out.stats.rhs_evaluations += integ.rhs_evaluations();
-    if (record_trajectory && done && end.outcome != Outcome::kMaxFlightTime) {
-      traj.t_s.push_back(end.t);
-      traj.position_m.push_back(site.to_input(end.p));
-    }
-  }
-
-  // ---- per-history tally records (deduplicated: a prism counts once per history) ----
-  {
-    SectionTimer timer(prof, out.tally_s);
-    auto& v = scratch.ptn;
-    std::stable_sort(v.begin(), v.end(), [](const PtnContribution& x, const PtnContribution& y) {
-      return x.triangle < y.triangle;
-    });
-    std::uint32_t last = std::numeric_limits<std::uint32_t>::max();
-    for (const auto& c : v) {
-      if (c.triangle == last) continue;  // first crossing of that prism wins
-      out.ptn.push_back(c);
-      last = c.triangle;
-    }
-    out.ptn_end.push_back(static_cast<std::uint32_t>(out.ptn.size()));
-    if (end.outcome == Outcome::kBuilding) {
-      out.building_index.push_back(static_cast<std::int32_t>(out.buildings.size()));
-      out.buildings.push_back({static_cast<std::uint32_t>(end.building),
-                               static_cast<std::uint8_t>(end.surface), end.penetrated,
-                               end.residual_ke_j});
-    } else {
-      out.building_index.push_back(-1);
-    }
-    out.outcomes.push_back(end.outcome);
-  }
-  if (st.record_fragments) {
-    FragmentRecord r;
-    r.group = group;
-    r.history = static_cast<std::uint64_t>(history);
-    r.weight = weight;
-    r.mass_kg = mass;
-    r.area_m2 = init.body.presented_area_m2;
-    r.launch_position_m = init.position_m;
-    r.launch_velocity_mps = init.velocity_mps;
-    r.outcome = end.outcome;
-    r.end_time_s = end.t;
-    r.end_position_m = site.to_input(end.p);
-    r.end_velocity_mps = end.v;
-    r.impact_angle_deg = end.angle_deg;
-    r.impact_ke_j = 0.5 * mass * end.v.squaredNorm();
-    r.building = end.building;
-    r.surface = end.surface;
-    r.penetrated = end.penetrated;
-    r.residual_ke_j = end.residual_ke_j;
-    out.records.push_back(r);
-  }
-  if (record_trajectory) out.trajectories.push_back(std::move(traj));
+  History h(ctx, group, history, record_trajectory, scratch, out);
+  h.simulate();
 }
 
 }  // namespace fragsim::run

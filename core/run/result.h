@@ -21,7 +21,7 @@ struct Estimate {
 
 // How a history ended.
 enum class Outcome : std::uint8_t {
-  kGround = 0,           // terrain impact (no bounce) / came to rest (bounce)
+  kGround = 0,           // terrain impact (no bounce) / came to rest on the terrain (bounce)
   kBuilding = 1,         // stopped by a building (impact; penetrated or not)
   kMaxFlightTime = 2,    // still flying at max_flight_time_s
   kLeftSite = 3,         // left the terrain's horizontal extent
@@ -54,8 +54,12 @@ struct FragmentRecord {
   double end_time_s = 0.0;
   Vec3 end_position_m{0, 0, 0};  // input coordinates: impact / rest / last position
   Vec3 end_velocity_mps{0, 0, 0};
-  double impact_angle_deg = 0.0;  // between velocity and surface at the impact, 0 = grazing
-  double impact_ke_j = 0.0;
+  // First impact (terrain or building); without bounce it is also where the history ended.
+  double first_impact_time_s = -1.0;  // -1: no impact
+  Vec3 first_impact_position_m{0, 0, 0};  // input coordinates
+  Vec3 first_impact_velocity_mps{0, 0, 0};
+  double impact_angle_deg = 0.0;  // first impact: between velocity and surface, 0 = grazing
+  double impact_ke_j = 0.0;       // first impact
   std::int32_t building = -1;     // index into buildings, -1 none
   std::int32_t surface = -1;      // SurfaceType of the building hit
   bool penetrated = false;
@@ -90,6 +94,9 @@ struct RunStats {
   std::int64_t scene_queries = 0;       // Embree/analytic segment queries actually made
   std::int64_t chords_skipped = 0;      // chords above everything: no query needed
   std::int64_t ptn_triangle_tests = 0;
+  std::int64_t bounces = 0;        // terrain impacts resolved by the impulse model
+  std::int64_t ground_steps = 0;   // slide/roll steps
+  std::int64_t ground_step_caps = 0;  // histories stopped by max_ground_steps (expected 0)
 };
 
 struct RunResult {

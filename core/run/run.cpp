@@ -89,6 +89,9 @@ class Reducer {
     stats_.scene_queries += c.stats.scene_queries;
     stats_.chords_skipped += c.stats.chords_skipped;
     stats_.ptn_triangle_tests += c.stats.ptn_triangle_tests;
+    stats_.bounces += c.stats.bounces;
+    stats_.ground_steps += c.stats.ground_steps;
+    stats_.ground_step_caps += c.stats.ground_step_caps;
     integration_s_ += c.integration_s;
     geometry_s_ += c.geometry_s;
     tally_s_ += c.tally_s;

@@ -23,6 +23,11 @@ struct Settings {
   double rtol = 1e-6;                  // integrator.rtol
   double sagitta_m = 0.05;             // integrator.sagitta_m: chord sagitta tolerance
   bool bounce = false;                 // ground impact ends the history when false
+  // Bounce limits (settings.bounce_limits): after a bounce whose centre-of-mass rebound speed
+  // along the normal is below the floor, or after max_bounces, the fragment slides or rolls.
+  double min_rebound_speed_mps = 0.5;  // hop height v^2 / 2g = 1.3 cm
+  std::int64_t max_bounces = 100;
+  std::int64_t max_ground_steps = 100000;
   int threads = 0;                     // 0: all hardware threads
   std::int64_t chunk_histories = 256;  // scheduling granularity (results do not depend on it)
   bool record_fragments = false;       // per-history table in results.h5

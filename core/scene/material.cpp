@@ -36,6 +36,32 @@ double Material::restitution_at(double normal_speed_mps) const {
   return e[k - 1] + w * (e[k] - e[k - 1]);
 }
 
+std::optional<MaterialSpec> builtin_ground_material(const std::string& name) {
+  // Friction: the paper's values (0.5 hard surface, 0.9 soft ground). Restitution: the paper
+  // prints no table (its Fig. 2 is a curve reaching about 0.55 for the hard surface), so these
+  // are ILLUSTRATIVE: the velocity-dependent form of Pfeiffer & Bowen (1989, rockfall),
+  // e(v_n) = e0 / (1 + (v_n / 9.144 m/s)^2), tabulated, with e0 = 0.55 (hard, the peak of the
+  // paper's Fig. 2) and 0.35 (soft, chosen lower than hard; not sourced).
+  double e0 = 0.0;
+  MaterialSpec m;
+  if (name == "hard") {
+    m.friction = 0.5;
+    e0 = 0.55;
+  } else if (name == "soft") {
+    m.friction = 0.9;
+    e0 = 0.35;
+  } else {
+    return std::nullopt;
+  }
+  for (const double v : {0.0, 1.0, 2.0, 4.0, 7.0, 10.0, 15.0, 20.0, 30.0, 50.0, 100.0, 300.0}) {
+    const double x = v / 9.144;
+    m.restitution.normal_speed_mps.push_back(v);
+    m.restitution.e.push_back(std::round(1e4 * e0 / (1.0 + x * x)) / 1e4);
+  }
+  m.restitution.constant = m.restitution.e.front();
+  return m;
+}
+
 std::uint16_t material_id(const MaterialIds& ids, const std::string& name,
                           const std::string& field) {
   if (name.empty()) detail::fail(field, "missing material name");
@@ -48,6 +74,7 @@ namespace {
 
 void validate_material(const MaterialSpec& m, const std::string& field) {
   detail::require_at_least(m.friction, 0.0, field + ".friction");
+  detail::require_at_least(m.rolling_resistance, 0.0, field + ".rolling_resistance");
   const RestitutionSpec& r = m.restitution;
   const std::string rf = field + ".restitution";
   if (r.normal_speed_mps.empty() && r.e.empty()) {
@@ -85,6 +112,7 @@ MaterialIds SiteBuilder::build_materials(Site& site, const SiteSpec& spec) {
     Material out;
     out.name = name;
     out.friction = m.friction;
+    out.rolling_resistance = m.rolling_resistance;
     out.restitution = m.restitution;
     if (m.penetration_ke_per_area_j_per_m2)
       out.penetration_ke_per_area_j_per_m2 = *m.penetration_ke_per_area_j_per_m2;

@@ -85,29 +85,24 @@ Vec3 Site::terrain_triangle_centroid(std::uint32_t t) const {
   return (terrain_vertices_[tri[0]] + terrain_vertices_[tri[1]] + terrain_vertices_[tri[2]]) / 3.0;
 }
 
-double Site::terrain_height(double x, double y) const {
-  if (terrain_is_plane_) return terrain_bounds_.contains_xy(x, y) ? plane_elevation_ : kNaN;
+std::int64_t Site::terrain_triangle_at(double x, double y) const {
   if (terrain_is_lattice_) {
-    // Grid: the cell and the side of its (i,j)-(i+1,j+1) diagonal give the one triangle.
+    // Plane or grid: the cell and the side of its (i,j)-(i+1,j+1) diagonal give the one triangle.
     const double fx = (x - index_.origin.x()) / index_.cell.x();
     const double fy = (y - index_.origin.y()) / index_.cell.y();
-    if (!(fx >= 0 && fy >= 0 && fx <= index_.nx && fy <= index_.ny)) return kNaN;
+    if (!(fx >= 0 && fy >= 0 && fx <= index_.nx && fy <= index_.ny)) return -1;
     const int i = std::min(static_cast<int>(fx), index_.nx - 1);
     const int j = std::min(static_cast<int>(fy), index_.ny - 1);
     const std::size_t cell = static_cast<std::size_t>(j) * index_.nx + i;
-    const auto& tri = terrain_triangles_[2 * cell + ((fy - j) > (fx - i) ? 1 : 0)];
-    const Vec3& a = terrain_vertices_[tri[0]];
-    const Vec3& b = terrain_vertices_[tri[1]];
-    const Vec3& c = terrain_vertices_[tri[2]];
-    const double area2 = orient(a, b, c.x(), c.y());
-    const double la = orient(b, c, x, y) / area2, lb = orient(c, a, x, y) / area2;
-    return la * a.z() + lb * b.z() + (1.0 - la - lb) * c.z();
+    return static_cast<std::int64_t>(2 * cell + ((fy - j) > (fx - i) ? 1 : 0));
   }
   // Barycentric coordinates in the xy-projection (triangles are counter-clockwise from above).
   // The 1e-9 allowance makes points on shared edges and vertices belong to every triangle that
-  // has them, so no point of the terrain falls between two triangles through rounding.
+  // has them, so no point of the terrain falls between two triangles through rounding. With
+  // overhangs, the triangle with the highest surface at (x, y) wins.
   constexpr double kTol = 1e-9;
   double best = -std::numeric_limits<double>::infinity();
+  std::int64_t best_t = -1;
   index_.for_each_candidate_at(Vec2(x, y), [&](std::uint32_t t) {
     const auto& tri = terrain_triangles_[t];
     const Vec3& a = terrain_vertices_[tri[0]];
@@ -117,10 +112,31 @@ double Site::terrain_height(double x, double y) const {
     const double la = orient(b, c, x, y) / area2;
     const double lb = orient(c, a, x, y) / area2;
     const double lc = 1.0 - la - lb;
-    if (la >= -kTol && lb >= -kTol && lc >= -kTol)
-      best = std::max(best, la * a.z() + lb * b.z() + lc * c.z());
+    if (la >= -kTol && lb >= -kTol && lc >= -kTol) {
+      const double z = la * a.z() + lb * b.z() + lc * c.z();
+      if (z > best || (z == best && static_cast<std::int64_t>(t) < best_t)) {
+        best = z;
+        best_t = t;
+      }
+    }
   });
-  return std::isfinite(best) ? best : kNaN;
+  return best_t;
+}
+
+double Site::terrain_plane_height(std::uint32_t t, double x, double y) const {
+  const auto& tri = terrain_triangles_[t];
+  const Vec3& a = terrain_vertices_[tri[0]];
+  const Vec3& b = terrain_vertices_[tri[1]];
+  const Vec3& c = terrain_vertices_[tri[2]];
+  const double area2 = orient(a, b, c.x(), c.y());
+  const double la = orient(b, c, x, y) / area2, lb = orient(c, a, x, y) / area2;
+  return la * a.z() + lb * b.z() + (1.0 - la - lb) * c.z();
+}
+
+double Site::terrain_height(double x, double y) const {
+  if (terrain_is_plane_) return terrain_bounds_.contains_xy(x, y) ? plane_elevation_ : kNaN;
+  const std::int64_t t = terrain_triangle_at(x, y);
+  return t < 0 ? kNaN : terrain_plane_height(static_cast<std::uint32_t>(t), x, y);
 }
 
 std::optional<SceneHit> Site::intersect_embree(const Vec3& org, const Vec3& dir, double tnear,

@@ -28,6 +28,7 @@ namespace fragsim::scene {
 struct Material {
   std::string name;
   double friction = 0.5;
+  double rolling_resistance = 0.1;
   RestitutionSpec restitution;
   double penetration_ke_per_area_j_per_m2 = std::numeric_limits<double>::infinity();
   // e at a given normal impact speed (constant or table, clamped).
@@ -125,6 +126,11 @@ class Site {
   // Height of the terrain surface at (x, y) (local); NaN outside the terrain's projection.
   // For a mesh with overhangs: the highest surface at (x, y).
   double terrain_height(double x, double y) const;
+  // The terrain triangle whose surface is highest at (x, y) (the one terrain_height uses);
+  // -1 outside the terrain's projection.
+  std::int64_t terrain_triangle_at(double x, double y) const;
+  // Height at (x, y) of the plane through terrain triangle t (also outside the triangle).
+  double terrain_plane_height(std::uint32_t t, double x, double y) const;
   const TerrainIndex2D& terrain_index() const { return index_; }
   std::uint16_t terrain_material() const { return terrain_material_; }
 

@@ -16,7 +16,7 @@ inline constexpr int kSurfaceTypeCount = 4;
 const char* surface_type_name(SurfaceType s);  // "terrain", "wall", "roof", "window"
 
 // Coefficient of restitution: a constant, or a table of e against normal impact speed
-// (linear interpolation, clamped at the ends). Used by the bounce issue; parsed and validated now.
+// (linear interpolation, clamped at the ends). Used by the bounce model.
 struct RestitutionSpec {
   double constant = 0.0;
   std::vector<double> normal_speed_mps;  // strictly increasing, >= 0; empty => constant
@@ -26,10 +26,19 @@ struct RestitutionSpec {
 struct MaterialSpec {
   double friction = 0.5;  // Coulomb coefficient, >= 0
   RestitutionSpec restitution;
+  // Rolling resistance coefficient (resisting force / normal load) for round fragments rolling
+  // on the surface after their bounces (docs/physics.md, "Slide, roll and rest"). The default is
+  // illustrative, not sourced.
+  double rolling_resistance = 0.1;
   // Penetration threshold: kinetic energy of the normal velocity component per presented area.
   // Absent => the surface is never penetrated.
   std::optional<double> penetration_ke_per_area_j_per_m2;
 };
+
+// The ground materials the paper uses (friction 0.5 hard surface, 0.9 soft ground), available to
+// every site under the names "hard" and "soft" unless the site defines a material of that name.
+// Their restitution tables are illustrative (see material.cpp). nullopt for any other name.
+std::optional<MaterialSpec> builtin_ground_material(const std::string& name);
 
 struct PlaneTerrainSpec {
   double elevation_m = 0.0;

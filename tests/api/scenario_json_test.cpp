@@ -211,12 +211,43 @@ TEST(ScenarioJson, NonFiniteNumbersAreRejected) {
 
 // ---- Ranges ----
 
-// The bounce model is its own issue; until it exists, asking for it is an error, not a no-op.
-TEST(ScenarioJson, BounceIsRefusedUntilImplemented) {
-  const FieldMessage e = parse_error(with(minimal_example(), "/settings/bounce", true));
-  EXPECT_EQ(e.first, "settings.bounce");
-  EXPECT_NE(e.second.find("not implemented"), std::string::npos) << e.second;
-  EXPECT_EQ(parse_error(with(minimal_example(), "/settings/bounce", false)).first, "<no error>");
+TEST(ScenarioJson, BounceLimits) {
+  Json j = with(minimal_example(), "/settings/bounce", true);
+  j["settings"]["bounce_limits"] = {{"min_rebound_speed_mps", 0.2}, {"max_bounces", 7}};
+  const run::Settings s = parse_scenario_document(j).scenario.settings;
+  EXPECT_TRUE(s.bounce);
+  EXPECT_EQ(s.min_rebound_speed_mps, 0.2);
+  EXPECT_EQ(s.max_bounces, 7);
+  EXPECT_EQ(s.max_ground_steps, run::Settings{}.max_ground_steps);
+  j["settings"]["bounce_limits"]["max_bounces"] = 0;
+  EXPECT_EQ(parse_error(j),
+            (FieldMessage{"settings.bounce_limits.max_bounces", "must be >= 1 (got 0)"}));
+  j["settings"]["bounce_limits"] = {{"min_rebound_speed_mps", -1}};
+  EXPECT_EQ(parse_error(j), (FieldMessage{"settings.bounce_limits.min_rebound_speed_mps",
+                                          "must be >= 0 (got -1)"}));
+  j["settings"]["bounce_limits"] = {{"max_bounce", 3}};
+  EXPECT_EQ(parse_error(j).first, "settings.bounce_limits.max_bounce");
+}
+
+// A terrain that names "hard" or "soft" without defining it gets the built-in ground material,
+// and the normalised scenario records its values.
+TEST(ScenarioJson, BuiltinGroundMaterials) {
+  Json j = minimal_example();
+  j["site"]["terrain"]["material"] = "soft";
+  const ScenarioDocument doc = parse_scenario_document(j);
+  const auto& m = doc.scenario.site.materials.at("soft");
+  EXPECT_EQ(m.friction, 0.9);
+  EXPECT_FALSE(m.restitution.e.empty());
+  EXPECT_TRUE(doc.material_notes.at("soft").illustrative);
+  EXPECT_EQ(doc.scenario.site.materials.count("hard"), 0u);  // only what is used
+  const Json echoed = scenario_to_json(doc);
+  EXPECT_EQ(echoed["site"]["materials"]["soft"]["friction"], 0.9);
+  // A site's own definition wins.
+  j["site"]["materials"]["soft"] = {{"friction", 0.2}};
+  EXPECT_EQ(parse_scenario_document(j).scenario.site.materials.at("soft").friction, 0.2);
+  // Any other undefined name is still an error.
+  j["site"]["terrain"]["material"] = "medium";
+  EXPECT_EQ(parse_error(j).first, "site.terrain.material");
 }
 
 struct RangeCase {

@@ -1,0 +1,100 @@
+#include "core/fragments/support.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace fragsim::fragments {
+
+ContactBody contact_body(ShapeType type, const MassProperties& mp) {
+  ContactBody b;
+  b.type = type;
+  b.inertia_kg_m2 = mp.inertia_kg_m2;
+  switch (type) {
+    case ShapeType::kSphere:
+      b.half_m.setConstant(0.5 * mp.dims_m[0]);
+      break;
+    case ShapeType::kCuboid:
+    case ShapeType::kEllipsoid:
+      b.half_m = 0.5 * mp.dims_m;
+      break;
+    case ShapeType::kCylinder:
+      b.half_m = Vec3(0.5 * mp.dims_m[0], 0.5 * mp.dims_m[0], 0.5 * mp.dims_m[1]);
+      break;
+    case ShapeType::kPoint: {
+      // A small sphere of the same presented area (pi r^2 = A) and of the point's mass.
+      const double r = std::sqrt(std::max(mp.presented_area_m2, 0.0) / kPi);
+      b.type = ShapeType::kSphere;
+      b.half_m.setConstant(r);
+      b.inertia_kg_m2.setConstant(0.4 * mp.mass_kg * r * r);
+      break;
+    }
+  }
+  return b;
+}
+
+double bounding_radius(const ContactBody& b) {
+  switch (b.type) {
+    case ShapeType::kCuboid:
+      return b.half_m.norm();  // a corner
+    case ShapeType::kCylinder:
+      return std::hypot(b.half_m[0], b.half_m[2]);  // a rim point
+    default:
+      return b.half_m.maxCoeff();  // sphere, ellipsoid
+  }
+}
+
+double support_extent(const ContactBody& b, const Quat& q, const Vec3& d) {
+  const Vec3 db = q.conjugate() * d;  // direction in body axes
+  const Vec3& a = b.half_m;
+  switch (b.type) {
+    case ShapeType::kCuboid:
+      return a.cwiseProduct(db).cwiseAbs().sum();
+    case ShapeType::kEllipsoid:
+      return a.cwiseProduct(db).norm();  // sqrt(d^T A^2 d), A = diag(semi-axes)
+    case ShapeType::kCylinder: {
+      const double c = std::clamp(db.z(), -1.0, 1.0);
+      return a.z() * std::abs(c) + a.x() * std::sqrt(std::max(0.0, 1.0 - c * c));
+    }
+    default:
+      return a.x();
+  }
+}
+
+Vec3 contact_point(const ContactBody& b, const Quat& q, const Vec3& n, double flat_tol_m) {
+  const Vec3 db = -(q.conjugate() * n);  // toward the plane, body axes
+  const Vec3& a = b.half_m;
+  Vec3 xb = Vec3::Zero();  // body axes
+  switch (b.type) {
+    case ShapeType::kCuboid:
+      // The two corners along axis i differ in height by 2 a_i |db_i|: when that is within the
+      // tolerance, both touch and the centroid lies on the mid-plane (coordinate 0).
+      for (int i = 0; i < 3; ++i) {
+        if (2.0 * a[i] * std::abs(db[i]) > flat_tol_m) xb[i] = std::copysign(a[i], db[i]);
+      }
+      break;
+    case ShapeType::kEllipsoid: {
+      // Strictly convex: one support point x = A^2 d / |A d|.
+      const double h = a.cwiseProduct(db).norm();
+      if (h > 0.0) xb = a.cwiseProduct(a).cwiseProduct(db) / h;
+      break;
+    }
+    case ShapeType::kCylinder: {
+      const double c = std::clamp(db.z(), -1.0, 1.0);
+      const double s = std::sqrt(std::max(0.0, 1.0 - c * c));
+      // End disks differ in height by 2 L |c|; the rim's lowest point is R s below the centre
+      // line, and the whole disk touches when R s is within the tolerance.
+      if (2.0 * a.z() * std::abs(c) > flat_tol_m) xb.z() = std::copysign(a.z(), c);
+      if (a.x() * s > flat_tol_m && s > 0.0) {
+        xb.x() = a.x() * db.x() / s;
+        xb.y() = a.x() * db.y() / s;
+      }
+      break;
+    }
+    default:
+      xb = a.x() * db;  // sphere: |db| = 1
+      break;
+  }
+  return q * xb;
+}
+
+}  // namespace fragsim::fragments

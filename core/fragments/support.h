@@ -1,0 +1,41 @@
+#pragma once
+// Contact geometry of the fragment shapes: how far a body reaches along a direction (its support
+// function) and where it touches a plane. The bounce model (core/impact) uses these to find when
+// an oriented body first touches a terrain triangle and the lever arm r of the contact impulse.
+//
+// All functions take the body's attitude q (body -> site) and work in site axes, relative to the
+// centre of mass. Convex bodies only (all fragment shapes are).
+#include "core/common/types.h"
+#include "core/fragments/group.h"
+#include "core/fragments/sampling.h"
+
+namespace fragsim::fragments {
+
+// The solid that touches the ground. A point mass behaves as a small sphere of the same
+// presented area (radius sqrt(A / pi)), as the bounce issue specifies.
+struct ContactBody {
+  ShapeType type = ShapeType::kSphere;  // never kPoint: resolved to kSphere
+  Vec3 half_m{0, 0, 0};  // sphere: (r, r, r); cuboid, ellipsoid: semi-axes; cylinder: (R, R, L/2)
+  Vec3 inertia_kg_m2{0, 0, 0};  // principal moments (a point mass gets the sphere's 2/5 m r^2)
+};
+
+ContactBody contact_body(ShapeType type, const MassProperties& mp);
+
+// Largest distance from the centre of mass to any point of the body: no part of the body is
+// farther away than this, whatever the attitude.
+double bounding_radius(const ContactBody& b);
+
+// Support function h(d) = max over body points x of d . x (x relative to the centre of mass,
+// site axes), for a unit direction d in site axes. The body touches a plane with unit normal n
+// when the centre's height above it equals support_extent(b, q, -n).
+double support_extent(const ContactBody& b, const Quat& q, const Vec3& d);
+
+// Where a body lying on a plane with unit normal n (pointing from the plane toward the body)
+// touches it, relative to the centre of mass in site axes: the centroid of the body's points
+// that lie within `flat_tol_m` of the lowest one. A vertex, an edge (its midpoint), a face (its
+// centre), a cylinder's end disk (its centre) or side line (its midpoint). Taking the centroid of
+// the whole contact set makes a face or edge landing symmetric: a cube landing flat gets its
+// impulse under its centre of mass and no spin, whatever the order in which corners are listed.
+Vec3 contact_point(const ContactBody& b, const Quat& q, const Vec3& n, double flat_tol_m);
+
+}  // namespace fragsim::fragments

@@ -1,0 +1,509 @@
+// Impulse-based rigid-body collision (paper eqs. 6-36; Mirtich 1996, ch. 4; physics notes,
+// "Impact: impulse-based bounce").
+//
+// Variables. The normal impulse s = p_z grows monotonically through the whole impact. In the
+// contact frame u = u0 + K_hat p (eq. 21); while sliding dp = zeta ds (eqs. 29-30) and the work
+// of the normal and tangential impulse is dW_z = u_z ds, dW_t = u_t . dp_t = -mu |u_t| ds.
+// Mirtich integrates in u_z during compression and in W_z during restitution because those end
+// at known values; both are singular somewhere (u_z when (K_hat zeta)_z = 0, the jam; W_z at
+// u_z = 0, the start of restitution). s never is, and the ends become events located on the
+// solution.
+//
+// Sliding is integrated in sigma with ds = |u_t| dsigma. Then
+//   dp_t/dsigma = -mu u_t,  ds/dsigma = |u_t|,  dW_z/dsigma = u_z |u_t|,  dW_t/dsigma = -mu |u_t|^2
+// with u_t, u_z linear in (p_t, s): linear but for the norm. In s the slip's direction turns at
+// rate g/|u_t| and u_t = 0 is reached at finite s - a branch point that caps any polynomial
+// method's step near sticking; in sigma it is reached only as sigma -> infinity and the slip
+// decays like exp(h sigma), an entire function. The ODE is solved by its Taylor series (order 14,
+// coefficients by the recurrences for products and square roots of series; Jorba & Zou 2005,
+// Experiment. Math. 14, for the step size rule), so a step covers ~1/5 of the radius of
+// convergence at 1e-11 |u0| and events are roots of the step's polynomials.
+//
+// Whenever zeta is constant the solution is a straight line in s and is taken exactly:
+//   - stable sticking: u_t stays 0, dp = K_hat^-1 du with du = (0, 0, du_z), i.e. zeta =
+//     K_hat^-1 e_z / (K_hat^-1)_33 and du_z/ds = 1/(K_hat^-1)_33;
+//   - unstable sticking: sliding resumes along the diverging ray (diverging_slip_direction);
+//   - the last approach to u_t = 0 (final_approach()), so the slip never overshoots through 0.
+// Work is closed-form on a straight segment (u_z linear in s, W_z quadratic), so the end of
+// compression and Stronge's end of restitution are solved exactly there.
+//
+// Stronge's hypothesis with several compression periods (u_z can turn negative again during
+// restitution after a jam): W_c is the total normal work done while u_z < 0 and the impact ends
+// when the total normal work reaches (1 - e^2) W_c. The kinetic energy changes by W_z + W_t
+// (u0.p + p.K_hat p / 2, path-independent since K_hat is symmetric), so it can never rise.
+#include "core/impact/collision.h"
+
+#include <algorithm>
+#include <cmath>
+#include <array>
+#include <limits>
+
+namespace fragsim::impact {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+// Tolerances, relative to U = |u0| (velocities) or W0 = u_z0^2 / K_hat_33 (work).
+constexpr int kOrder = 14;              // Taylor order (~ -ln(tol)/2, Jorba & Zou's optimum)
+constexpr double kStepTol = 1e-11;      // size of the last Taylor terms of a step
+constexpr double kSnapTol = 1e-11;      // error of the final straight approach to u_t = 0
+constexpr double kStuckTol = 1e-13;     // |u_t| below this counts as 0
+constexpr double kEndStickTol = 1e-9;   // ended_sticking
+constexpr int kMaxSteps = 500;          // then finish with a normal-only impulse
+
+// Taylor coefficients of the sliding solution in tau = sigma - sigma_0.
+struct Series {
+  using C = std::array<double, kOrder + 1>;
+  C px, py, s, wz, wt;  // state: tangential impulse, normal impulse, work
+  C ux, uy, uz, rho;    // contact velocity and slip |u_t|
+};
+
+double horner(const Series::C& c, double t) {
+  double v = c[kOrder];
+  for (int n = kOrder - 1; n >= 0; --n) v = v * t + c[static_cast<std::size_t>(n)];
+  return v;
+}
+
+// Root of the polynomial c(t) - offset in (0, h] given c(0) - offset < 0 <= c(h) - offset, by
+// the Illinois variant of regula falsi; returns the bracket end on the far side (>= 0).
+double poly_root(const Series::C& c, double offset, double h) {
+  double a = 0.0, b = h, fa = c[0] - offset, fb = horner(c, h) - offset;
+  int side = 0;
+  for (int it = 0; it < 200 && fb > 0.0 && b - a > 4.0 * kEps * b; ++it) {
+    double m = (a * fb - b * fa) / (fb - fa);
+    if (!(m > a && m < b)) m = 0.5 * (a + b);
+    const double fm = horner(c, m) - offset;
+    if (fm >= 0.0) {
+      b = m;
+      fb = fm;
+      if (side == 1) fa *= 0.5;
+      side = 1;
+    } else {
+      a = m;
+      fa = fm;
+      if (side == -1) fb *= 0.5;
+      side = -1;
+    }
+  }
+  return b;
+}
+
+Mat3 cross_matrix(const Vec3& r) {
+  Mat3 m;
+  m << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
+  return m;
+}
+
+class Solver {
+ public:
+  Solver(const Mat3& k_hat, const Vec3& u0, double e, double mu, CollisionResult& res)
+      : k_(k_hat), u0_(u0), e2_(e * e), mu_(mu), res_(res) {
+    scale_u_ = u0.norm();
+    scale_w_ = u0.z() * u0.z() / k_(2, 2);
+  }
+
+  // Impulse in the contact frame.
+  Vec3 run() {
+    if (mu_ == 0.0)
+      straight(Vec3(0, 0, 1), kInf);  // frictionless: dp = (0, 0, dp_z) throughout
+    else
+      slide();
+    if (!done_) finish_normal_only();
+    res_.work_compression_j = wc_;
+    res_.work_normal_j = wz_;
+    res_.work_friction_j = wt_;
+    return p_;
+  }
+
+ private:
+  Vec3 u() const { return u0_ + k_ * p_; }
+
+  // Taylor coefficients of the sliding solution from the current state (see the top).
+  void expand(Series& c) const {
+    const double a00 = k_(0, 0), a01 = k_(0, 1), a11 = k_(1, 1), kx = k_(0, 2), ky = k_(1, 2);
+    const double zx = k_(2, 0), zy = k_(2, 1), zz = k_(2, 2);
+    c.px[0] = p_.x();
+    c.py[0] = p_.y();
+    c.s[0] = p_.z();
+    c.wz[0] = wz_;
+    c.wt[0] = wt_;
+    for (std::size_t n = 0;; ++n) {
+      const double base = n == 0 ? 1.0 : 0.0;
+      c.ux[n] = base * u0_.x() + a00 * c.px[n] + a01 * c.py[n] + kx * c.s[n];
+      c.uy[n] = base * u0_.y() + a01 * c.px[n] + a11 * c.py[n] + ky * c.s[n];
+      c.uz[n] = base * u0_.z() + zx * c.px[n] + zy * c.py[n] + zz * c.s[n];
+      if (n == kOrder) break;
+      double q = 0.0, m = 0.0;  // coefficient n of |u_t|^2 and of u_z |u_t|
+      for (std::size_t j = 0; j <= n; ++j) q += c.ux[j] * c.ux[n - j] + c.uy[j] * c.uy[n - j];
+      if (n == 0) {
+        c.rho[0] = std::sqrt(q);
+      } else {  // |u_t|^2 = q: 2 rho_0 rho_n + sum_{j=1}^{n-1} rho_j rho_{n-j} = q_n
+        double r = q;
+        for (std::size_t j = 1; j < n; ++j) r -= c.rho[j] * c.rho[n - j];
+        c.rho[n] = r / (2.0 * c.rho[0]);
+      }
+      for (std::size_t j = 0; j <= n; ++j) m += c.rho[j] * c.uz[n - j];
+      const double inv = 1.0 / static_cast<double>(n + 1);
+      c.px[n + 1] = -mu_ * c.ux[n] * inv;
+      c.py[n + 1] = -mu_ * c.uy[n] * inv;
+      c.s[n + 1] = c.rho[n] * inv;
+      c.wz[n + 1] = m * inv;
+      c.wt[n + 1] = -mu_ * q * inv;
+    }
+  }
+
+  // Step in sigma from the last two Taylor terms (Jorba & Zou 2005, sec. 3.2): each below the
+  // tolerance, in contact velocity (kStepTol |u0|) and in normal work (kStepTol max(W0, |W_z|)).
+  double step_size(const Series& c) const {
+    const double tol_u = kStepTol * scale_u_;
+    const double tol_w = kStepTol * std::max(scale_w_, std::abs(wz_));
+    double h = kInf;
+    for (std::size_t n : {std::size_t{kOrder - 1}, std::size_t{kOrder}}) {
+      const double vn = std::sqrt(c.ux[n] * c.ux[n] + c.uy[n] * c.uy[n] + c.uz[n] * c.uz[n]);
+      const double e = 1.0 / static_cast<double>(n);
+      if (vn > 0.0) h = std::min(h, std::pow(tol_u / vn, e));
+      if (std::abs(c.wz[n]) > 0.0) h = std::min(h, std::pow(tol_w / std::abs(c.wz[n]), e));
+    }
+    return 0.95 * h;
+  }
+
+  void set_state(const Series& c, double t) {
+    p_ = Vec3(horner(c.px, t), horner(c.py, t), horner(c.s, t));
+    wz_ = horner(c.wz, t);
+    wt_ = horner(c.wt, t);
+  }
+
+  void end_compression() {
+    wc_ += wz_ - w_down_;
+    target_ = (1.0 - e2_) * wc_;
+    compressing_ = false;
+    if (wz_ >= target_) done_ = true;  // e = 0: over at the end of compression
+  }
+  void begin_recompression() {
+    compressing_ = true;
+    w_down_ = wz_;
+    res_.recompressed = true;
+  }
+
+  // Advance by ds along a constant zeta (w = K_hat zeta): u is linear in s, the work quadratic.
+  void advance(const Vec3& zeta, const Vec3& w, double ds) {
+    const Vec3 u0 = u();
+    wz_ += ds * (u0.z() + 0.5 * w.z() * ds);
+    wt_ += ds * (zeta.x() * (u0.x() + 0.5 * w.x() * ds) + zeta.y() * (u0.y() + 0.5 * w.y() * ds));
+    p_ += zeta * ds;
+  }
+
+  // Straight segment with constant zeta for at most ds_max of normal impulse, through the end of
+  // compression and up to the end of restitution (closed form). Returns true when ds_max was
+  // used up before the impact ended.
+  bool straight(const Vec3& zeta_in, double ds_max) {
+    Vec3 zeta = zeta_in;
+    Vec3 w = k_ * zeta;
+    double remaining = ds_max;
+    for (int guard = 0; guard < 16 && !done_; ++guard) {
+      if (w.z() <= 0.0) res_.jammed = true;
+      const double uz = u().z();
+      enum { kEndCompression, kEndRestitution, kRecompression } next;
+      double ds;
+      if (compressing_) {
+        if (uz >= 0.0) {
+          end_compression();
+          continue;
+        }
+        next = kEndCompression;
+        ds = w.z() > 0.0 ? -uz / w.z() : kInf;
+      } else {
+        const double d = target_ - wz_;  // work still to do
+        if (!(d > 0.0)) {
+          done_ = true;
+          break;
+        }
+        const double disc = uz * uz + 2.0 * w.z() * d;
+        if (w.z() > 0.0) {  // W_z(ds) = target has one positive root; cancellation-free forms
+          next = kEndRestitution;
+          const double sq = std::sqrt(disc);
+          ds = uz >= 0.0 ? 2.0 * d / (uz + sq) : (sq - uz) / w.z();
+        } else if (uz > 0.0 && disc >= 0.0) {  // u_z falling but W_z gets there first
+          next = kEndRestitution;
+          ds = 2.0 * d / (uz + std::sqrt(disc));
+        } else if (uz > 0.0) {  // u_z falls back to 0 first
+          next = kRecompression;
+          ds = uz / -w.z();
+        } else {
+          begin_recompression();
+          continue;
+        }
+      }
+      if (ds >= remaining) {
+        if (remaining == kInf) {  // cannot end along this zeta (w_z <= 0): normal-only impulse
+          zeta = Vec3(0, 0, 1);
+          w = k_.col(2);
+          continue;
+        }
+        advance(zeta, w, remaining);
+        return true;
+      }
+      advance(zeta, w, ds);
+      remaining -= ds;
+      if (next == kEndCompression) {
+        end_compression();
+      } else if (next == kEndRestitution) {
+        done_ = true;
+      } else {
+        begin_recompression();
+      }
+    }
+    return false;
+  }
+
+  void finish_normal_only() {
+    res_.step_cap_reached = true;
+    straight(Vec3(0, 0, 1), kInf);
+    done_ = true;
+  }
+
+  // u_t = 0 reached: stable sticking keeps it 0, otherwise sliding resumes along the diverging
+  // ray. Either way zeta is constant for the rest of the impact.
+  void stick() {
+    res_.stuck = true;
+    if (sticking_is_stable(k_, mu_)) {
+      const Mat3 kinv = k_.inverse();
+      straight(kinv.col(2) / kinv(2, 2), kInf);
+    } else {
+      res_.resumed_sliding = true;
+      const Vec2 dir = diverging_slip_direction(k_, mu_);
+      straight(Vec3(-mu_ * dir.x(), -mu_ * dir.y(), 1.0), kInf);
+    }
+  }
+
+  // Slip rates for slip direction d (unit, contact frame): w_t = (K_hat zeta)_t with zeta =
+  // (-mu d, 1) split into radial h = d.w_t and swirl g = t.w_t (t = d rotated by +90 deg), and
+  // dg/dphi = -h - mu t^T A t (A = K_hat_tt). In polar form d|u_t|/ds = h, dphi/ds = g/|u_t|:
+  // both depend on the direction only, and invariant rays are the zeros of g.
+  void slip_rates(const Vec2& d, double& h, double& g, double& dg) const {
+    const Vec2 t(-d.y(), d.x());
+    const double wx = -mu_ * (k_(0, 0) * d.x() + k_(0, 1) * d.y()) + k_(0, 2);
+    const double wy = -mu_ * (k_(1, 0) * d.x() + k_(1, 1) * d.y()) + k_(1, 2);
+    h = d.x() * wx + d.y() * wy;
+    g = t.x() * wx + t.y() * wy;
+    dg = -h - mu_ * (t.x() * (k_(0, 0) * t.x() + k_(0, 1) * t.y()) +
+                     t.y() * (k_(1, 0) * t.x() + k_(1, 1) * t.y()));
+  }
+
+  // The last approach to u_t = 0 as one straight segment: along the current direction when it
+  // barely turns (|u_t| |g| / |h| within kSnapTol |u0| of the origin: a sphere, a point mass),
+  // or along the nearest converging invariant ray phi* (Newton on g) when the slip lies within
+  // kSnapTol |u0| of it. The ray case matters when the ray is strongly attracting: there
+  // dphi/ds = g/|u_t| is stiff (rate |dg|/|u_t|) and an explicit integrator would crawl to 0 at
+  // its stability limit. Near a ray the angular offset scales like |u_t|^beta with
+  // beta = dg/h >= -1 for any K_hat, mu (dg/h = -1 + mu t^T A t / |h|), so the miss distance
+  // |u_t| x offset never grows on the way in: the straight segment errs by at most what it
+  // leaves over (the residual slip, which sticking then discards). Returns the ray direction and
+  // the segment length in p_z.
+  bool final_approach(const Vec2& d0, double rho, Vec2& ray, double& ds) const {
+    double h, g, dg;
+    slip_rates(d0, h, g, dg);
+    const double tol = kSnapTol * scale_u_;
+    if (h < 0.0 && rho * std::abs(g) <= tol * -h) {
+      ray = d0;
+      ds = rho / -h;
+      return true;
+    }
+    if (!(rho * std::abs(g) <= 100.0 * tol * std::abs(dg))) return false;  // far from a ray
+    Vec2 d = d0;
+    for (int it = 0; it < 6; ++it) {
+      if (!(dg != 0.0)) return false;
+      const double delta = -g / dg;
+      if (!(std::abs(delta) <= 0.1)) return false;
+      d = (d * std::cos(delta) + Vec2(-d.y(), d.x()) * std::sin(delta)).normalized();
+      slip_rates(d, h, g, dg);
+      if (std::abs(delta) <= 1e-15) break;
+    }
+    const double offset = std::abs(d0.x() * d.y() - d0.y() * d.x());  // sin(phi* - phi)
+    if (!(h < 0.0) || !(rho * offset <= tol) || !(std::abs(g) <= 1e-9 * std::abs(h))) return false;
+    ray = d;
+    ds = rho * d0.dot(d) / -h;  // u_t's component along the ray reaches 0
+    return true;
+  }
+
+  void slide() {
+    Series c;
+    // Step cap for an exactly polynomial solution (no last Taylor terms): 50 e-folds of the
+    // fastest rate in sigma (|K_hat| (1 + mu) bounds |du/dsigma| / |u|).
+    const double h_cap = 50.0 / (k_.norm() * (1.0 + mu_));
+    while (!done_) {
+      if (res_.steps >= kMaxSteps) return;  // run() finishes with a normal-only impulse
+      const Vec3 u = this->u();
+      const double rho = std::sqrt(u.x() * u.x() + u.y() * u.y());
+      if (!(rho > kStuckTol * scale_u_)) {
+        stick();
+        return;
+      }
+      const Vec2 d(u.x() / rho, u.y() / rho);
+      const Vec3 w = k_ * Vec3(-mu_ * d.x(), -mu_ * d.y(), 1.0);  // du/ds = K_hat zeta
+      if (w.z() <= 0.0) res_.jammed = true;
+      // Heading at u_t = 0 (radial rate < 0) close to a converging invariant ray: finish the
+      // approach with one straight segment (see final_approach()).
+      if (d.x() * w.x() + d.y() * w.y() < 0.0) {
+        Vec2 ray;
+        double ds = 0.0;
+        if (final_approach(d, rho, ray, ds)) {
+          if (straight(Vec3(-mu_ * ray.x(), -mu_ * ray.y(), 1.0), ds)) stick();
+          return;
+        }
+      }
+      expand(c);
+      ++res_.steps;
+      const double h = std::min(step_size(c), h_cap);
+      if (!(h > 0.0)) return;  // cannot happen with rho > 0; normal-only impulse
+
+      // Events inside the step, as roots of its polynomials (on the far side of the zero).
+      const double uz_h = horner(c.uz, h), wz_h = horner(c.wz, h);
+      if (compressing_) {
+        if (uz_h >= 0.0) {
+          set_state(c, poly_root(c.uz, 0.0, h));
+          end_compression();
+          continue;
+        }
+      } else {
+        Series::C neg_uz;
+        for (std::size_t n = 0; n <= kOrder; ++n) neg_uz[n] = -c.uz[n];
+        // u_z falling back below 0 first (jam in restitution): W_z peaks there.
+        const double t_down = uz_h < 0.0 ? poly_root(neg_uz, 0.0, h) : h;
+        if ((t_down < h ? horner(c.wz, t_down) : wz_h) >= target_) {
+          set_state(c, poly_root(c.wz, target_, t_down));
+          done_ = true;
+          return;
+        }
+        if (t_down < h) {
+          set_state(c, t_down);
+          begin_recompression();
+          continue;
+        }
+      }
+      // Jam inside the step: du_z/dsigma = |u_t| (K_hat zeta)_z at its middle and end.
+      for (double t : {0.5 * h, h}) {
+        double dz = 0.0;
+        for (int n = kOrder; n >= 1; --n) dz = dz * t + n * c.uz[static_cast<std::size_t>(n)];
+        if (dz <= 0.0) res_.jammed = true;
+      }
+      set_state(c, h);
+    }
+  }
+
+  const Mat3 k_;
+  const Vec3 u0_;
+  const double e2_, mu_;
+  CollisionResult& res_;
+  double scale_u_ = 0.0, scale_w_ = 0.0;
+  Vec3 p_{0, 0, 0};
+  double wz_ = 0.0, wt_ = 0.0;
+  bool compressing_ = true, done_ = false;
+  double wc_ = 0.0;      // normal work over all compression periods so far
+  double w_down_ = 0.0;  // W_z when the current compression period began
+  double target_ = 0.0;  // (1 - e^2) W_c, valid when !compressing_
+};
+
+}  // namespace
+
+Mat3 collision_matrix(double mass_kg, const Mat3& inv_inertia, const Vec3& r) {
+  const Mat3 rx = cross_matrix(r);
+  return Mat3::Identity() / mass_kg - rx * inv_inertia * rx;
+}
+
+Mat3 contact_frame(const Vec3& normal) {
+  const Vec3 z = normal.normalized();
+  // Complete with the site axis least aligned with the normal.
+  const Vec3 a = std::abs(z.x()) <= std::abs(z.y()) && std::abs(z.x()) <= std::abs(z.z())
+                     ? Vec3::UnitX()
+                     : (std::abs(z.y()) <= std::abs(z.z()) ? Vec3::UnitY() : Vec3::UnitZ());
+  const Vec3 x = (a - z * z.dot(a)).normalized();
+  const Vec3 y = z.cross(x);
+  Mat3 R;
+  R.row(0) = x.transpose();
+  R.row(1) = y.transpose();
+  R.row(2) = z.transpose();
+  return R;
+}
+
+bool sticking_is_stable(const Mat3& k_hat, double mu) {
+  const Mat3 kinv = k_hat.inverse();
+  return std::sqrt(kinv(0, 2) * kinv(0, 2) + kinv(1, 2) * kinv(1, 2)) <= mu * kinv(2, 2);
+}
+
+// An invariant ray of the sliding flow has (K_hat zeta)_t parallel to the slip direction d:
+//   -mu A d + k = lambda d,   A = K_hat_tt (2x2, SPD), k = K_hat_tz.
+// Written in tan(phi/2) this is Mirtich's quartic (thesis sec. 4.4); the diverging ray is its
+// root with lambda > 0. For lambda > 0 the matrix lambda 1 + mu A is SPD, so
+// d(lambda) = (lambda 1 + mu A)^-1 k and |d(lambda)| falls strictly from |(mu A)^-1 k| at 0 to
+// below 1 at lambda = |k|. Hence a diverging ray exists iff |(mu A)^-1 k| > 1 - which is exactly
+// unstable sticking (block inverse of K_hat: K_hat^-1_t3 = -A^-1 k K_hat^-1_33) - and it is
+// unique. We solve |d(lambda)| = 1 on (0, |k|] by safeguarded Newton on 1/|d| - 1 (the
+// trust-region secular equation, More & Sorensen 1983): no spurious quartic roots to sort out,
+// no special case at phi = pi where tan(phi/2) is infinite.
+Vec2 diverging_slip_direction(const Mat3& k_hat, double mu) {
+  const Vec2 k(k_hat(0, 2), k_hat(1, 2));
+  const double kn = k.norm();
+  if (!(kn > 0.0)) return Vec2(1.0, 0.0);  // no coupling: sticking is stable, any direction
+  if (!(mu > 0.0)) return k / kn;
+  const double a = mu * k_hat(0, 0), b = mu * k_hat(1, 1), f = mu * k_hat(0, 1);
+  double lo = 0.0, hi = kn, lam = kn;
+  Vec2 d = k / kn;
+  for (int it = 0; it < 100; ++it) {
+    const double m00 = lam + a, m11 = lam + b, det = m00 * m11 - f * f;
+    const Vec2 dd((m11 * k.x() - f * k.y()) / det, (m00 * k.y() - f * k.x()) / det);
+    const double n = dd.norm();
+    if (!(n > 0.0)) break;
+    d = dd / n;
+    const double g = 1.0 / n - 1.0;  // increasing in lambda
+    if (g > 0.0)
+      hi = lam;
+    else
+      lo = lam;
+    // d(1/|d|)/dlambda = d^T M^-1 d / |d|^3 with M = lambda 1 + mu A.
+    const Vec2 mid((m11 * dd.x() - f * dd.y()) / det, (m00 * dd.y() - f * dd.x()) / det);
+    const double slope = dd.dot(mid) / (n * n * n);
+    double next = slope > 0.0 ? lam - g / slope : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (g == 0.0 || std::abs(next - lam) <= 4.0 * kEps * lam) break;
+    lam = next;
+  }
+  return d;
+}
+
+CollisionResult resolve_collision(const CollisionInput& in) {
+  CollisionResult res;
+  res.velocity_mps = in.velocity_mps;
+  res.omega_radps = in.omega_radps;
+  const Vec3 u_site = in.velocity_mps + in.omega_radps.cross(in.r_m);  // eq. 16
+  res.contact_velocity_before = res.contact_velocity_after = u_site;
+  const double nn = in.normal.norm();
+  const bool valid = in.mass_kg > 0.0 && std::isfinite(in.mass_kg) && nn > 0.0 &&
+                     std::isfinite(nn) && in.inv_inertia_world.allFinite() &&
+                     in.r_m.allFinite() && in.velocity_mps.allFinite() &&
+                     in.omega_radps.allFinite() && u_site.allFinite() &&
+                     std::isfinite(in.restitution) && std::isfinite(in.friction);
+  if (!valid) return res;
+  const Vec3 n = in.normal / nn;
+  if (!(u_site.dot(n) < 0.0)) return res;  // separating or resting: no impact
+  res.impact = true;
+
+  const Mat3 R = contact_frame(n);
+  Mat3 k_hat = R * collision_matrix(in.mass_kg, in.inv_inertia_world, in.r_m) * R.transpose();
+  k_hat = 0.5 * (k_hat + k_hat.transpose());  // exactly symmetric: work is path-independent
+  const double e = std::clamp(in.restitution, 0.0, 1.0);
+  const double mu = std::max(in.friction, 0.0);
+  Solver solver(k_hat, R * u_site, e, mu, res);
+  const Vec3 p = R.transpose() * solver.run();
+
+  res.impulse_ns = p;
+  res.velocity_mps = in.velocity_mps + p / in.mass_kg;                           // eq. 34
+  res.omega_radps = in.omega_radps + in.inv_inertia_world * in.r_m.cross(p);     // eq. 33
+  res.contact_velocity_after = res.velocity_mps + res.omega_radps.cross(in.r_m);
+  const Vec3 ut = res.contact_velocity_after - n * n.dot(res.contact_velocity_after);
+  res.ended_sticking = ut.norm() <= kEndStickTol * u_site.norm();
+  return res;
+}
+
+}  // namespace fragsim::impact

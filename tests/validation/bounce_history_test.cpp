@@ -1,0 +1,179 @@
+// Whole histories with bounce on: a ball dropped on the ground, skipping fragments that hit a
+// wall or keep adding PTN density after their first impact, the paper's Fig. 3 behaviour of
+// tumbling blocks, and termination/determinism.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/run/run.h"
+#include "scenario_fixtures.h"
+
+namespace fragsim::validation {
+namespace {
+
+run::Scenario bounce_scenario(double half_m, double e, double mu) {
+  run::Scenario sc = flat_site_scenario(half_m, 10.0);
+  sc.site.materials["soil"].restitution.constant = e;
+  sc.site.materials["soil"].friction = mu;
+  sc.settings.bounce = true;
+  sc.settings.record_fragments = true;
+  return sc;
+}
+
+// A ball dropped from rest with constant e comes to rest after the geometric series of bounce
+// times sqrt(2h/g) (1 + e) / (1 - e) (physics notes, "Ends"). Vacuum (cd 0); the rebound floor is
+// set low so that the untracked tail (< 2 v_floor / (g (1 - e))) is negligible.
+TEST(BounceHistory, DroppedBallRestsAfterTheGeometricSeriesTime) {
+  const double e = 0.5, h = 1.0, g = kStandardGravity_mps2;
+  run::Scenario sc = bounce_scenario(20.0, e, 0.5);
+  sc.settings.min_rebound_speed_mps = 1e-5;
+  sc.settings.max_bounces = 100000;
+  sc.settings.hazardous_ke_j = 1e-9;  // keep tracking a harmless ball
+  auto grp = sphere_group(Vec3(1.3, 2.7, 0.0), 1.0, 0.0, 1.0, 3);
+  const double r = 0.5 * std::cbrt(6.0 * 1.0 / (kPi * 7850.0));
+  grp.frame.origin_m.z() = h + r;  // the ball's lowest point is h above the ground
+  sc.groups = {grp};
+  const run::RunResult res = run::run(sc);
+  ASSERT_EQ(res.fragments.size(), 3u);
+  const double expected = std::sqrt(2 * h / g) * (1 + e) / (1 - e);
+  for (const auto& f : res.fragments) {
+    EXPECT_EQ(f.outcome, run::Outcome::kGround);
+    EXPECT_NEAR(f.end_time_s, expected, 1e-4 * expected);  // tail < 4e-6 s
+    EXPECT_NEAR(f.first_impact_time_s, std::sqrt(2 * h / g), 1e-9);
+    EXPECT_GT(f.bounces, 10u);
+    // Straight down, straight up: it rests where it was dropped, on the ground.
+    EXPECT_NEAR(f.end_position_m.x(), 1.3, 1e-9);
+    EXPECT_NEAR(f.end_position_m.y(), 2.7, 1e-9);
+    EXPECT_NEAR(f.end_position_m.z(), r, 1e-9);
+    EXPECT_LT(f.ground_path_m, 1e-9);
+  }
+}
+
+// A fragment skipping off the ground in front of a wall hits the wall only when it bounces.
+TEST(BounceHistory, SkippingFragmentHitsAWallAfterItsFirstImpact) {
+  run::Scenario sc = bounce_scenario(200.0, 0.5, 0.3);
+  sc.site.materials["wall"] = scene::MaterialSpec{};
+  sc.site.materials["roof"] = scene::MaterialSpec{};
+  sc.site.buildings = {box_building("B", 60.0, -20.0, 70.0, 20.0, 10.0)};
+  // Launched 1 m up at 5 degrees below the horizon: lands at ~11 m, the wall is at 60 m.
+  auto grp = sphere_group(Vec3(0.0, 0.0, 1.0), 0.5, 40.0, 10.0, 50);
+  grp.direction.elevation_min_deg = grp.direction.elevation_max_deg = -5.0;
+  grp.direction.azimuth_min_deg = -5.0;
+  grp.direction.azimuth_max_deg = 5.0;
+  sc.groups = {grp};
+  const run::RunResult with = run::run(sc);
+  EXPECT_NEAR(with.buildings[0].impacts.mean, 10.0, 1e-9);  // every one of them
+  for (const auto& f : with.fragments) {
+    EXPECT_EQ(f.outcome, run::Outcome::kBuilding);
+    EXPECT_GE(f.bounces, 1u);
+    EXPECT_LT(f.first_impact_position_m.x(), 20.0);  // first impact: the ground
+  }
+  sc.settings.bounce = false;
+  const run::RunResult without = run::run(sc);
+  EXPECT_EQ(without.buildings[0].impacts.mean, 0.0);
+}
+
+// PTN contributions keep coming after the first impact: a low fast fragment that skips along
+// the ground crosses prisms well beyond where it first lands.
+TEST(BounceHistory, PtnDensityContinuesAlongBouncesAndRolls) {
+  run::Scenario sc = bounce_scenario(300.0, 0.4, 0.3);
+  sc.site.materials["soil"].rolling_resistance = 0.5;  // rolls ~100 m, not off the site
+  auto grp = sphere_group(Vec3(0.0, 0.0, 1.0), 1.0, 30.0, 10.0, 20);
+  grp.direction.elevation_min_deg = grp.direction.elevation_max_deg = -2.0;
+  grp.direction.azimuth_min_deg = grp.direction.azimuth_max_deg = 0.0;
+  sc.groups = {grp};
+  const run::RunResult with = run::run(sc);
+  sc.settings.bounce = false;
+  const run::RunResult without = run::run(sc);
+  // Without bounce the density stops at the landing point (~29 m); with bounce it reaches much
+  // farther along the line of travel.
+  const double land = without.fragments[0].end_position_m.x();
+  EXPECT_LT(land, 35.0);
+  EXPECT_GT(with.fragments[0].end_position_m.x(), 2.0 * land);
+  EXPECT_GT(with.hazardous_fragment_distance_m, 1.5 * without.hazardous_fragment_distance_m);
+  for (const auto& f : with.fragments) {
+    // Rolling on until it rests, or until it can never be hazardous again (no buildings: then
+    // tracking stops, a documented skip).
+    EXPECT_TRUE(f.outcome == run::Outcome::kGround || f.outcome == run::Outcome::kHarmless);
+    EXPECT_GT(f.ground_path_m, 0.0);  // ended sliding/rolling
+  }
+}
+
+// Paper Fig. 3: blocks dropped at speed onto the ground in random orientation; many rebound
+// higher than the drop height (horizontal momentum turned vertical by the off-centre impact),
+// which a sphere never does (its rebound normal speed is e times its impact normal speed).
+TEST(BounceHistory, TumblingBlocksSometimesReboundAboveTheirDropHeight) {
+  const double drop_m = 0.79;  // 2.6 ft
+  run::Scenario sc = bounce_scenario(300.0, 0.0, 0.5);
+  sc.site.terrain.material = "hard";
+  sc.site.materials["hard"] = *scene::builtin_ground_material("hard");
+  sc.settings.record_trajectories = true;
+  sc.settings.max_recorded_trajectories = 100000;
+  sc.settings.hazardous_ke_j = 1e-9;
+  const auto above_drop = [&](const run::RunResult& r, double z0) {
+    int n = 0;
+    for (std::size_t k = 0; k < r.trajectories.size(); ++k) {
+      const auto& tr = r.trajectories[k];
+      const double t1 = r.fragments[k].first_impact_time_s;
+      double zmax = -1e9;
+      for (std::size_t i = 0; i < tr.t_s.size(); ++i)
+        if (tr.t_s[i] > t1) zmax = std::max(zmax, tr.position_m[i].z());
+      if (zmax > z0) ++n;
+    }
+    return n;
+  };
+  // Fletcher & Bowen (1968) blocks: 25 kg, 7.5 x 7.7 x 15.5 in, 15 m/s horizontal.
+  fragments::FragmentGroupSpec blocks = sphere_group(Vec3(0, 0, drop_m), 25.0, 15.0, 400.0, 400);
+  blocks.shape.type = fragments::ShapeType::kCuboid;
+  blocks.shape.density_kg_m3.reset();
+  blocks.shape.dims_m = {0.1905, 0.19558, 0.3937};
+  blocks.direction.elevation_min_deg = blocks.direction.elevation_max_deg = 0.0;
+  blocks.direction.azimuth_min_deg = blocks.direction.azimuth_max_deg = 0.0;
+  sc.groups = {blocks};
+  const run::RunResult r = run::run(sc);
+  // The centre starts at drop_m; a block's centre above that after its first impact rebounded
+  // higher than it was dropped from.
+  const int n_blocks = above_drop(r, drop_m);
+  EXPECT_GE(n_blocks, 20) << "of 400";  // observed ~25-45%: a clear effect, not a fluke
+  EXPECT_LE(n_blocks, 360);
+
+  fragments::FragmentGroupSpec balls = sphere_group(Vec3(0, 0, drop_m), 25.0, 15.0, 400.0, 400);
+  balls.direction = blocks.direction;
+  sc.groups = {balls};
+  EXPECT_EQ(above_drop(run::run(sc), drop_m), 0);
+}
+
+// Bit-identical results whatever the thread count and chunk size, with bounce, slide and roll.
+TEST(BounceHistory, DeterministicForThreadsAndChunks) {
+  run::Scenario sc = bounce_scenario(300.0, 0.3, 0.6);
+  sc.site.materials["wall"] = scene::MaterialSpec{};
+  sc.site.materials["roof"] = scene::MaterialSpec{};
+  sc.site.buildings = {box_building("B", 80.0, -20.0, 90.0, 20.0, 6.0)};
+  auto grp = sphere_group(Vec3(0, 0, 1.0), 2.0, 80.0, 100.0, 600);
+  grp.shape.type = fragments::ShapeType::kCuboid;
+  grp.shape.aspect = {1.0, 0.5, 0.25};
+  grp.direction.elevation_min_deg = -10.0;
+  grp.direction.elevation_max_deg = 30.0;
+  grp.direction.azimuth_min_deg = -30.0;
+  grp.direction.azimuth_max_deg = 30.0;
+  grp.cd.constant = 1.0;
+  sc.groups = {grp};
+  sc.settings.threads = 1;
+  sc.settings.chunk_histories = 600;
+  const run::RunResult a = run::run(sc);
+  sc.settings.threads = 2;
+  sc.settings.chunk_histories = 7;
+  const run::RunResult b = run::run(sc);
+  EXPECT_EQ(a.ptn_density_per_m2, b.ptn_density_per_m2);
+  EXPECT_EQ(a.ptn_std_error_per_m2, b.ptn_std_error_per_m2);
+  ASSERT_EQ(a.fragments.size(), b.fragments.size());
+  for (std::size_t k = 0; k < a.fragments.size(); ++k) {
+    EXPECT_EQ(a.fragments[k].end_position_m, b.fragments[k].end_position_m);
+    EXPECT_EQ(a.fragments[k].bounces, b.fragments[k].bounces);
+  }
+  EXPECT_EQ(a.buildings[0].impacts.mean, b.buildings[0].impacts.mean);
+  EXPECT_GT(a.stats.bounces, 600);
+}
+
+}  // namespace
+}  // namespace fragsim::validation
