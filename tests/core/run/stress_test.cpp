@@ -157,10 +157,9 @@ TEST(Stress, UpdraftStrongerThanTerminalSpeedEndsAtMaxFlightTime) {
 // Random groups (shapes, masses, speeds, directions, tilted moving frames, Cd tables, wind) over
 // hilly terrain with buildings: every history terminates, nothing is NaN, and the outcome counts
 // add up.
-TEST(Stress, RandomScenariosTerminateWithFiniteResults) {
-  std::mt19937_64 rng(2024);
+Scenario random_scenario(std::mt19937_64& rng, int trial) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  for (int trial = 0; trial < 6; ++trial) {
+  {
     Scenario sc = hilly_scenario(0, 0, 100);
     sc.atmosphere.model = trial % 2 ? flight::AtmosphereSpec::Model::kIsa
                                     : flight::AtmosphereSpec::Model::kConstant;
@@ -201,9 +200,76 @@ TEST(Stress, RandomScenariosTerminateWithFiniteResults) {
       }
       sc.groups.push_back(g);
     }
+    return sc;
+  }
+}
+
+TEST(Stress, RandomScenariosTerminateWithFiniteResults) {
+  std::mt19937_64 rng(2024);
+  for (int trial = 0; trial < 6; ++trial) {
+    const RunResult r = run(random_scenario(rng, trial));
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    expect_all_finite(r);
+  }
+}
+
+// Kinetic plus potential energy of a history never exceeds its launch value: drag, impacts and
+// sliding only take energy away (relative slack for rounding).
+void expect_energy_never_rises(const Scenario& sc, const RunResult& r) {
+  const double g = sc.gravity_mps2;
+  for (const auto& f : r.fragments) {
+    const double e0 = 0.5 * f.launch_velocity_mps.squaredNorm() + g * f.launch_position_m.z();
+    const double e1 = 0.5 * f.end_velocity_mps.squaredNorm() + g * f.end_position_m.z();
+    ASSERT_LE(e1, e0 + 1e-9 * std::abs(e0) + 1e-9)
+        << "group " << f.group << " history " << f.history << " bounces " << f.bounces;
+  }
+}
+
+// The same random scenarios with bounce, slide and roll, random restitution and friction:
+// every history ends, nothing is NaN, no energy is gained.
+TEST(Stress, RandomScenariosWithBounceTerminateWithFiniteResults) {
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int trial = 0; trial < 6; ++trial) {
+    Scenario sc = random_scenario(rng, trial);
+    sc.settings.bounce = true;
+    for (auto& g : sc.groups) g.samples = 150;
+    auto& soil = sc.site.materials["soil"];
+    soil.friction = 1.5 * u(rng);
+    soil.rolling_resistance = 0.3 * u(rng);
+    if (trial % 2) {
+      soil.restitution.constant = u(rng);
+    } else {
+      soil.restitution.normal_speed_mps = {0.0, 5.0, 50.0};
+      soil.restitution.e = {u(rng), u(rng), u(rng)};
+    }
     const RunResult r = run(sc);
     SCOPED_TRACE("trial " + std::to_string(trial));
     expect_all_finite(r);
+    expect_energy_never_rises(sc, r);
+    EXPECT_GT(r.stats.bounces, 0);
+    EXPECT_EQ(r.stats.ground_step_caps, 0);
+  }
+}
+
+// An endless bounce sequence: e = 1, mu = 0, a ball dropped on flat ground bounces forever in
+// the physics; the bounce cap ends it, and it then rests (it has no horizontal speed).
+TEST(Stress, PerfectlyElasticBouncingEndsAtTheBounceCap) {
+  Scenario sc = validation::flat_site_scenario(50.0, 10.0);
+  sc.site.materials["soil"].restitution.constant = 1.0;
+  sc.site.materials["soil"].friction = 0.0;
+  sc.settings.bounce = true;
+  sc.settings.record_fragments = true;
+  sc.settings.max_bounces = 40;
+  sc.settings.hazardous_ke_j = 1e-9;
+  auto g = validation::sphere_group(Vec3(0.5, 0.5, 3.0), 0.2, 0.0, 1.0, 4);
+  sc.groups = {g};
+  const RunResult r = run(sc);
+  expect_all_finite(r);
+  expect_energy_never_rises(sc, r);
+  for (const auto& f : r.fragments) {
+    EXPECT_EQ(f.bounces, 40u);
+    EXPECT_EQ(f.outcome, Outcome::kGround);
   }
 }
 
