@@ -7,10 +7,15 @@
 // result with a 1e-10 reference run. The histories are the same random draws at every rtol
 // (common random numbers), so the differences are integration error, not Monte Carlo noise.
 //
-//   build/bench/bench_demo_run [scenario.json] [--repeat N] [--rtol-sweep]
+// With --bounce the scenario runs with settings.bounce on (bounce, slide and roll); with
+// --samples-scale X every group's samples are multiplied by X (quick looks).
+//
+//   build/bench/bench_demo_run [scenario.json] [--repeat N] [--rtol-sweep] [--bounce]
+//                              [--samples-scale X]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -30,13 +35,14 @@ void print_row(const char* label, const run::RunResult& r) {
               label, r.timing.threads, static_cast<long long>(r.histories_done), r.timing.wall_s,
               r.timing.fragments_per_s, r.timing.fragments_per_s_per_thread);
   std::printf("%-22s per fragment: %.1f rhs evals, %.1f steps, %.2f chords (%.2f skipped), "
-              "%.2f scene queries, %.1f PTN triangle tests\n",
+              "%.2f scene queries, %.1f PTN triangle tests, %.2f bounces, %.1f ground steps\n",
               "", static_cast<double>(r.stats.rhs_evaluations) / n,
               static_cast<double>(r.stats.integrator_steps) / n,
               static_cast<double>(r.stats.chords) / n,
               static_cast<double>(r.stats.chords_skipped) / n,
               static_cast<double>(r.stats.scene_queries) / n,
-              static_cast<double>(r.stats.ptn_triangle_tests) / n);
+              static_cast<double>(r.stats.ptn_triangle_tests) / n,
+              static_cast<double>(r.stats.bounces) / n, static_cast<double>(r.stats.ground_steps) / n);
 }
 
 double total_impacts(const run::RunResult& r) {
@@ -81,11 +87,17 @@ int main(int argc, char** argv) {
   std::string path = std::string(FRAGSIM_SOURCE_DIR) + "/examples/demo/scenario.json";
   int repeat = 3;
   bool rtol_sweep = false;
+  bool bounce = false;
+  double samples_scale = 1.0;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
       repeat = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--rtol-sweep") == 0) {
       rtol_sweep = true;
+    } else if (std::strcmp(argv[i], "--bounce") == 0) {
+      bounce = true;
+    } else if (std::strcmp(argv[i], "--samples-scale") == 0 && i + 1 < argc) {
+      samples_scale = std::atof(argv[++i]);
     } else {
       path = argv[i];
     }
@@ -100,10 +112,13 @@ int main(int argc, char** argv) {
   run::Scenario sc = api::parse_scenario_text(ss.str());
   sc.settings.record_fragments = false;
   sc.settings.record_trajectories = false;
+  sc.settings.bounce = bounce;
+  for (auto& g : sc.groups)
+    g.samples = std::max<std::int64_t>(1, std::llround(static_cast<double>(g.samples) * samples_scale));
   auto site = scene::Site::build(sc.site);
-  std::printf("# %s\n# terrain triangles %zu, buildings %zu, hardware threads %u\n", path.c_str(),
-              site->terrain_triangle_count(), site->buildings().size(),
-              std::thread::hardware_concurrency());
+  std::printf("# %s%s\n# terrain triangles %zu, buildings %zu, hardware threads %u\n", path.c_str(),
+              bounce ? " (bounce on)" : "", site->terrain_triangle_count(),
+              site->buildings().size(), std::thread::hardware_concurrency());
 
   const int all = static_cast<int>(std::thread::hardware_concurrency());
   for (int threads : {1, all}) {

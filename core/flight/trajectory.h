@@ -71,13 +71,18 @@ class TrajectoryIntegrator {
 
 // Torque-free rigid rotation (paper eq. 2 with tau = 0): Euler's equations in the body frame and
 // q' = 1/2 q (x) (0, omega_body). Closed form for zero spin and for spherical or axisymmetric
-// inertia (two principal moments equal, e.g. cylinders, square cuboids, spheroids). Otherwise
-// DOPRI5 at `rtol` with renormalised quaternion.
+// inertia (two principal moments equal, e.g. cylinders, square cuboids, spheroids); exact
+// Jacobi-elliptic solution for asymmetric bodies (core/flight/torque_free.h, Landau & Lifshitz
+// sec. 37), whose cost does not grow with the number of revolutions. Only within ~1e-6 of the
+// separatrix (spin about the intermediate axis) DOPRI5 at `rtol` with renormalised quaternion.
 struct RotationState {
   Quat q = Quat::Identity();  // body -> site
   Vec3 omega_body{0, 0, 0};   // rad/s, body frame
 };
 RotationState propagate_torque_free(const Vec3& inertia_principal_kg_m2, const RotationState& s,
                                     double dt_s, double rtol = 1e-12);
+// True when two principal moments are equal to within 1e-14 relative: propagate_torque_free then
+// uses the axisymmetric closed form.
+bool has_two_equal_moments(const Vec3& inertia_principal_kg_m2);
 
 }  // namespace fragsim::flight

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "core/flight/torque_free.h"
 #include "core/flight/trajectory.h"
 #include "core/fragments/support.h"
 #include "core/impact/bounce.h"
@@ -157,6 +158,7 @@ class History {
   // state at or before t: each call integrates a short interval, never the whole segment again.
   flight::RotationState rotation(double t) const {
     if (rot_.omega_body.squaredNorm() == 0.0 || t == rot_t_) return rot_;
+    if (asym_) return asym_->at(t - rot_t_);  // exact, O(1) at any time of the segment
     if (t == cache_t_) return cache_rot_;
     if (t == base_t_) return base_rot_;
     // Start from the latest known state at or before t: the cache, the base, or the segment's
@@ -182,7 +184,7 @@ class History {
   // No later query of this segment is before t: keep its state as the base (each query then
   // integrates at most from the start of the chord being examined).
   void advance_rotation_base(double t) const {
-    if (rot_.omega_body.squaredNorm() == 0.0 || t <= base_t_) return;
+    if (asym_ || rot_.omega_body.squaredNorm() == 0.0 || t <= base_t_) return;
     base_rot_ = rotation(t);
     base_t_ = t;
   }
@@ -193,6 +195,14 @@ class History {
     rot_t_ = t;
     cache_t_ = base_t_ = t;
     cache_rot_ = base_rot_ = s;
+    // An asymmetric spinning body: set up the exact torque-free solution once for the segment
+    // (axisymmetric bodies use propagate_torque_free's cheap closed form; near the separatrix
+    // the solution is not valid and the cached numerical path is used).
+    asym_.reset();
+    if (s.omega_body.squaredNorm() > 0.0 && !flight::has_two_equal_moments(body_.inertia_kg_m2)) {
+      flight::AsymmetricTorqueFree sol(body_.inertia_kg_m2, s);
+      if (sol.valid()) asym_.emplace(std::move(sol));
+    }
   }
 
   // Is the body's lowest point on triangle `tri` moving into its plane at time t?
@@ -208,10 +218,14 @@ class History {
   // Signed clearance of the body from the plane of terrain triangle `tri` at time t: the centre's
   // height above the plane along its normal minus the body's reach toward it (support
   // function). <= 0: touching or overlapping.
+  // Farther than one bounding radius the sign is known without the attitude: the bound
+  // (distance - radius, also > 0) is returned instead, which leaves every sign unchanged.
   double clearance(const flight::TrajectoryIntegrator& integ, std::uint32_t tri, double t) const {
     const Vec3& n = site_.terrain_triangle_normal(tri);
     const Vec3& v0 = site_.terrain_vertices()[site_.terrain_triangles()[tri][0]];
-    return n.dot(integ.position(t) - v0) - fragments::support_extent(body_, attitude(t), -n);
+    const double d = n.dot(integ.position(t) - v0);
+    if (d > radius_m_) return d - radius_m_;
+    return d - fragments::support_extent(body_, attitude(t), -n);
   }
 
   // The first time in [ta, tb] at which the body touches the plane of `tri` while approaching
@@ -256,6 +270,7 @@ class History {
   mutable double cache_t_ = 0.0;
   mutable flight::RotationState base_rot_;  // state at base_t_: no query comes before it
   mutable double base_t_ = 0.0;
+  std::optional<flight::AsymmetricTorqueFree> asym_;  // exact rotation of this segment
   double rot_rtol_ = 1e-9;
   EndState end_;
   FirstImpact first_;
