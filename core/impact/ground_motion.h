@@ -63,10 +63,11 @@ GroundMotionResult move_on_ground(const scene::Site& site, const GroundMotionInp
   const scene::Material& mat = site.materials()[site.terrain_material()];
   const double c = in.rolling ? mat.rolling_resistance : mat.friction;
   const double k = in.rolling ? 5.0 / 7.0 : 1.0;  // solid sphere: 1 / (1 + I / (m R^2))
-  // A step moves at most half a terrain bucket, so a triangle's plane is never followed far past
-  // its edge (the position is put back on the surface after every step).
+  // A step moves at most one terrain bucket (a grid cell: two triangles), so a triangle's plane
+  // is never followed far past its edge (the position is put back on the surface after every
+  // step).
   const auto& cell = site.terrain_index().cell;
-  const double max_step_m = std::max(1e-3, 0.5 * std::min(cell.x(), cell.y()));
+  const double max_step_m = std::max(1e-3, std::min(cell.x(), cell.y()));
   constexpr double kMaxDt_s = 0.25;
 
   Vec3 p = r.position_m;

@@ -358,7 +358,6 @@ std::optional<FlightEvent> History::body_terrain_contact(const flight::Trajector
 }
 
 FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_start) {
-  const Box3& bb = site_.buildings_bounds();
   const bool plane = site_.terrain_is_plane();
   const bool body_contacts = st_.bounce && radius_m_ > 0.0;
   // With a finite body the terrain is met up to one bounding radius before the centre's path
@@ -420,11 +419,7 @@ FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_star
         }
         unsigned mask = 0;
         if (zlo <= ctx_.terrain_max_z) mask |= scene::kQueryTerrain;
-        if (site_.has_buildings() && zlo <= bb.hi.z() &&
-            std::max(pa.x(), pb.x()) >= bb.lo.x() && std::min(pa.x(), pb.x()) <= bb.hi.x() &&
-            std::max(pa.y(), pb.y()) >= bb.lo.y() && std::min(pa.y(), pb.y()) <= bb.hi.y()) {
-          mask |= scene::kQueryBuildings;
-        }
+        if (site_.segment_near_buildings(pa, pb)) mask |= scene::kQueryBuildings;
         std::optional<scene::SceneHit> hit;
         if (mask != 0) {
           SectionTimer timer(prof_, out_.geometry_s);
@@ -555,7 +550,6 @@ void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) 
   in.t_max_s = st_.max_flight_time_s;
   in.max_steps = st_.max_ground_steps;
   const bool buildings = site_.has_buildings();
-  const Box3& bb = site_.buildings_bounds();
   std::optional<FlightEvent> hit_building;
   bool harmless = false;
   const auto on_segment = [&](const Vec3& a, const Vec3& b, double ta, double tb, const Vec3& va,
@@ -565,9 +559,7 @@ void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) 
       traj_.position_m.push_back(site_.to_input(b));
     }
     double s_end = 1.0;
-    if (buildings && std::max(a.x(), b.x()) >= bb.lo.x() && std::min(a.x(), b.x()) <= bb.hi.x() &&
-        std::max(a.y(), b.y()) >= bb.lo.y() && std::min(a.y(), b.y()) <= bb.hi.y() &&
-        std::min(a.z(), b.z()) <= bb.hi.z()) {
+    if (buildings && site_.segment_near_buildings(a, b)) {
       SectionTimer timer(prof_, out_.geometry_s);
       ++out_.stats.scene_queries;
       const auto h = site_.intersect(a, b - a, 0.0, 1.0, scene::kQueryBuildings);
@@ -586,7 +578,11 @@ void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) 
         hit_building = ev;
       }
     }
-    add_ptn_segment(a, a + s_end * (b - a), [&](double s) { return va + s * s_end * (vb - va); });
+    // The acceleration is constant over a step, so |v|^2 (convex in time) peaks at an end: a
+    // step slower than hazardous at both ends crosses no prism hazardously.
+    const double v2max = std::max(va.squaredNorm(), vb.squaredNorm());
+    if (0.5 * mass_ * v2max >= st_.hazardous_ke_j)
+      add_ptn_segment(a, a + s_end * (b - a), [&](double s) { return va + s * s_end * (vb - va); });
     if (hit_building) return true;
     harmless = can_never_matter(b, vb);
     return harmless;

@@ -140,6 +140,22 @@ class Site {
   const std::vector<Vec3>& building_vertices() const { return building_vertices_; }
   const std::vector<BuildingTriangle>& building_triangles() const { return building_triangles_; }
   const Box3& buildings_bounds() const { return buildings_bounds_; }
+  // Cheap pre-test for a building query: does the bounding box of the segment a-b overlap the
+  // bounds of some building? Building by building for up to kBuildingBoxScan buildings (the
+  // bounds of all buildings together can cover most of a site), the overall bounds beyond.
+  bool segment_near_buildings(const Vec3& a, const Vec3& b) const {
+    const auto overlaps = [&](const Box3& box) {
+      return std::max(a.x(), b.x()) >= box.lo.x() && std::min(a.x(), b.x()) <= box.hi.x() &&
+             std::max(a.y(), b.y()) >= box.lo.y() && std::min(a.y(), b.y()) <= box.hi.y() &&
+             std::max(a.z(), b.z()) >= box.lo.z() && std::min(a.z(), b.z()) <= box.hi.z();
+    };
+    if (buildings_.empty() || !overlaps(buildings_bounds_)) return false;
+    if (buildings_.size() > kBuildingBoxScan) return true;
+    for (const Building& bd : buildings_)
+      if (overlaps(bd.bounds)) return true;
+    return false;
+  }
+  static constexpr std::size_t kBuildingBoxScan = 64;
   // True when p lies inside a building's closed mesh (ray parity).
   bool inside_building(const Vec3& p) const;
 
