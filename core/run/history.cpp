@@ -404,6 +404,10 @@ FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_star
           {impact::path_curvature(v0, a0), impact::path_curvature(v1, a1),
            impact::path_curvature(vm, model_.acceleration(integ.position(tm), vm))});
       const int n = impact::chord_count((p1 - p0).norm(), kappa, st_.sagitta_m);
+      // In still air drag only removes mechanical energy, and a chord's lowest point is one of
+      // its ends, so no point of a chord has more kinetic energy than E(t0) - m g z_min: a
+      // chord below the hazardous energy by that bound needs no PTN walk.
+      const double e_step = 0.5 * mass_ * v0.squaredNorm() + mass_ * g_ * p0.z();
       out_.stats.chords += n;
       Vec3 pa = p0;
       double ta = t0;
@@ -477,9 +481,14 @@ FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_star
         } else if (hit) {
           s_end = std::min(hit->t, 1.0);
         }
-        add_ptn_segment(pa, pa + s_end * (pb - pa), [&](double s) {
-          return integ.velocity(ta + s * s_end * (tb - ta));
-        });
+        const bool may_be_hazardous =
+            !ctx_.still_air || !ctx_.step_min_at_ends ||
+            e_step - mass_ * g_ * std::min(pa.z(), pb.z()) >= st_.hazardous_ke_j;
+        if (may_be_hazardous) {
+          add_ptn_segment(pa, pa + s_end * (pb - pa), [&](double s) {
+            return integ.velocity(ta + s * s_end * (tb - ta));
+          });
+        }
         pa = pb;
         ta = tb;
       }
@@ -790,6 +799,7 @@ RunContext::RunContext(const Scenario& sc, const scene::Site& s)
   top_z = prisms.top_z();
   if (s.has_buildings()) top_z = std::max(top_z, s.buildings_bounds().hi.z());
   step_min_at_ends = sc.atmosphere.wind_mps.z() <= 0.0;
+  still_air = sc.atmosphere.wind_mps.squaredNorm() == 0.0;
 }
 
 void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,

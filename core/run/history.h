@@ -55,6 +55,7 @@ struct RunContext {
   double terrain_max_z = 0.0;   // local
   double top_z = 0.0;           // highest point anything can be hit or tallied (local)
   bool step_min_at_ends = true; // no updraft: a step's lowest point is one of its ends
+  bool still_air = true;        // no wind: drag only removes mechanical energy
   RunContext(const Scenario& sc, const scene::Site& s);
 };
 
