@@ -386,10 +386,6 @@ FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_star
     ++out_.stats.integrator_steps;
     const double t0 = integ.t_prev(), t1 = integ.t();
     const Vec3 p1 = integ.position(), v1 = integ.velocity(), a1 = integ.acceleration();
-    if (record_trajectory_) {
-      traj_.t_s.push_back(t1);
-      traj_.position_m.push_back(site_.to_input(p1));
-    }
 
     bool done = false;
     // Under gravity and drag in still or sinking air z(t) has no interior minimum within a step
@@ -515,6 +511,12 @@ FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_star
           done = true;
         }
       }
+    }
+    // Trajectory record: the step's end, or where it was cut short (time stays increasing across
+    // bounces, and no point lies past a contact).
+    if (record_trajectory_) {
+      traj_.t_s.push_back(done ? ev.t : t1);
+      traj_.position_m.push_back(site_.to_input(done ? ev.p : p1));
     }
     if (done) break;
     if (!site_.terrain_bounds().contains_xy(p1.x(), p1.y())) {

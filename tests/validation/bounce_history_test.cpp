@@ -133,6 +133,10 @@ TEST(BounceHistory, TumblingBlocksSometimesReboundAboveTheirDropHeight) {
   blocks.direction.azimuth_min_deg = blocks.direction.azimuth_max_deg = 0.0;
   sc.groups = {blocks};
   const run::RunResult r = run::run(sc);
+  // Recorded trajectories run forward in time across bounces (no point past a contact).
+  for (const auto& tr : r.trajectories) {
+    for (std::size_t i = 1; i < tr.t_s.size(); ++i) ASSERT_GT(tr.t_s[i], tr.t_s[i - 1]);
+  }
   // The centre starts at drop_m; a block's centre above that after its first impact rebounded
   // higher than it was dropped from.
   const int n_blocks = above_drop(r, drop_m);
