@@ -246,6 +246,13 @@ class History {
     first_ = {true, t, p, v, impact::impact_angle_deg(v, normal)};
   }
   void finish();
+  // Appends a trajectory point (when recording) if it is later than the last one: a contact
+  // found at the start of a chord coincides with the step end already recorded.
+  void record_point(double t, const Vec3& p) {
+    if (!record_trajectory_ || (!traj_.t_s.empty() && !(t > traj_.t_s.back()))) return;
+    traj_.t_s.push_back(t);
+    traj_.position_m.push_back(site_.to_input(p));
+  }
 
   // Private Members
   const RunContext& ctx_;
@@ -514,10 +521,7 @@ FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_star
     }
     // Trajectory record: the step's end, or where it was cut short (time stays increasing across
     // bounces, and no point lies past a contact).
-    if (record_trajectory_) {
-      traj_.t_s.push_back(done ? ev.t : t1);
-      traj_.position_m.push_back(site_.to_input(done ? ev.p : p1));
-    }
+    record_point(done ? ev.t : t1, done ? ev.p : p1);
     if (done) break;
     if (!site_.terrain_bounds().contains_xy(p1.x(), p1.y())) {
       ev = {FlightEnd::kLeftSite, t1, p1, v1};
@@ -565,10 +569,7 @@ void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) 
   bool harmless = false;
   const auto on_segment = [&](const Vec3& a, const Vec3& b, double ta, double tb, const Vec3& va,
                               const Vec3& vb) {
-    if (record_trajectory_) {
-      traj_.t_s.push_back(tb);
-      traj_.position_m.push_back(site_.to_input(b));
-    }
+    record_point(tb, b);
     double s_end = 1.0;
     if (buildings && site_.segment_near_buildings(a, b)) {
       SectionTimer timer(prof_, out_.geometry_s);
@@ -660,10 +661,7 @@ void History::simulate() {
       flying = false;
     }
   }
-  if (flying && record_trajectory_) {
-    traj_.t_s.push_back(0.0);
-    traj_.position_m.push_back(site_.to_input(p_launch));
-  }
+  if (flying) record_point(0.0, p_launch);
 
   Vec3 p = p_launch, v = init_.velocity_mps;
   double t = 0.0;
@@ -722,11 +720,9 @@ void History::simulate() {
       }
     }
   }
-  if (record_trajectory_ && end_.outcome != Outcome::kMaxFlightTime &&
-      end_.outcome != Outcome::kStartedInside && end_.outcome != Outcome::kLeftSite &&
-      (traj_.t_s.empty() || traj_.t_s.back() != end_.t)) {
-    traj_.t_s.push_back(end_.t);
-    traj_.position_m.push_back(site_.to_input(end_.p));
+  if (end_.outcome != Outcome::kMaxFlightTime && end_.outcome != Outcome::kStartedInside &&
+      end_.outcome != Outcome::kLeftSite) {
+    record_point(end_.t, end_.p);
   }
   finish();
 }
