@@ -9,6 +9,7 @@
 // form there, asymmetric inertia here (analytic, DOPRI5 fallback).
 #include <optional>
 
+#include "core/common/elliptic.h"
 #include "core/common/types.h"
 #include "core/flight/trajectory.h"
 
@@ -18,13 +19,7 @@ namespace fragsim::flight {
 // Elliptic functions and integrals (real arguments). The parameter is m = k^2; its complement
 // mc = 1 - m is passed separately so that both are known to full relative precision near m = 1.
 
-// Carlson's symmetric integrals (B. C. Carlson, Numerical Algorithms 10 (1995) 13-26; DLMF 19.16),
-// duplication algorithm to ~1e-15 relative.
-// R_F(x, y, z) = 1/2 int_0^inf dt / sqrt((t+x)(t+y)(t+z)); x, y, z >= 0, at most one zero.
-double carlson_rf(double x, double y, double z);
-// R_J(x, y, z, p) = 3/2 int_0^inf dt / ((t+p) sqrt((t+x)(t+y)(t+z))); x, y, z >= 0 (at most one
-// zero), p > 0.
-double carlson_rj(double x, double y, double z, double p);
+// Carlson's symmetric integrals R_F and R_J: core/common/elliptic.h.
 
 struct JacobiSnCnDn {
   double sn = 0.0, cn = 1.0, dn = 1.0;

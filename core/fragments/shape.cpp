@@ -4,7 +4,7 @@
 #include <string>
 
 #include "core/common/error.h"
-#include "core/fragments/elliptic.h"
+#include "core/common/elliptic.h"
 #include "core/fragments/sampling.h"
 
 namespace fragsim::fragments {

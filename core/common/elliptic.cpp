@@ -1,11 +1,12 @@
-// Carlson (1995) duplication algorithms for R_F and R_D, and R_G from them (DLMF 19.21.10).
-#include "core/fragments/elliptic.h"
+// Carlson (1995) duplication algorithms for R_F, R_D and R_J, and R_G from R_F and R_D
+// (DLMF 19.21.10).
+#include "core/common/elliptic.h"
 
 #include <algorithm>
 #include <cmath>
 #include <utility>
 
-namespace fragsim::fragments {
+namespace fragsim {
 
 namespace {
 
@@ -13,6 +14,21 @@ namespace {
 // relative error below about r. Double precision unit roundoff.
 constexpr double kTol = 0x1p-53;
 constexpr int kMaxSteps = 64;  // each step divides the spread by 4: 64 steps reach 4^-64 ~ 3e-39
+
+// R_C(1, 1 + e), e > -1: atan(sqrt e) / sqrt e (e > 0), atanh(sqrt -e) / sqrt -e (e < 0); the
+// Taylor series 1 - e/3 + e^2/5 - ... near e = 0 where both forms cancel.
+double carlson_rc_one(double e) {
+  if (std::abs(e) < 1e-3) {
+    // Alternating series sum (-e)^k / (2k + 1); |e|^7 < 1e-21 beyond the last term.
+    return 1.0 + e * (-1.0 / 3 + e * (1.0 / 5 + e * (-1.0 / 7 + e * (1.0 / 9 + e * (-1.0 / 11)))));
+  }
+  if (e > 0.0) {
+    const double s = std::sqrt(e);
+    return std::atan(s) / s;
+  }
+  const double s = std::sqrt(-e);
+  return std::atanh(s) / s;
+}
 
 }  // namespace
 
@@ -70,6 +86,42 @@ double carlson_rd(double x, double y, double z) {
   return pow4 * series / (a * std::sqrt(a)) + 3.0 * sum;
 }
 
+double carlson_rj(double x, double y, double z, double p) {
+  // Duplication on all four arguments; each step sheds 6 * 4^-n R_C(1, 1 + e_n) / d_n with
+  // d_n = (sqrt p + sqrt x)(sqrt p + sqrt y)(sqrt p + sqrt z), e_n = 4^-3n delta / d_n^2,
+  // delta = (p - x)(p - y)(p - z); then the expansion about the mean A with X + Y + Z + 2P = 0.
+  const double a0 = (x + y + z + 2.0 * p) / 5.0;
+  const double delta = (p - x) * (p - y) * (p - z);
+  const double q =
+      std::pow(0.25 * kTol, -1.0 / 6.0) *
+      std::max({std::abs(a0 - x), std::abs(a0 - y), std::abs(a0 - z), std::abs(a0 - p)});
+  double a = a0, xm = x, ym = y, zm = z, pm = p, pow4 = 1.0, pow64 = 1.0, sum = 0.0;
+  for (int n = 0; n < kMaxSteps && pow4 * q >= std::abs(a); ++n) {
+    const double sx = std::sqrt(xm), sy = std::sqrt(ym), sz = std::sqrt(zm), sp = std::sqrt(pm);
+    const double l = sx * sy + sy * sz + sz * sx;
+    const double d = (sp + sx) * (sp + sy) * (sp + sz);
+    const double e = pow64 * delta / (d * d);
+    sum += pow4 * carlson_rc_one(e) / d;
+    xm = 0.25 * (xm + l);
+    ym = 0.25 * (ym + l);
+    zm = 0.25 * (zm + l);
+    pm = 0.25 * (pm + l);
+    a = 0.25 * (a + l);
+    pow4 *= 0.25;
+    pow64 *= 1.0 / 64.0;
+  }
+  const double dx = (a0 - x) * pow4 / a, dy = (a0 - y) * pow4 / a, dz = (a0 - z) * pow4 / a;
+  const double dp = -0.5 * (dx + dy + dz);
+  const double xyz = dx * dy * dz, p2 = dp * dp;
+  const double e2 = dx * dy + dx * dz + dy * dz - 3.0 * p2;
+  const double e3 = xyz + 2.0 * e2 * dp + 4.0 * p2 * dp;
+  const double e4 = (2.0 * xyz + e2 * dp + 3.0 * p2 * dp) * dp;
+  const double e5 = xyz * p2;
+  const double series = 1.0 - 3.0 * e2 / 14.0 + e3 / 6.0 + 9.0 * e2 * e2 / 88.0 - 3.0 * e4 / 22.0 -
+                        9.0 * e2 * e3 / 52.0 + 3.0 * e5 / 26.0;
+  return pow4 * series / (a * std::sqrt(a)) + 6.0 * sum;
+}
+
 double carlson_rg(double x, double y, double z) {
   // DLMF 19.21.10: 2 R_G = z R_F - (x-z)(y-z) R_D / 3 + sqrt(xy/z). With z the middle value,
   // (x-z)(y-z) <= 0 and every term is nonnegative: no cancellation (Carlson 1995, sec. 2).
@@ -82,4 +134,4 @@ double carlson_rg(double x, double y, double z) {
                 std::sqrt(x * y / z));
 }
 
-}  // namespace fragsim::fragments
+}  // namespace fragsim
