@@ -124,13 +124,8 @@ std::int64_t Site::terrain_triangle_at(double x, double y) const {
 }
 
 double Site::terrain_plane_height(std::uint32_t t, double x, double y) const {
-  const auto& tri = terrain_triangles_[t];
-  const Vec3& a = terrain_vertices_[tri[0]];
-  const Vec3& b = terrain_vertices_[tri[1]];
-  const Vec3& c = terrain_vertices_[tri[2]];
-  const double area2 = orient(a, b, c.x(), c.y());
-  const double la = orient(b, c, x, y) / area2, lb = orient(c, a, x, y) / area2;
-  return la * a.z() + lb * b.z() + (1.0 - la - lb) * c.z();
+  const auto& g = terrain_plane_[t];
+  return g[0] * x + g[1] * y + g[2];
 }
 
 double Site::terrain_height(double x, double y) const {

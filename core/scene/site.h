@@ -199,6 +199,7 @@ class Site {
   std::vector<std::array<std::uint32_t, 3>> terrain_triangles_;
   std::vector<double> terrain_area_;
   std::vector<Vec3> terrain_normal_;
+  std::vector<std::array<double, 3>> terrain_plane_;  // z = [0] x + [1] y + [2] per triangle
   bool terrain_is_plane_ = false;
   bool terrain_is_lattice_ = false;  // plane or grid: bucket (i, j) holds triangles 2k, 2k + 1
   double plane_elevation_ = 0.0;

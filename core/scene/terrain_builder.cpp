@@ -162,6 +162,7 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
   const std::size_t nt = site.terrain_triangles_.size();
   site.terrain_area_.resize(nt);
   site.terrain_normal_.resize(nt);
+  site.terrain_plane_.resize(nt);
   site.terrain_bounds_ = Box3{};
   for (std::size_t t = 0; t < nt; ++t) {
     const auto& tri = site.terrain_triangles_[t];
@@ -172,6 +173,9 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
     const double len = n.norm();
     site.terrain_area_[t] = 0.5 * len;
     site.terrain_normal_[t] = n / len;
+    // Plane z = gx x + gy y + gz through the triangle (n_z > 0: not vertical).
+    site.terrain_plane_[t] = {-n.x() / n.z(), -n.y() / n.z(),
+                              a.z() + (n.x() * a.x() + n.y() * a.y()) / n.z()};
     site.terrain_bounds_.extend(a);
     site.terrain_bounds_.extend(b);
     site.terrain_bounds_.extend(c);
