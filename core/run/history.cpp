@@ -124,13 +124,25 @@ class History {
   void simulate();
 
  private:
-  // Can this fragment ever matter again? Drag and impacts only remove energy, so its kinetic
-  // energy can never exceed KE + m g (z - lowest terrain). Below the hazardous threshold it
-  // cannot add to the PTN density; with no buildings on the site nothing else is tallied.
+  // Can this fragment ever matter again? Below the hazardous threshold it cannot add to the PTN
+  // density; with no buildings on the site nothing else is tallied. In still air drag, impacts
+  // and sliding only remove energy, so its kinetic energy can never exceed
+  // KE + m g (z - lowest terrain). With wind, drag can add energy in the ground frame, but not in
+  // the wind's (inertial: the wind is uniform and steady), so from this state on
+  // |v - w|^2 <= |v - w|^2_now + 2 g (z - lowest terrain) and |v| <= |w| + that root (impacts
+  // and sliding, which only remove ground-frame energy, are covered because the bound is
+  // evaluated afresh from every new state).
   bool can_never_matter(const Vec3& p, const Vec3& v) const {
     if (site_.has_buildings()) return false;
-    const double ke_max = 0.5 * mass_ * v.squaredNorm() + mass_ * g_ * (p.z() - ctx_.terrain_min_z);
-    return ke_max < st_.hazardous_ke_j;
+    const double drop = p.z() - ctx_.terrain_min_z;
+    if (ctx_.still_air) {
+      const double ke_max = 0.5 * mass_ * v.squaredNorm() + mass_ * g_ * drop;
+      return ke_max < st_.hazardous_ke_j;
+    }
+    const Vec3& w = sc_.atmosphere.wind_mps;
+    const double v_max =
+        w.norm() + std::sqrt(std::max(0.0, (v - w).squaredNorm() + 2.0 * g_ * drop));
+    return 0.5 * mass_ * v_max * v_max < st_.hazardous_ke_j;
   }
 
   // PTN contributions of the straight piece a -> b (times ta, tb); velocity_at(s) gives the

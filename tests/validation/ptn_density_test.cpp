@@ -47,6 +47,31 @@ TEST(PtnDensity, NonHazardousFragmentContributesNothing) {
   EXPECT_EQ(r.outcome_histories[static_cast<int>(run::Outcome::kHarmless)], 50);
 }
 
+// A slow fragment in a strong wind is not written off as harmless: drag can accelerate it to
+// near the wind speed, above the hazardous energy. (A bound that ignored the wind stopped it at
+// launch: 1 kg, at rest 1.5 m up, KE + m g h = 14.7 J < 79 J.)
+TEST(PtnDensity, WindCanMakeASlowFragmentHazardous) {
+  run::Scenario sc = flat_site_scenario(200.0, 10.0);
+  fragments::FragmentGroupSpec g;
+  g.name = "plates";
+  g.count = 10.0;
+  g.samples = 10;
+  g.frame.origin_m = Vec3(-150.0, 0.0, 1.5);
+  g.shape.type = fragments::ShapeType::kPoint;
+  g.area_m2 = 0.5;  // k = rho Cd A / 2m = 0.31 /m: reaches ~34 m/s (578 J) within 0.5 s
+  g.mass_kg = fragments::Distribution::fixed(1.0);
+  g.speed_mps = fragments::Distribution::fixed(0.0);
+  g.cd.constant = 1.0;
+  sc.groups = {g};
+  const run::RunResult still = run::run(sc);
+  EXPECT_EQ(still.outcome_histories[static_cast<int>(run::Outcome::kHarmless)], 10);
+  EXPECT_EQ(still.max_ptn_density_per_m2, 0.0);
+  sc.atmosphere.wind_mps = Vec3(40.0, 0.0, 0.0);
+  const run::RunResult windy = run::run(sc);
+  EXPECT_EQ(windy.outcome_histories[static_cast<int>(run::Outcome::kHarmless)], 0);
+  EXPECT_GT(windy.max_ptn_density_per_m2, 0.0);  // hazardous on its way downwind
+}
+
 // A horizontal fan of fast fragments at height < H over a flat plane, gravity off. A fragment
 // leaving at azimuth phi (uniform over the fan dphi) crosses the prism of triangle T iff phi lies
 // in T's angular span as seen from the origin, and then adds w / (H width_T(phi)) (A_PTN of a
