@@ -17,11 +17,7 @@ namespace fs = std::filesystem;
 class OutputDirTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fs::temp_directory_path() /
-            ("fragsim_outdir_test_" + std::to_string(::getpid()) + "_" +
-             ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(root_);
-    fs::create_directories(root_);
+    root_ = testing::fresh_test_dir("fragsim_outdir_test_");
   }
   void TearDown() override { fs::remove_all(root_); }
 

@@ -17,11 +17,7 @@ namespace fs = std::filesystem;
 class ResultsH5 : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("fragsim_h5_test_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = testing::fresh_test_dir("fragsim_h5_test_");
     scenario_ = parse_scenario(testing::minimal_example());
     // A coarse plane (4 x 4 cells) far from the origin, so that input != local coordinates.
     auto& plane = std::get<scene::PlaneTerrainSpec>(scenario_.site.terrain.geometry);

@@ -1,6 +1,7 @@
 #pragma once
 // Shared helpers for the api tests: fixtures from the source tree and error capture.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -22,6 +23,18 @@ inline std::string read_text(const std::filesystem::path& path) {
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+// An empty directory of the test's own under the system temp directory (process id and test name
+// in its name, so parallel test processes never share one). Removed first if a crashed run left it.
+inline std::filesystem::path fresh_test_dir(const std::string& prefix) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() /
+                       (prefix + std::to_string(::getpid()) + "_" +
+                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
 }
 
 inline std::filesystem::path source_path(const std::string& relative) {

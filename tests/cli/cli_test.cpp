@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "api/results_h5.h"
+#include "api/test_support.h"
 
 namespace {
 
@@ -45,11 +46,7 @@ struct CliResult {
 class Cli : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("fragsim_cli_test_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = fragsim::api::testing::fresh_test_dir("fragsim_cli_test_");
   }
   void TearDown() override { fs::remove_all(dir_); }
 
