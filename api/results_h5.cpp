@@ -7,12 +7,20 @@
 #include <algorithm>
 #include <chrono>
 #include <ctime>
+#include <mutex>
 #include <stdexcept>
 #include <type_traits>
 
 namespace fragsim::api {
 
 namespace {
+
+// The HDF5 library Debian ships is not built thread-safe: every call into it from this file is
+// serialised (fragsimd reads results on request threads while a job writes its own file).
+std::mutex& hdf5_mutex() {
+  static std::mutex m;
+  return m;
+}
 
 // ---- Handles and errors ----
 
@@ -386,6 +394,7 @@ void write_trajectories(Writer& w, const std::vector<run::TrajectoryRecord>& tra
 void write_results_h5(const std::filesystem::path& path, const run::RunResult& r,
                       const scene::Site& site, const run::Scenario& scenario,
                       const std::string& scenario_json, const Provenance& provenance) {
+  const std::lock_guard<std::mutex> lock(hdf5_mutex());
   const std::size_t m = site.terrain_triangle_count();
   if (r.ptn_density_per_m2.size() != m || r.ptn_std_error_per_m2.size() != m)
     throw std::logic_error("results.h5: " + std::to_string(r.ptn_density_per_m2.size()) +
@@ -522,6 +531,7 @@ herr_t collect_dataset(hid_t /*obj*/, const char* name, const H5O_info_t* info, 
 }  // namespace
 
 std::vector<std::string> list_datasets(const std::filesystem::path& path) {
+  const std::lock_guard<std::mutex> lock(hdf5_mutex());
   const QuietErrors quiet;
   const Handle file = open_file(path);
   std::vector<std::string> names;
@@ -533,6 +543,7 @@ std::vector<std::string> list_datasets(const std::filesystem::path& path) {
 
 std::vector<std::uint64_t> dataset_shape(const std::filesystem::path& path,
                                          const std::string& name) {
+  const std::lock_guard<std::mutex> lock(hdf5_mutex());
   const QuietErrors quiet;
   const Handle file = open_file(path);
   const Handle dset = open_dataset(file, path, name);
@@ -546,16 +557,19 @@ std::vector<std::uint64_t> dataset_shape(const std::filesystem::path& path,
 
 std::vector<double> read_dataset_double(const std::filesystem::path& path,
                                         const std::string& name) {
+  const std::lock_guard<std::mutex> lock(hdf5_mutex());
   return read_numeric<double>(path, name, H5T_NATIVE_DOUBLE);
 }
 
 std::vector<std::int64_t> read_dataset_int64(const std::filesystem::path& path,
                                              const std::string& name) {
+  const std::lock_guard<std::mutex> lock(hdf5_mutex());
   return read_numeric<std::int64_t>(path, name, H5T_NATIVE_INT64);
 }
 
 std::vector<std::string> read_dataset_strings(const std::filesystem::path& path,
                                               const std::string& name) {
+  const std::lock_guard<std::mutex> lock(hdf5_mutex());
   const QuietErrors quiet;
   const Handle file = open_file(path);
   const Handle dset = open_dataset(file, path, name);
@@ -578,6 +592,7 @@ std::vector<std::string> read_dataset_strings(const std::filesystem::path& path,
 
 std::vector<unsigned char> read_dataset_raw(const std::filesystem::path& path,
                                             const std::string& name) {
+  const std::lock_guard<std::mutex> lock(hdf5_mutex());
   const QuietErrors quiet;
   const Handle file = open_file(path);
   const Handle dset = open_dataset(file, path, name);
@@ -590,6 +605,7 @@ std::vector<unsigned char> read_dataset_raw(const std::filesystem::path& path,
 
 std::string read_attribute_string(const std::filesystem::path& path, const std::string& object,
                                   const std::string& attribute) {
+  const std::lock_guard<std::mutex> lock(hdf5_mutex());
   const QuietErrors quiet;
   const Handle file = open_file(path);
   const Handle attr = open_attribute(file, path, object, attribute);
@@ -603,16 +619,19 @@ std::string read_attribute_string(const std::filesystem::path& path, const std::
 
 double read_attribute_double(const std::filesystem::path& path, const std::string& object,
                              const std::string& attribute) {
+  const std::lock_guard<std::mutex> lock(hdf5_mutex());
   return read_attribute_numeric<double>(path, object, attribute, H5T_NATIVE_DOUBLE);
 }
 
 std::int64_t read_attribute_int64(const std::filesystem::path& path, const std::string& object,
                                   const std::string& attribute) {
+  const std::lock_guard<std::mutex> lock(hdf5_mutex());
   return read_attribute_numeric<std::int64_t>(path, object, attribute, H5T_NATIVE_INT64);
 }
 
 std::uint64_t read_attribute_uint64(const std::filesystem::path& path, const std::string& object,
                                     const std::string& attribute) {
+  const std::lock_guard<std::mutex> lock(hdf5_mutex());
   return read_attribute_numeric<std::uint64_t>(path, object, attribute, H5T_NATIVE_UINT64);
 }
 

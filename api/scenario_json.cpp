@@ -82,7 +82,7 @@ Json vec3_json(const Vec3& v) {
 // their path; syntax errors at their line and column.
 class DomBuilder {
  public:
-  explicit DomBuilder(std::string_view text) : text_(text) {}
+  DomBuilder(std::string_view text, std::size_t max_depth) : text_(text), max_depth_(max_depth) {}
   Json take() { return std::move(root_); }
 
   // SAX interface
@@ -123,8 +123,8 @@ class DomBuilder {
       if (const auto colon = reason.find(": ", c); colon != std::string::npos)
         reason = reason.substr(colon + 2);
     }
-    fail("", "malformed JSON at line " + std::to_string(line) + ", column " +
-                 std::to_string(column) + ": " + reason);
+    throw MalformedJsonError("", "malformed JSON at line " + std::to_string(line) + ", column " +
+                                     std::to_string(column) + ": " + reason);
   }
 
  private:
@@ -162,6 +162,8 @@ class DomBuilder {
   }
   bool open(Json&& container) {
     std::string path = next_path();
+    if (levels_.size() >= max_depth_)
+      throw JsonTooDeepError(path, "nested deeper than " + std::to_string(max_depth_) + " levels");
     levels_.push_back({place(std::move(container)), std::move(path), {}, {}});
     return true;
   }
@@ -171,19 +173,20 @@ class DomBuilder {
   }
 
   std::string_view text_;
+  std::size_t max_depth_;
   Json root_;
   std::vector<Level> levels_;
 };
 
-Json parse_json_text(std::string_view text) {
-  DomBuilder builder(text);
+}  // namespace
+
+Json parse_json_text(std::string_view text, std::size_t max_depth) {
+  DomBuilder builder(text, max_depth);
   Json::sax_parse(text.begin(), text.end(), &builder);
   return builder.take();
 }
 
-}  // namespace
-
-ScenarioDocument parse_scenario_document(const nlohmann::json& j) {
+ScenarioDocument parse_scenario_document(const nlohmann::json& j, const SiteResolver* resolve) {
   if (!j.is_object()) fail("", "expected a JSON object at the top level, got " + json_type_name(j));
   // The format tag first: a document of another version fails on that, not on its new keys.
   const auto tag = j.find("schema");
@@ -196,7 +199,20 @@ ScenarioDocument parse_scenario_document(const nlohmann::json& j) {
   ScenarioDocument doc;
   doc.description = o.string_or("description", "");
   run::Scenario& sc = doc.scenario;
-  sc.site = detail::parse_site(o.require("site"), "site", doc.material_notes);
+  if (const Json* id = o.find("site_id")) {
+    const std::string site_id = read_string(*id, "site_id");
+    if (o.has("site")) fail("site_id", "give either an inline site or a site_id, not both");
+    if (resolve == nullptr || !*resolve)
+      fail("site_id",
+           "refers to a site uploaded to fragsimd; a scenario run without the server needs an "
+           "inline \"site\"");
+    const Json* site = (*resolve)(site_id);
+    if (site == nullptr) fail("site_id", "unknown site \"" + site_id + "\"");
+    sc.site = detail::parse_site(*site, "site", doc.material_notes);
+    doc.site_id = site_id;
+  } else {
+    sc.site = detail::parse_site(o.require("site"), "site", doc.material_notes);
+  }
   if (const Json* a = o.find("atmosphere")) sc.atmosphere = parse_atmosphere(*a, "atmosphere");
   sc.gravity_mps2 = o.number_or("gravity_mps2", sc.gravity_mps2);
   check_ge(sc.gravity_mps2, 0.0, "gravity_mps2");

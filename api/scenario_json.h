@@ -8,12 +8,15 @@
 // you mean "integrator"?)". parse_* checks everything except geometry; validate_scenario adds the
 // geometry checks of scene::Site::build (mesh indices, zero-area triangles, footprints), which
 // report paths in the same style.
+#include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
 
+#include "core/common/error.h"
 #include "core/run/scenario.h"
 #include "core/scene/site.h"
 
@@ -38,11 +41,35 @@ struct ScenarioDocument {
   run::Scenario scenario;
   std::string description;
   std::map<std::string, MaterialNotes> material_notes;  // by material name; every material
+  std::optional<std::string> site_id;  // the scenario named a stored site instead of an inline one
 };
 
-ScenarioDocument parse_scenario_document(const nlohmann::json& j);
-// Text: malformed JSON -> InputError("", "malformed JSON at line L, column C: ..."); a key given
-// twice in one object -> InputError("<path>.<key>", "duplicate key").
+// Text that is not JSON (400 in the daemon, "malformed JSON at line L, column C: ...").
+class MalformedJsonError : public InputError {
+ public:
+  using InputError::InputError;
+};
+// JSON nested deeper than the parser allows (field: the path where the limit was reached).
+class JsonTooDeepError : public InputError {
+ public:
+  using InputError::InputError;
+};
+
+inline constexpr std::size_t kMaxJsonDepth = 64;
+
+// Parses JSON text into a DOM with the errors above; a key given twice in one object ->
+// InputError("<path>.<key>", "duplicate key"); a number that overflows a double ->
+// InputError(path, "not finite").
+nlohmann::json parse_json_text(std::string_view text, std::size_t max_depth = kMaxJsonDepth);
+
+// Looks up a stored site by id (the daemon's registry): its site JSON, or null when unknown.
+using SiteResolver = std::function<const nlohmann::json*(const std::string& site_id)>;
+
+// A scenario names its site inline ("site") or, on the server, by "site_id"; without a resolver a
+// site_id is refused ("site_id: refers to a site uploaded to fragsimd ...").
+ScenarioDocument parse_scenario_document(const nlohmann::json& j,
+                                         const SiteResolver* resolve = nullptr);
+// Text: parse_json_text, then parse_scenario_document.
 ScenarioDocument parse_scenario_document_text(std::string_view text);
 
 run::Scenario parse_scenario(const nlohmann::json& j);

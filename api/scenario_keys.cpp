@@ -7,7 +7,7 @@ namespace fragsim::api {
 const std::map<std::string, std::vector<std::string>, std::less<>>& scenario_object_keys() {
   static const std::map<std::string, std::vector<std::string>, std::less<>> kKeys = {
       {"scenario",
-       {"schema", "description", "site", "atmosphere", "gravity_mps2", "fragment_groups",
+       {"schema", "description", "site", "site_id", "atmosphere", "gravity_mps2", "fragment_groups",
         "settings"}},
       // Site
       {"site", {"origin", "terrain", "materials", "buildings"}},

@@ -14,7 +14,7 @@
 #include <sstream>
 
 #include "api/output_dir.h"
-#include "api/results_h5.h"
+#include "api/run_outputs.h"
 #include "api/scenario_json.h"
 #include "api/sha256.h"
 #include "api/summary_json.h"
@@ -143,7 +143,6 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
 
   api::Provenance provenance = api::build_provenance();
   provenance.scenario_sha256 = api::sha256_hex(text);
-  const std::string scenario_json = api::scenario_to_json(doc).dump();
   if (!o.quiet) std::cerr << illustrative_note(doc);
 
   api::OutputDir out(o.out);  // removed again (if created here) unless commit() is reached
@@ -158,11 +157,8 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
     return kExitCancelled;
   }
 
-  const nlohmann::ordered_json summary = api::summary_to_json(result, doc.scenario, provenance);
-  out.stage("results.h5", [&](const std::filesystem::path& path) {
-    api::write_results_h5(path, result, *site, doc.scenario, scenario_json, provenance);
-  });
-  out.stage_text("summary.json", summary.dump(2) + "\n");
+  const nlohmann::ordered_json summary =
+      api::stage_run_outputs(out, result, *site, doc, provenance);
   if (cancel.load()) {
     std::cerr << "cancelled: no output written\n";
     return kExitCancelled;

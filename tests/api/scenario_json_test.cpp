@@ -184,8 +184,14 @@ TEST(ScenarioJson, UnknownKeysAreRejected) {
   // A missing unit suffix gets the suffixed name suggested.
   EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/mass", 1)),
             (FieldMessage{"fragment_groups[0].mass", "unknown key (did you mean \"mass_kg\"?)"}));
+  // site_id is the server's way of naming a site: not both, and not without a server.
   EXPECT_EQ(parse_error(with(minimal_example(), "/site_id", "demo")),
-            (FieldMessage{"site_id", "unknown key"}));
+            (FieldMessage{"site_id", "give either an inline site or a site_id, not both"}));
+  Json by_id = minimal_example();
+  by_id.erase("site");
+  by_id["site_id"] = "s_0123456789abcdef";
+  EXPECT_EQ(parse_error(by_id).first, "site_id");
+  EXPECT_NE(parse_error(by_id).second.find("inline"), std::string::npos);
   // A key of another distribution kind is not accepted.
   EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/speed_mps/median", 300)),
             (FieldMessage{"fragment_groups[0].speed_mps.median", "unknown key"}));

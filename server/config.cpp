@@ -1,0 +1,245 @@
+#include "server/config.h"
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "api/json_fields.h"
+#include "api/scenario_json.h"
+
+namespace fragsim::server {
+
+namespace {
+
+using Json = nlohmann::json;
+
+constexpr std::int64_t kInt64Max = std::numeric_limits<std::int64_t>::max();
+
+std::int64_t parse_integer(const std::string& text, const std::string& what, std::int64_t lo,
+                           std::int64_t hi) {
+  std::size_t used = 0;
+  long long v = 0;
+  try {
+    v = std::stoll(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty())
+    throw ConfigError(what + ": expected an integer, got \"" + text + "\"");
+  if (v < lo || v > hi)
+    throw ConfigError(what + ": must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                      "] (got " + text + ")");
+  return v;
+}
+
+double parse_seconds(const std::string& text, const std::string& what) {
+  std::size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty() || !(v > 0.0) || v > 86400.0)
+    throw ConfigError(what + ": expected seconds in (0, 86400], got \"" + text + "\"");
+  return v;
+}
+
+void set_listen(const std::string& text, const std::string& what, Config& c) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0)
+    throw ConfigError(what + ": expected HOST:PORT, got \"" + text + "\"");
+  std::string host = text.substr(0, colon);
+  if (host.size() > 2 && host.front() == '[' && host.back() == ']')
+    host = host.substr(1, host.size() - 2);  // [::1]:8080
+  c.listen_host = host;
+  c.listen_port = static_cast<int>(parse_integer(text.substr(colon + 1), what, 0, 65535));
+}
+
+void check_log_level(const std::string& level, const std::string& what) {
+  if (level != "debug" && level != "info" && level != "warn" && level != "error")
+    throw ConfigError(what + ": must be debug, info, warn or error (got \"" + level + "\")");
+}
+
+std::string read_text_file(const std::string& path, const std::string& what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ConfigError(what + ": cannot read " + path + ": " + std::strerror(errno));
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
+bool is_loopback_host(const std::string& host) {
+  return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
+}
+
+std::vector<std::string> read_tokens(const std::string& path) {
+  std::istringstream in(read_text_file(path, "token file"));
+  std::vector<std::string> tokens;
+  std::string line;
+  while (std::getline(in, line)) {
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t'))
+      line.pop_back();
+    std::size_t start = line.find_first_not_of(" \t");
+    if (start == std::string::npos || line[start] == '#') continue;
+    tokens.push_back(line.substr(start));
+  }
+  return tokens;
+}
+
+void apply_config_file(const std::string& path, Config& c) {
+  const std::string text = read_text_file(path, "--config");
+  Json j;
+  try {
+    j = api::parse_json_text(text);
+  } catch (const InputError& e) {
+    throw ConfigError(path + ": " + e.what());
+  }
+  if (!j.is_object()) throw ConfigError(path + ": expected a JSON object");
+  static const std::vector<std::string> kKeys = {
+      "listen", "data_dir", "threads", "http_threads", "token_file", "auth", "max_body_bytes",
+      "max_samples_per_job", "max_sites", "max_queued_jobs", "request_timeout_s", "log_level",
+      "max_crashes", "port_file"};
+  try {
+    for (const auto& item : j.items()) {
+      const std::string& k = item.key();
+      const Json& v = item.value();
+      if (k == "listen") {
+        set_listen(api::read_string(v, k), k, c);
+      } else if (k == "data_dir") {
+        c.data_dir = api::read_string(v, k);
+      } else if (k == "threads") {
+        c.threads = static_cast<int>(api::read_integer(v, k, 0, api::kMaxThreads));
+      } else if (k == "http_threads") {
+        c.http_threads = static_cast<int>(api::read_integer(v, k, 1, 1024));
+      } else if (k == "token_file") {
+        c.token_file = api::read_string(v, k);
+      } else if (k == "auth") {
+        c.auth = api::read_bool(v, k);
+      } else if (k == "max_body_bytes") {
+        c.max_body_bytes = api::read_integer(v, k, 1024, kInt64Max);
+      } else if (k == "max_samples_per_job") {
+        c.max_samples_per_job = api::read_integer(v, k, 1, kInt64Max);
+      } else if (k == "max_sites") {
+        c.max_sites = api::read_integer(v, k, 1, kInt64Max);
+      } else if (k == "max_queued_jobs") {
+        c.max_queued_jobs = api::read_integer(v, k, 1, kInt64Max);
+      } else if (k == "request_timeout_s") {
+        c.request_timeout_s = api::read_number(v, k);
+        api::check_in(c.request_timeout_s, 0.001, 86400.0, k);
+      } else if (k == "log_level") {
+        c.log_level = api::read_string(v, k);
+        check_log_level(c.log_level, k);
+      } else if (k == "max_crashes") {
+        c.max_crashes = static_cast<int>(api::read_integer(v, k, 1, 1000));
+      } else if (k == "port_file") {
+        c.port_file = api::read_string(v, k);
+      } else {
+        const std::string guess = api::suggest_key(k, kKeys);
+        throw InputError(k, guess.empty() ? "unknown key" : "unknown key (did you mean \"" + guess + "\"?)");
+      }
+    }
+  } catch (const InputError& e) {
+    throw ConfigError(path + ": " + e.what());
+  } catch (const ConfigError& e) {
+    throw ConfigError(path + ": " + e.what());
+  }
+}
+
+Invocation parse_command_line(const std::vector<std::string>& args) {
+  Invocation inv;
+  // The config file first, so that flags override it wherever they stand.
+  for (std::size_t k = 0; k < args.size(); ++k) {
+    if (args[k] == "--config") {
+      if (k + 1 >= args.size()) throw ConfigError("--config: needs a file name");
+      apply_config_file(args[k + 1], inv.config);
+    }
+  }
+  Config& c = inv.config;
+  for (std::size_t k = 0; k < args.size(); ++k) {
+    const std::string& a = args[k];
+    auto value = [&]() -> const std::string& {
+      if (k + 1 >= args.size()) throw ConfigError(a + ": needs a value");
+      return args[++k];
+    };
+    if (a == "--help" || a == "-h") {
+      inv.help = true;
+    } else if (a == "--version") {
+      inv.version = true;
+    } else if (a == "--config") {
+      ++k;
+    } else if (a == "--listen") {
+      set_listen(value(), a, c);
+    } else if (a == "--data-dir") {
+      c.data_dir = value();
+    } else if (a == "--threads") {
+      c.threads = static_cast<int>(parse_integer(value(), a, 0, api::kMaxThreads));
+    } else if (a == "--http-threads") {
+      c.http_threads = static_cast<int>(parse_integer(value(), a, 1, 1024));
+    } else if (a == "--token-file") {
+      c.token_file = value();
+    } else if (a == "--no-auth") {
+      c.auth = false;
+    } else if (a == "--max-body-bytes") {
+      c.max_body_bytes = parse_integer(value(), a, 1024, kInt64Max);
+    } else if (a == "--max-samples-per-job") {
+      c.max_samples_per_job = parse_integer(value(), a, 1, kInt64Max);
+    } else if (a == "--max-sites") {
+      c.max_sites = parse_integer(value(), a, 1, kInt64Max);
+    } else if (a == "--max-queued-jobs") {
+      c.max_queued_jobs = parse_integer(value(), a, 1, kInt64Max);
+    } else if (a == "--request-timeout-s") {
+      c.request_timeout_s = parse_seconds(value(), a);
+    } else if (a == "--port-file") {
+      c.port_file = value();
+    } else if (a == "--log-level") {
+      c.log_level = value();
+      check_log_level(c.log_level, a);
+    } else if (a == "--max-crashes") {
+      c.max_crashes = static_cast<int>(parse_integer(value(), a, 1, 1000));
+    } else {
+      throw ConfigError(a + ": unknown option");
+    }
+  }
+  return inv;
+}
+
+void check_config(const Config& c) {
+  if (c.data_dir.empty()) throw ConfigError("--data-dir: must not be empty");
+  if (!c.auth && !is_loopback_host(c.listen_host))
+    throw ConfigError("--no-auth: refused while listening on " + c.listen_host +
+                      " (authentication may only be off on a loopback address)");
+  if (c.auth) {
+    if (c.token_file.empty())
+      throw ConfigError("--token-file: required (or --no-auth on a loopback address)");
+    if (read_tokens(c.token_file).empty())
+      throw ConfigError("--token-file: " + c.token_file + " holds no token");
+  }
+}
+
+const char* usage_text() {
+  return "usage: fragsimd [options]\n"
+         "  --config FILE            JSON config file (keys: docs/http-api.md); flags override it\n"
+         "  --listen HOST:PORT       address (default 127.0.0.1:8080; port 0 = any free port)\n"
+         "  --data-dir DIR           queue, sites and results (default ./fragsimd-data)\n"
+         "  --threads N              Monte Carlo threads per job (default: all cores)\n"
+         "  --http-threads N         request threads (default 32)\n"
+         "  --token-file FILE        bearer tokens, one per line (required unless --no-auth)\n"
+         "  --no-auth                no authentication (only on a loopback address)\n"
+         "  --max-body-bytes N       largest request body (default 268435456)\n"
+         "  --max-samples-per-job N  (default 100000000)\n"
+         "  --max-sites N            (default 100)\n"
+         "  --max-queued-jobs N      (default 1000)\n"
+         "  --request-timeout-s S    socket read/write timeout (default 30)\n"
+         "  --port-file FILE         write the bound port here once listening\n"
+         "  --max-crashes N          fail a job after N daemon crashes while it ran (default 3)\n"
+         "  --log-level LEVEL        debug | info | warn | error (default info)\n"
+         "  --version, --help\n";
+}
+
+}  // namespace fragsim::server

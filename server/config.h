@@ -1,0 +1,55 @@
+#pragma once
+// fragsimd configuration: a JSON file (--config FILE) and command-line flags; flags override the
+// file. Every key, flag and default is listed in docs/http-api.md ("Starting the daemon").
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace fragsim::server {
+
+struct Config {
+  std::string listen_host = "127.0.0.1";
+  int listen_port = 8080;  // 0: any free port (see port_file)
+  std::string data_dir = "fragsimd-data";
+  int threads = 0;  // Monte Carlo threads per job; 0 = all cores
+  int http_threads = 32;
+  std::string token_file;
+  bool auth = true;
+  std::int64_t max_body_bytes = 256LL << 20;
+  std::int64_t max_samples_per_job = 100'000'000;
+  std::int64_t max_sites = 100;
+  std::int64_t max_queued_jobs = 1000;
+  double request_timeout_s = 30.0;
+  std::string port_file;
+  std::string log_level = "info";
+  int max_crashes = 3;  // a job running when the daemon died this many times is marked failed
+};
+
+// What the command line asked for besides running.
+struct Invocation {
+  Config config;
+  bool help = false;
+  bool version = false;
+};
+
+// Throws ConfigError (exit 2) naming the flag or key and the problem.
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+Invocation parse_command_line(const std::vector<std::string>& args);  // without argv[0]
+// Reads a config file into `config` (keys as in docs/http-api.md).
+void apply_config_file(const std::string& path, Config& config);
+// Checks the combination (auth off only on loopback, a token file when auth is on, ...).
+void check_config(const Config& config);
+
+bool is_loopback_host(const std::string& host);
+// Tokens from a token file: one per line; blank lines and lines starting with '#' ignored.
+std::vector<std::string> read_tokens(const std::string& path);
+
+const char* usage_text();
+
+}  // namespace fragsim::server

@@ -1,0 +1,168 @@
+#include "server/http_server.h"
+
+#include <httplib.h>
+
+#include <chrono>
+#include <fstream>
+
+#include "server/log.h"
+
+namespace fragsim::server {
+
+namespace {
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+Request to_request(const httplib::Request& in) {
+  Request r;
+  r.method = in.method;
+  r.path = in.path;
+  // The URL's query only: cpp-httplib also merges a form-encoded body into `params`.
+  if (const auto q = in.target.find('?'); q != std::string::npos) {
+    httplib::Params params;
+    httplib::detail::parse_query_text(in.target.substr(q + 1), params);
+    for (const auto& [k, v] : params) r.query[k] = v;
+  }
+  for (const auto& [k, v] : in.headers) r.headers[lower(k)] = v;
+  r.body = in.body;
+  return r;
+}
+
+// Streams a file in 1 MiB pieces; a file that vanished or cannot be read is a 500.
+bool send_file(const std::filesystem::path& path, const std::string& content_type,
+               httplib::Response& res) {
+  auto in = std::make_shared<std::ifstream>(path, std::ios::binary);
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!*in || ec) return false;
+  res.set_content_provider(
+      static_cast<std::size_t>(size), content_type,
+      [in](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+        constexpr std::size_t kPiece = 1 << 20;
+        std::vector<char> buf(std::min(length, kPiece));
+        in->seekg(static_cast<std::streamoff>(offset));
+        in->read(buf.data(), static_cast<std::streamsize>(buf.size()));
+        const auto got = static_cast<std::size_t>(in->gcount());
+        if (got == 0) return false;
+        sink.write(buf.data(), got);
+        return true;
+      });
+  return true;
+}
+
+void set_error_body(httplib::Response& res, const Response& r) {
+  res.status = r.status;
+  res.set_content(r.body, r.content_type);
+}
+
+}  // namespace
+
+HttpServer::HttpServer(Service& service)
+    : service_(service), server_(std::make_unique<httplib::Server>()) {
+  const Config& c = service_.config();
+  auto& s = *server_;
+  const int threads = c.http_threads;
+  s.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
+  s.set_payload_max_length(static_cast<std::size_t>(c.max_body_bytes));
+  const auto timeout = std::chrono::duration<double>(c.request_timeout_s);
+  s.set_read_timeout(std::chrono::duration_cast<std::chrono::microseconds>(timeout));
+  s.set_write_timeout(std::chrono::duration_cast<std::chrono::microseconds>(timeout));
+  s.set_keep_alive_max_count(1000);
+  s.set_keep_alive_timeout(5);
+
+  const auto handler = [this](const httplib::Request& req, httplib::Response& res) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const Response r = service_.handle(to_request(req));
+    res.status = r.status;
+    for (const auto& [k, v] : r.headers) res.set_header(k, v);
+    if (r.file) {
+      if (!send_file(*r.file, r.content_type.empty() ? "application/json" : r.content_type,
+                     res)) {
+        log(LogLevel::kError, "result file unreadable", {{"file", r.file->string()}});
+        set_error_body(res, error_response(500, "internal", "a result file cannot be read"));
+      }
+    } else if (r.status != 204) {
+      res.set_content(r.body, r.content_type);
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    service_.metrics().record_request(req.method, r.route, res.status, seconds);
+    log(res.status >= 500 ? LogLevel::kError : LogLevel::kDebug, "request",
+        {{"method", req.method},
+         {"path", req.path},
+         {"status", std::to_string(res.status)},
+         {"duration_ms", format_double(seconds * 1e3)},
+         {"remote", req.remote_addr}});
+  };
+  s.Get(".*", handler);
+  s.Post(".*", handler);
+  s.Put(".*", handler);
+  s.Patch(".*", handler);
+  s.Delete(".*", handler);
+  s.Options(".*", handler);
+
+  // Errors cpp-httplib answers itself (413 before the body is read, 400 for a malformed request
+  // line) get the same JSON body as every other error.
+  s.set_error_handler(httplib::Server::HandlerWithResponse([this](const httplib::Request& req,
+                                                                  httplib::Response& res) {
+    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    Response r;
+    if (res.status == 413) {
+      r = error_response(413, "payload_too_large",
+                         "the request body is larger than this daemon accepts (" +
+                             std::to_string(service_.config().max_body_bytes) + " bytes)");
+    } else if (res.status >= 500) {
+      r = error_response(res.status, "internal", "internal error");
+    } else {
+      r = error_response(res.status, res.status == 404 ? "not_found" : "bad_request",
+                         std::string("the request could not be handled (HTTP ") +
+                             std::to_string(res.status) + ")");
+    }
+    res.set_content(r.body, r.content_type);
+    service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
+    log(LogLevel::kInfo, "request refused",
+        {{"method", req.method}, {"path", req.path}, {"status", std::to_string(res.status)}});
+    return httplib::Server::HandlerResponse::Handled;
+  }));
+  s.set_exception_handler(
+      [](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
+        std::string what = "unknown exception";
+        try {
+          std::rethrow_exception(ep);
+        } catch (const std::exception& e) {
+          what = e.what();
+        } catch (...) {
+        }
+        log(LogLevel::kError, "internal error", {{"path", req.path}, {"error", what}});
+        set_error_body(res, error_response(500, "internal", "internal error: " + what));
+      });
+}
+
+HttpServer::~HttpServer() = default;
+
+int HttpServer::bind() {
+  const Config& c = service_.config();
+  int port = c.listen_port;
+  if (port == 0) {
+    port = server_->bind_to_any_port(c.listen_host);
+  } else if (!server_->bind_to_port(c.listen_host, port)) {
+    port = -1;
+  }
+  if (port < 0)
+    throw std::runtime_error("cannot listen on " + c.listen_host + ":" +
+                             std::to_string(c.listen_port) + " (address in use or not local?)");
+  return port;
+}
+
+bool HttpServer::run() {
+  return server_->listen_after_bind();
+}
+
+void HttpServer::stop() {
+  server_->stop();
+}
+
+}  // namespace fragsim::server

@@ -1,0 +1,34 @@
+#pragma once
+// The HTTP side of fragsimd: cpp-httplib converts requests to server::Request, hands them to the
+// Service and sends back its Response. No route logic lives here.
+#include <memory>
+#include <string>
+
+#include "server/service.h"
+
+namespace httplib {
+class Server;
+}
+
+namespace fragsim::server {
+
+class HttpServer {
+ public:
+  explicit HttpServer(Service& service);
+  ~HttpServer();
+  HttpServer(const HttpServer&) = delete;
+  HttpServer& operator=(const HttpServer&) = delete;
+
+  // Binds the configured address; returns the port (useful with port 0). Throws on failure.
+  int bind();
+  // Serves until stop(); returns false if the listener failed.
+  bool run();
+  // From any thread.
+  void stop();
+
+ private:
+  Service& service_;
+  std::unique_ptr<httplib::Server> server_;
+};
+
+}  // namespace fragsim::server

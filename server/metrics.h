@@ -1,0 +1,43 @@
+#pragma once
+// Request counters and latency histograms for GET /metrics (Prometheus text format 0.0.4).
+// The job and site gauges are read from the store and scheduler when the page is rendered.
+#include <array>
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <string>
+#include <tuple>
+
+namespace fragsim::server {
+
+class Metrics {
+ public:
+  // Upper bounds (seconds) of the latency histogram's buckets; +Inf is implied.
+  static constexpr std::array<double, 8> kBuckets = {0.001, 0.005, 0.01, 0.05, 0.1, 0.5, 1.0, 5.0};
+
+  // `route` is the pattern ("/v1/jobs/{id}"), or "unmatched".
+  void record_request(const std::string& method, const std::string& route, int status,
+                      double duration_s);
+
+  struct Gauges {
+    std::array<std::int64_t, 5> jobs_by_state{};  // JobState order
+    std::int64_t queue_length = 0;
+    std::int64_t histories_total = 0;
+    double histories_per_s = 0.0;
+    std::int64_t sites = 0;
+    double uptime_s = 0.0;
+  };
+  std::string render(const Gauges& g) const;
+
+ private:
+  struct Histogram {
+    std::array<std::uint64_t, kBuckets.size()> counts{};  // non-cumulative
+    std::uint64_t count = 0;
+    double sum = 0.0;
+  };
+  mutable std::mutex mutex_;
+  std::map<std::tuple<std::string, std::string, int>, std::uint64_t> requests_;
+  std::map<std::string, Histogram> latency_;
+};
+
+}  // namespace fragsim::server

@@ -1,0 +1,616 @@
+#include "server/service.h"
+
+#include <algorithm>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "api/job_request.h"
+#include "api/ptn_json.h"
+#include "api/run_outputs.h"
+#include "api/scenario_json.h"
+#include "api/sha256.h"
+#include "api/site_document.h"
+#include "fragsim/version.h"
+#include "server/log.h"
+#include "server/openapi_text.h"
+
+namespace fragsim::server {
+
+using OJson = nlohmann::ordered_json;
+
+namespace {
+
+enum class RouteId {
+  kHealth,
+  kOpenapi,
+  kMetrics,
+  kSites,
+  kSite,
+  kJobs,
+  kJob,
+  kJobSummary,
+  kJobBuildings,
+  kJobPtn,
+  kJobResults
+};
+
+constexpr const char* kJsonType = "application/json";
+
+Response json_response(int status, const OJson& j) {
+  Response r;
+  r.status = status;
+  r.body = j.dump();
+  return r;
+}
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+// Constant-time comparison: a wrong token takes as long whatever its common prefix.
+bool same_token(const std::string& a, const std::string& b) {
+  unsigned char diff = a.size() == b.size() ? 0 : 1;
+  const std::size_t n = std::max(a.size(), b.size());
+  for (std::size_t k = 0; k < n; ++k) {
+    const unsigned char x = k < a.size() ? static_cast<unsigned char>(a[k]) : 0;
+    const unsigned char y = k < b.size() ? static_cast<unsigned char>(b[k]) : 0;
+    diff = static_cast<unsigned char>(diff | (x ^ y));
+  }
+  return diff == 0;
+}
+
+std::string new_job_id() {
+  static std::mutex m;
+  static std::random_device device;
+  static std::mt19937_64 engine(
+      (static_cast<std::uint64_t>(device()) << 32) ^ device() ^
+      static_cast<std::uint64_t>(std::chrono::steady_clock::now().time_since_epoch().count()));
+  const std::lock_guard<std::mutex> lock(m);
+  char buf[24];
+  std::snprintf(buf, sizeof buf, "j_%016llx", static_cast<unsigned long long>(engine()));
+  return buf;
+}
+
+// Query parameters a route accepts; anything else is refused (a misspelt filter would otherwise
+// silently return everything).
+std::optional<Response> check_query(const Request& req, std::initializer_list<const char*> known) {
+  for (const auto& [key, value] : req.query) {
+    if (std::find_if(known.begin(), known.end(), [&](const char* k) { return key == k; }) ==
+        known.end())
+      return error_response(400, "bad_parameter", "unknown query parameter", key);
+  }
+  return std::nullopt;
+}
+
+// Text -> JSON with the 400 errors of the contract.
+nlohmann::json parse_body(const Request& req) {
+  return api::parse_json_text(req.body);
+}
+
+std::optional<Response> check_json_content_type(const Request& req) {
+  const auto it = req.headers.find("content-type");
+  std::string type = it == req.headers.end() ? "" : lower(it->second);
+  if (const auto semi = type.find(';'); semi != std::string::npos) type.resize(semi);
+  while (!type.empty() && type.back() == ' ') type.pop_back();
+  if (type != kJsonType)
+    return error_response(415, "unsupported_media_type",
+                          "the body must be sent with Content-Type: application/json" +
+                              (type.empty() ? std::string(" (none given)")
+                                            : " (got " + type + ")"));
+  return std::nullopt;
+}
+
+}  // namespace
+
+Response error_response(int status, const std::string& code, const std::string& message,
+                        const std::optional<std::string>& field) {
+  OJson j;
+  j["code"] = code;
+  j["message"] = message;
+  j["field"] = field ? OJson(*field) : OJson(nullptr);
+  return json_response(status, j);
+}
+
+struct Service::Route {
+  RouteId id;
+  const char* pattern;
+  std::vector<const char*> methods;
+  bool public_route = false;  // no token needed
+};
+
+Service::Service(Config config)
+    : config_(std::move(config)),
+      data_dir_(config_.data_dir),
+      tokens_(config_.auth ? read_tokens(config_.token_file) : std::vector<std::string>{}),
+      started_(std::chrono::steady_clock::now()),
+      store_((std::filesystem::create_directories(data_dir_), data_dir_ / "fragsimd.sqlite")),
+      sites_(store_, data_dir_ / "sites"),
+      scheduler_(store_, sites_, data_dir_ / "jobs", config_.threads) {
+  sites_.load();
+  for (const auto& id : store_.recover_interrupted(config_.max_crashes, utc_now()))
+    log(LogLevel::kWarn, "job interrupted by a previous daemon; queued again", {{"job_id", id}});
+  scheduler_.start();
+}
+
+Service::~Service() {
+  shutdown();
+}
+
+void Service::shutdown() {
+  scheduler_.shutdown();
+}
+
+bool Service::authorised(const Request& req) const {
+  if (!config_.auth) return true;
+  const auto it = req.headers.find("authorization");
+  if (it == req.headers.end()) return false;
+  const std::string& h = it->second;
+  constexpr std::string_view kBearer = "bearer ";
+  if (h.size() <= kBearer.size() || lower(h.substr(0, kBearer.size())) != kBearer) return false;
+  const std::string token = h.substr(kBearer.size());
+  bool ok = false;
+  for (const auto& t : tokens_) ok = same_token(token, t) || ok;  // no early exit
+  return ok;
+}
+
+Response Service::handle(const Request& req) {
+  static const std::vector<Route> kRoutes = {
+      {RouteId::kHealth, "/v1/health", {"GET"}, true},
+      {RouteId::kOpenapi, "/v1/openapi.yaml", {"GET"}, true},
+      {RouteId::kMetrics, "/metrics", {"GET"}},
+      {RouteId::kSites, "/v1/sites", {"GET", "POST"}},
+      {RouteId::kSite, "/v1/sites/{id}", {"GET", "DELETE"}},
+      {RouteId::kJobs, "/v1/jobs", {"GET", "POST"}},
+      {RouteId::kJob, "/v1/jobs/{id}", {"GET", "DELETE"}},
+      {RouteId::kJobSummary, "/v1/jobs/{id}/summary", {"GET"}},
+      {RouteId::kJobBuildings, "/v1/jobs/{id}/buildings", {"GET"}},
+      {RouteId::kJobPtn, "/v1/jobs/{id}/ptn", {"GET"}},
+      {RouteId::kJobResults, "/v1/jobs/{id}/results.h5", {"GET"}},
+  };
+  const std::string& path = req.path;
+  for (const Route& route : kRoutes) {
+    // Match segment by segment; "{id}" takes one non-empty segment.
+    std::string_view pattern = route.pattern;
+    std::string_view rest = path;
+    std::string id;
+    bool match = true;
+    while (!pattern.empty() || !rest.empty()) {
+      if (pattern.empty() || rest.empty() || pattern[0] != '/' || rest[0] != '/') {
+        match = false;
+        break;
+      }
+      pattern.remove_prefix(1);
+      rest.remove_prefix(1);
+      const std::string_view p = pattern.substr(0, pattern.find('/'));
+      const std::string_view s = rest.substr(0, rest.find('/'));
+      if (p == "{id}") {
+        if (s.empty()) {
+          match = false;
+          break;
+        }
+        id = std::string(s);
+      } else if (p != s) {
+        match = false;
+        break;
+      }
+      pattern.remove_prefix(p.size());
+      rest.remove_prefix(s.size());
+    }
+    if (!match) continue;
+
+    const std::string method = req.method == "HEAD" ? "GET" : req.method;
+    if (std::find(route.methods.begin(), route.methods.end(), method) == route.methods.end()) {
+      std::string allow;
+      for (const char* m : route.methods) allow += (allow.empty() ? "" : ", ") + std::string(m);
+      Response r = error_response(405, "method_not_allowed",
+                                  req.method + " is not allowed on " + route.pattern +
+                                      " (allowed: " + allow + ")");
+      r.headers.emplace_back("Allow", allow);
+      r.route = route.pattern;
+      return r;
+    }
+    Response r;
+    if (!route.public_route && !authorised(req)) {
+      r = error_response(401, "unauthorized",
+                         req.headers.count("authorization")
+                             ? "the bearer token is not valid"
+                             : "this route needs an Authorization: Bearer <token> header");
+      r.headers.emplace_back("WWW-Authenticate", "Bearer realm=\"fragsimd\"");
+    } else {
+      try {
+        r = dispatch(req, route, id);
+      } catch (const api::JsonTooDeepError& e) {
+        r = error_response(400, "too_deep", e.message(), e.field());
+      } catch (const api::MalformedJsonError& e) {
+        r = error_response(400, "malformed_json", e.message());
+      } catch (const InputError& e) {
+        r = error_response(422, "invalid_input", e.message(), e.field());
+      } catch (const LimitError& e) {
+        r = error_response(422, "limit_exceeded", e.what(),
+                           e.field().empty() ? std::nullopt : std::optional(e.field()));
+      } catch (const std::bad_alloc&) {
+        r = error_response(500, "internal", "out of memory while handling the request");
+      } catch (const std::exception& e) {
+        log(LogLevel::kError, "internal error", {{"path", path}, {"error", e.what()}});
+        r = error_response(500, "internal", std::string("internal error: ") + e.what());
+      }
+    }
+    r.route = route.pattern;
+    return r;
+  }
+  return error_response(404, "not_found", "no route " + path);
+}
+
+Response Service::dispatch(const Request& req, const Route& route, const std::string& id) {
+  const bool get = req.method == "GET" || req.method == "HEAD";
+  auto no_query = [&]() { return check_query(req, {}); };
+  switch (route.id) {
+    case RouteId::kHealth:
+      return health();
+    case RouteId::kOpenapi:
+      return openapi();
+    case RouteId::kMetrics:
+      return metrics_page();
+    case RouteId::kSites:
+      if (auto bad = no_query()) return *bad;
+      return get ? list_sites() : post_site(req);
+    case RouteId::kSite:
+      if (auto bad = no_query()) return *bad;
+      if (!api::is_site_id(id)) return error_response(404, "not_found", "no site " + id);
+      return get ? get_site(id) : delete_site(id);
+    case RouteId::kJobs:
+      if (get) return list_jobs(req);
+      if (auto bad = no_query()) return *bad;
+      return post_job(req);
+    default:
+      break;
+  }
+  if (!api::is_job_id(id)) return error_response(404, "not_found", "no job " + id);
+  if (route.id == RouteId::kJobPtn) return job_ptn(req, id);
+  if (auto bad = no_query()) return *bad;
+  switch (route.id) {
+    case RouteId::kJob:
+      return get ? get_job(id) : delete_job(id);
+    case RouteId::kJobSummary:
+      return job_summary(id);
+    case RouteId::kJobBuildings:
+      return job_buildings(id);
+    case RouteId::kJobResults:
+      return job_results_h5(id);
+    default:
+      return error_response(404, "not_found", "no route " + req.path);
+  }
+}
+
+// ---- Service routes ----
+
+Response Service::health() {
+  const auto counts = store_.job_counts();
+  OJson j;
+  j["status"] = "ok";
+  j["version"] = kVersion;
+  j["git_sha"] = kGitSha;
+  j["uptime_s"] =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+  j["jobs"] = {{"queued", counts[static_cast<std::size_t>(JobState::kQueued)]},
+               {"running", counts[static_cast<std::size_t>(JobState::kRunning)]}};
+  return json_response(200, j);
+}
+
+Response Service::openapi() {
+  Response r;
+  r.content_type = "application/yaml";
+  r.body = std::string(openapi_yaml());
+  return r;
+}
+
+Response Service::metrics_page() {
+  Metrics::Gauges g;
+  const auto counts = store_.job_counts();
+  for (std::size_t k = 0; k < counts.size(); ++k) g.jobs_by_state[k] = counts[k];
+  g.queue_length = counts[static_cast<std::size_t>(JobState::kQueued)];
+  g.histories_total = scheduler_.histories_completed();
+  if (const auto live = scheduler_.running()) g.histories_per_s = live->histories_per_s;
+  g.sites = static_cast<std::int64_t>(sites_.size());
+  g.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+  Response r;
+  r.content_type = "text/plain; version=0.0.4";
+  r.body = metrics_.render(g);
+  return r;
+}
+
+// ---- Sites ----
+
+OJson Service::site_json(const SiteEntry& e) {
+  OJson j = e.summary;
+  j["jobs_using"] = store_.active_jobs_using(e.site_id);
+  return j;
+}
+
+Response Service::post_site(const Request& req) {
+  if (auto bad = check_json_content_type(req)) return *bad;
+  const api::SiteDocument doc = api::parse_site_document(parse_body(req));
+  std::shared_ptr<const SiteEntry> entry;
+  bool created = false;
+  {
+    const std::lock_guard<std::mutex> lock(catalogue_mutex_);
+    const auto added = sites_.add(doc, config_.max_sites);
+    entry = added.entry;
+    created = added.created;
+  }
+  if (created)
+    log(LogLevel::kInfo, "site added",
+        {{"site_id", entry->site_id},
+         {"terrain_triangles", std::to_string(entry->site->terrain_triangle_count())}});
+  Response r = json_response(created ? 201 : 200, site_json(*entry));
+  r.headers.emplace_back("Location", "/v1/sites/" + entry->site_id);
+  return r;
+}
+
+Response Service::list_sites() {
+  auto list = OJson::array();
+  for (const auto& e : sites_.list()) list.push_back(site_json(*e));
+  return json_response(200, OJson{{"sites", std::move(list)}});
+}
+
+Response Service::get_site(const std::string& id) {
+  const auto e = sites_.find(id);
+  if (!e) return error_response(404, "not_found", "no site " + id);
+  return json_response(200, site_json(*e));
+}
+
+Response Service::delete_site(const std::string& id) {
+  const std::lock_guard<std::mutex> lock(catalogue_mutex_);
+  if (!sites_.find(id)) return error_response(404, "not_found", "no site " + id);
+  if (const auto n = store_.active_jobs_using(id); n > 0)
+    return error_response(409, "conflict",
+                          "site " + id + " is used by " + std::to_string(n) +
+                              " queued or running job" + (n == 1 ? "" : "s") +
+                              "; cancel them or wait until they finish");
+  sites_.remove(id);
+  log(LogLevel::kInfo, "site deleted", {{"site_id", id}});
+  Response r;
+  r.status = 204;
+  r.content_type.clear();
+  return r;
+}
+
+// ---- Jobs ----
+
+OJson Service::job_json(const JobRow& row) {
+  OJson j;
+  j["job_id"] = row.job_id;
+  j["site_id"] = row.site_id ? OJson(*row.site_id) : OJson(nullptr);
+  j["state"] = job_state_name(row.state);
+  j["priority"] = row.priority;
+  j["idempotency_key"] = row.idempotency_key ? OJson(*row.idempotency_key) : OJson(nullptr);
+  j["created_utc"] = row.created_utc;
+  j["started_utc"] = row.started_utc ? OJson(*row.started_utc) : OJson(nullptr);
+  j["finished_utc"] = row.finished_utc ? OJson(*row.finished_utc) : OJson(nullptr);
+  std::int64_t done = row.histories_done;
+  OJson rate = nullptr;
+  OJson eta = nullptr;
+  if (row.state == JobState::kRunning) {
+    if (const auto live = scheduler_.running(); live && live->job_id == row.job_id) {
+      done = std::max(done, live->histories_done);
+      if (live->histories_per_s > 0) {
+        rate = live->histories_per_s;
+        eta = static_cast<double>(row.histories_total - done) / live->histories_per_s;
+      }
+    }
+  }
+  j["histories_done"] = done;
+  j["histories_total"] = row.histories_total;
+  j["progress"] = row.histories_total > 0
+                      ? static_cast<double>(done) / static_cast<double>(row.histories_total)
+                      : 0.0;
+  j["histories_per_s"] = rate;
+  j["eta_s"] = eta;
+  j["attempts"] = row.attempts;
+  j["error"] = row.error_code ? OJson{{"code", *row.error_code},
+                                      {"message", row.error_message.value_or("")}}
+                              : OJson(nullptr);
+  const std::string self = "/v1/jobs/" + row.job_id;
+  j["links"] = {{"self", self},
+                {"summary", self + "/summary"},
+                {"buildings", self + "/buildings"},
+                {"ptn", self + "/ptn"},
+                {"results_h5", self + "/results.h5"}};
+  return j;
+}
+
+Response Service::post_job(const Request& req) {
+  if (auto bad = check_json_content_type(req)) return *bad;
+  const nlohmann::json body = parse_body(req);
+  // `held` keeps the site's JSON alive while the request is parsed, even if the site is
+  // deleted meanwhile (that is caught below, under the catalogue lock).
+  std::shared_ptr<const SiteEntry> held;
+  const api::SiteResolver resolve = [&](const std::string& id) -> const nlohmann::json* {
+    held = sites_.find(id);
+    return held ? &held->normalised : nullptr;
+  };
+  const api::JobRequest jr = api::parse_job_request(body, resolve);
+  if (jr.total_samples > config_.max_samples_per_job)
+    throw LimitError("fragment_groups",
+                     "the job asks for " + std::to_string(jr.total_samples) +
+                         " samples in all; this daemon allows at most " +
+                         std::to_string(config_.max_samples_per_job) + " (--max-samples-per-job)");
+  // An inline site gets the full geometry check now, not when the job runs.
+  if (!jr.document.site_id) (void)api::validate_scenario(jr.document.scenario);
+
+  JobRow row;
+  row.job_id = new_job_id();
+  row.site_id = jr.document.site_id;
+  row.priority = jr.priority;
+  row.idempotency_key = jr.idempotency_key;
+  row.request_sha256 = api::sha256_hex(body.dump());  // the whole body, priority included
+  row.scenario_json = jr.scenario.dump();
+  row.histories_total = jr.total_samples;
+  row.created_utc = utc_now();
+
+  Store::Insert inserted;
+  {
+    const std::lock_guard<std::mutex> lock(catalogue_mutex_);
+    if (row.site_id && !sites_.find(*row.site_id))  // deleted while the request was parsed
+      throw InputError("site_id", "unknown site \"" + *row.site_id + "\"");
+    const auto queued = store_.job_counts()[static_cast<std::size_t>(JobState::kQueued)];
+    if (queued >= config_.max_queued_jobs)
+      throw LimitError("", std::to_string(queued) +
+                               " jobs are queued, the limit (--max-queued-jobs); try later");
+    inserted = store_.insert_job(row);
+  }
+  if (!inserted.created) {
+    if (inserted.job.request_sha256 != row.request_sha256)
+      return error_response(409, "conflict",
+                            "idempotency_key \"" + *row.idempotency_key +
+                                "\" was used for a different request (job " +
+                                inserted.job.job_id + ")",
+                            "idempotency_key");
+    Response r = json_response(200, job_json(inserted.job));
+    r.headers.emplace_back("Location", "/v1/jobs/" + inserted.job.job_id);
+    return r;
+  }
+  scheduler_.notify();
+  log(LogLevel::kInfo, "job queued",
+      {{"job_id", row.job_id},
+       {"site_id", row.site_id.value_or("inline")},
+       {"priority", std::to_string(row.priority)},
+       {"histories", std::to_string(row.histories_total)}});
+  Response r = json_response(202, job_json(inserted.job));
+  r.headers.emplace_back("Location", "/v1/jobs/" + row.job_id);
+  return r;
+}
+
+Response Service::list_jobs(const Request& req) {
+  if (auto bad = check_query(req, {"state", "limit"})) return *bad;
+  std::optional<JobState> state;
+  int limit = 1000;
+  if (const auto it = req.query.find("state"); it != req.query.end()) {
+    state = parse_job_state(it->second);
+    if (!state)
+      return error_response(400, "bad_parameter",
+                            "must be queued, running, done, failed or cancelled (got \"" +
+                                it->second + "\")",
+                            "state");
+  }
+  if (const auto it = req.query.find("limit"); it != req.query.end()) {
+    const std::string& v = it->second;
+    const bool digits = !v.empty() && v.size() <= 4 &&
+                        std::all_of(v.begin(), v.end(), [](char c) { return c >= '0' && c <= '9'; });
+    limit = digits ? std::stoi(v) : 0;
+    if (limit < 1 || limit > 1000)
+      return error_response(400, "bad_parameter", "must be an integer in [1, 1000]", "limit");
+  }
+  auto list = OJson::array();
+  for (const auto& row : store_.jobs(state, limit)) list.push_back(job_json(row));
+  return json_response(200, OJson{{"jobs", std::move(list)}});
+}
+
+Response Service::get_job(const std::string& id) {
+  const auto row = store_.job(id);
+  if (!row) return error_response(404, "not_found", "no job " + id);
+  return json_response(200, job_json(*row));
+}
+
+Response Service::delete_job(const std::string& id) {
+  const auto before = scheduler_.cancel(id);
+  if (!before) return error_response(404, "not_found", "no job " + id);
+  if (is_final(*before))
+    return error_response(409, "conflict",
+                          "job " + id + " is already " + job_state_name(*before) +
+                              "; only queued or running jobs can be cancelled");
+  log(LogLevel::kInfo, "job cancelled by request",
+      {{"job_id", id}, {"was", job_state_name(*before)}});
+  const auto row = store_.job(id);
+  return json_response(200, job_json(*row));
+}
+
+std::variant<JobRow, Response> Service::finished_job(const std::string& id) {
+  auto row = store_.job(id);
+  if (!row) return error_response(404, "not_found", "no job " + id);
+  if (row->state != JobState::kDone) {
+    std::string why = "job " + id + " is " + job_state_name(row->state);
+    if (row->state == JobState::kCancelled || row->state == JobState::kFailed)
+      why += "; it has no results (partial results are never served)";
+    else
+      why += "; results appear when it is done";
+    return error_response(409, "not_ready", why);
+  }
+  return *row;
+}
+
+Response Service::job_summary(const std::string& id) {
+  auto job = finished_job(id);
+  if (auto* r = std::get_if<Response>(&job)) return *r;
+  Response r;
+  r.file = scheduler_.job_dir(id) / api::kSummaryFileName;
+  return r;
+}
+
+Response Service::job_buildings(const std::string& id) {
+  auto job = finished_job(id);
+  if (auto* r = std::get_if<Response>(&job)) return *r;
+  auto list = OJson::array();
+  for (const auto& b : store_.buildings(id))
+    list.push_back({{"id", b.building_id},
+                    {"expected_impacts", b.expected_impacts},
+                    {"impacts_std_error", b.impacts_std_error},
+                    {"expected_penetrations", b.expected_penetrations},
+                    {"penetrations_std_error", b.penetrations_std_error}});
+  return json_response(200, OJson{{"job_id", id}, {"buildings", std::move(list)}});
+}
+
+Response Service::job_ptn(const Request& req, const std::string& id) {
+  if (auto bad = check_query(req, {"format", "min_density_per_m2"})) return *bad;
+  bool geojson = false;
+  if (const auto it = req.query.find("format"); it != req.query.end()) {
+    if (it->second == "geojson") {
+      geojson = true;
+    } else if (it->second != "json") {
+      return error_response(400, "bad_parameter",
+                            "must be json or geojson (got \"" + it->second + "\")", "format");
+    }
+  }
+  std::optional<double> min_density;
+  if (const auto it = req.query.find("min_density_per_m2"); it != req.query.end()) {
+    if (!geojson)
+      return error_response(400, "bad_parameter", "only with format=geojson",
+                            "min_density_per_m2");
+    std::size_t used = 0;
+    double v = 0.0;
+    try {
+      v = std::stod(it->second, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != it->second.size() || !std::isfinite(v) || v < 0.0)
+      return error_response(400, "bad_parameter", "must be a number >= 0", "min_density_per_m2");
+    min_density = v;
+  }
+  auto job = finished_job(id);
+  if (auto* r = std::get_if<Response>(&job)) return *r;
+  const auto h5 = scheduler_.job_dir(id) / api::kResultsFileName;
+  Response r;
+  if (geojson) {
+    r.content_type = "application/geo+json";
+    r.body = api::render_ptn_geojson(h5, id, min_density);
+  } else {
+    r.body = api::render_ptn_json(h5, id);
+  }
+  return r;
+}
+
+Response Service::job_results_h5(const std::string& id) {
+  auto job = finished_job(id);
+  if (auto* r = std::get_if<Response>(&job)) return *r;
+  Response r;
+  r.content_type = "application/x-hdf5";
+  r.file = scheduler_.job_dir(id) / api::kResultsFileName;
+  r.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + id + ".h5\"");
+  return r;
+}
+
+}  // namespace fragsim::server

@@ -1,0 +1,102 @@
+#pragma once
+// fragsimd's request handling, without sockets: a Request in, a Response out. The HTTP layer
+// (http_server.cpp) only converts to and from cpp-httplib, so every route, status code and error
+// body can be exercised by calling handle() directly.
+//
+// Order of checks for every request: route (404), method (405 with Allow), authentication (401),
+// content type of a body (415), body size (413), then the route's own parsing (400 for text that
+// is not JSON or is nested too deep, 422 for JSON that breaks the contract).
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "server/config.h"
+#include "server/metrics.h"
+#include "server/scheduler.h"
+#include "server/site_registry.h"
+#include "server/store.h"
+
+namespace fragsim::server {
+
+struct Request {
+  std::string method;  // "GET", "POST", ...
+  std::string path;    // without the query string
+  std::map<std::string, std::string> query;
+  std::map<std::string, std::string> headers;  // names in lower case
+  std::string body;
+};
+
+struct Response {
+  int status = 200;
+  std::string content_type = "application/json";
+  std::string body;
+  std::vector<std::pair<std::string, std::string>> headers;
+  std::optional<std::filesystem::path> file;  // send this file's bytes instead of body
+  std::string route = "unmatched";            // the matched pattern, for metrics and logs
+};
+
+// {"code": ..., "message": ..., "field": ... | null}
+Response error_response(int status, const std::string& code, const std::string& message,
+                        const std::optional<std::string>& field = std::nullopt);
+
+class Service {
+ public:
+  // Opens (creates) the data directory and database, loads the sites, recovers jobs a dead daemon
+  // left running, and starts the scheduler.
+  explicit Service(Config config);
+  ~Service();
+  Service(const Service&) = delete;
+  Service& operator=(const Service&) = delete;
+
+  Response handle(const Request& req);
+  // Stops the scheduler (a running job goes back to the queue).
+  void shutdown();
+
+  const Config& config() const { return config_; }
+  Metrics& metrics() { return metrics_; }
+
+ private:
+  struct Route;
+  Response dispatch(const Request& req, const Route& route, const std::string& id);
+
+  // Routes
+  Response health();
+  Response openapi();
+  Response metrics_page();
+  Response post_site(const Request& req);
+  Response list_sites();
+  Response get_site(const std::string& id);
+  Response delete_site(const std::string& id);
+  Response post_job(const Request& req);
+  Response list_jobs(const Request& req);
+  Response get_job(const std::string& id);
+  Response delete_job(const std::string& id);
+  Response job_summary(const std::string& id);
+  Response job_buildings(const std::string& id);
+  Response job_ptn(const Request& req, const std::string& id);
+  Response job_results_h5(const std::string& id);
+
+  bool authorised(const Request& req) const;
+  nlohmann::ordered_json site_json(const SiteEntry& e);
+  nlohmann::ordered_json job_json(const JobRow& row);
+  // The job's row when its results can be served; else the error response to send.
+  std::variant<JobRow, Response> finished_job(const std::string& id);
+
+  Config config_;
+  std::filesystem::path data_dir_;
+  std::vector<std::string> tokens_;
+  std::chrono::steady_clock::time_point started_;
+  Store store_;
+  SiteRegistry sites_;
+  Scheduler scheduler_;
+  Metrics metrics_;
+  // Site deletion and job submission check and change "which jobs use which site" together.
+  std::mutex catalogue_mutex_;
+};
+
+}  // namespace fragsim::server

@@ -1,0 +1,69 @@
+#pragma once
+// The sites fragsimd holds in memory: each one's normalised JSON and its built scene::Site
+// (terrain and buildings in an Embree scene), shared read-only by every job on that site.
+// Persisted as <data>/sites/<site_id>.json plus a row in the store; reloaded at start.
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "api/site_document.h"
+#include "core/scene/site.h"
+#include "server/store.h"
+
+namespace fragsim::server {
+
+struct SiteEntry {
+  std::string site_id;
+  std::string created_utc;
+  nlohmann::json normalised;          // the site JSON a scenario's "site" would hold
+  nlohmann::ordered_json summary;     // SiteSummary without jobs_using
+  std::shared_ptr<const scene::Site> site;
+};
+
+class SiteRegistry {
+ public:
+  SiteRegistry(Store& store, std::filesystem::path dir);
+
+  // Loads every stored site (at start). A site file that fails to load is logged and skipped.
+  void load();
+
+  struct Added {
+    std::shared_ptr<const SiteEntry> entry;
+    bool created = false;  // false: the identical site was already stored
+  };
+  // Builds (InputError with site-relative paths on bad geometry), writes the file atomically,
+  // then the row. Throws LimitError when max_sites would be exceeded.
+  Added add(const api::SiteDocument& doc, std::int64_t max_sites);
+
+  std::shared_ptr<const SiteEntry> find(const std::string& site_id) const;
+  std::vector<std::shared_ptr<const SiteEntry>> list() const;  // oldest first
+  std::size_t size() const;
+  // Removes from memory, store and disk. The caller has checked that no job needs it.
+  bool remove(const std::string& site_id);
+
+ private:
+  static nlohmann::ordered_json summarise(const SiteEntry& e, const api::SiteDocument& doc);
+
+  Store& store_;
+  std::filesystem::path dir_;
+  mutable std::mutex mutex_;
+  std::map<std::string, std::shared_ptr<const SiteEntry>> sites_;
+  std::vector<std::string> order_;
+};
+
+// A configured limit reached (422 limit_exceeded).
+class LimitError : public std::runtime_error {
+ public:
+  LimitError(std::string field, const std::string& message)
+      : std::runtime_error(message), field_(std::move(field)) {}
+  const std::string& field() const { return field_; }
+
+ private:
+  std::string field_;
+};
+
+}  // namespace fragsim::server

@@ -1,0 +1,495 @@
+#include "server/store.h"
+
+#include <array>
+#include <stdexcept>
+
+namespace fragsim::server {
+
+namespace {
+
+constexpr std::array<const char*, kJobStateCount> kStateNames = {"queued", "running", "done",
+                                                                 "failed", "cancelled"};
+
+constexpr const char* kSchema = R"sql(
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS sites (
+  site_id      TEXT PRIMARY KEY,
+  seq          INTEGER NOT NULL,
+  created_utc  TEXT NOT NULL,
+  summary_json TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS jobs (
+  job_id          TEXT PRIMARY KEY,
+  seq             INTEGER NOT NULL UNIQUE,
+  site_id         TEXT,
+  priority        INTEGER NOT NULL,
+  state           TEXT NOT NULL
+                  CHECK (state IN ('queued', 'running', 'done', 'failed', 'cancelled')),
+  idempotency_key TEXT UNIQUE,
+  request_sha256  TEXT NOT NULL,
+  scenario_json   TEXT NOT NULL,
+  histories_total INTEGER NOT NULL,
+  histories_done  INTEGER NOT NULL DEFAULT 0,
+  attempts        INTEGER NOT NULL DEFAULT 0,
+  crashes         INTEGER NOT NULL DEFAULT 0,
+  created_utc     TEXT NOT NULL,
+  started_utc     TEXT,
+  finished_utc    TEXT,
+  error_code      TEXT,
+  error_message   TEXT,
+  summary_json    TEXT
+);
+CREATE INDEX IF NOT EXISTS jobs_by_queue ON jobs (state, priority DESC, seq);
+CREATE TABLE IF NOT EXISTS job_buildings (
+  job_id                 TEXT NOT NULL REFERENCES jobs (job_id) ON DELETE CASCADE,
+  idx                    INTEGER NOT NULL,
+  building_id            TEXT NOT NULL,
+  expected_impacts       REAL NOT NULL,
+  impacts_std_error      REAL NOT NULL,
+  expected_penetrations  REAL NOT NULL,
+  penetrations_std_error REAL NOT NULL,
+  PRIMARY KEY (job_id, idx)
+);
+INSERT OR IGNORE INTO meta (key, value) VALUES ('schema_version', '1');
+)sql";
+
+constexpr const char* kJobColumns =
+    "job_id, seq, site_id, priority, state, idempotency_key, request_sha256, scenario_json, "
+    "histories_total, histories_done, attempts, crashes, created_utc, started_utc, finished_utc, "
+    "error_code, error_message";
+
+}  // namespace
+
+const char* job_state_name(JobState s) {
+  return kStateNames[static_cast<std::size_t>(s)];
+}
+
+std::optional<JobState> parse_job_state(std::string_view name) {
+  for (std::size_t k = 0; k < kStateNames.size(); ++k)
+    if (name == kStateNames[k]) return static_cast<JobState>(k);
+  return std::nullopt;
+}
+
+bool is_final(JobState s) {
+  return s == JobState::kDone || s == JobState::kFailed || s == JobState::kCancelled;
+}
+
+// A prepared statement; bind by position (1-based), step, read columns.
+class Store::Statement {
+ public:
+  Statement(sqlite3* db, const std::string& sql, const char* what) : db_(db), what_(what) {
+    if (sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt_, nullptr) != SQLITE_OK) fail();
+  }
+  ~Statement() { sqlite3_finalize(stmt_); }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+
+  Statement& bind(int i, const std::string& v) {
+    check(sqlite3_bind_text(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
+    return *this;
+  }
+  Statement& bind(int i, const std::optional<std::string>& v) {
+    if (!v) {
+      check(sqlite3_bind_null(stmt_, i));
+      return *this;
+    }
+    return bind(i, *v);
+  }
+  Statement& bind(int i, std::int64_t v) {
+    check(sqlite3_bind_int64(stmt_, i, v));
+    return *this;
+  }
+  Statement& bind(int i, int v) { return bind(i, static_cast<std::int64_t>(v)); }
+  Statement& bind(int i, double v) {
+    check(sqlite3_bind_double(stmt_, i, v));
+    return *this;
+  }
+  // True while there is a row.
+  bool step() {
+    const int rc = sqlite3_step(stmt_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    fail();
+  }
+  void run() {
+    while (step()) {
+    }
+  }
+  std::string text(int col) const {
+    const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(stmt_, col));
+    return p ? std::string(p, static_cast<std::size_t>(sqlite3_column_bytes(stmt_, col)))
+             : std::string();
+  }
+  std::optional<std::string> optional_text(int col) const {
+    if (sqlite3_column_type(stmt_, col) == SQLITE_NULL) return std::nullopt;
+    return text(col);
+  }
+  std::int64_t integer(int col) const { return sqlite3_column_int64(stmt_, col); }
+  double real(int col) const { return sqlite3_column_double(stmt_, col); }
+
+ private:
+  void check(int rc) {
+    if (rc != SQLITE_OK) fail();
+  }
+  [[noreturn]] void fail() {
+    throw std::runtime_error(std::string("database error (") + what_ + "): " + sqlite3_errmsg(db_));
+  }
+  sqlite3* db_;
+  const char* what_;
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+Store::Store(const std::string& path) {
+  if (sqlite3_open_v2(path.c_str(), &db_,
+                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
+                      nullptr) != SQLITE_OK) {
+    const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    throw std::runtime_error("cannot open database " + path + ": " + message);
+  }
+  sqlite3_busy_timeout(db_, 10000);
+  try {
+    exec("PRAGMA journal_mode = WAL", "journal mode");
+    // FULL: a transaction that returned is on disk (a 202 must survive a power cut).
+    exec("PRAGMA synchronous = FULL", "synchronous");
+    exec("PRAGMA foreign_keys = ON", "foreign keys");
+    exec(kSchema, "schema");
+  } catch (...) {
+    sqlite3_close(db_);
+    throw;
+  }
+}
+
+Store::~Store() {
+  sqlite3_close(db_);
+}
+
+void Store::exec(const char* sql, const char* what) {
+  char* error = nullptr;
+  if (sqlite3_exec(db_, sql, nullptr, nullptr, &error) != SQLITE_OK) {
+    const std::string message = error ? error : sqlite3_errmsg(db_);
+    sqlite3_free(error);
+    throw std::runtime_error(std::string("database error (") + what + "): " + message);
+  }
+}
+
+// ---- Sites ----
+
+void Store::insert_site(const SiteRow& row) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_,
+              "INSERT INTO sites (site_id, seq, created_utc, summary_json) VALUES "
+              "(?1, (SELECT COALESCE(MAX(seq), 0) + 1 FROM sites), ?2, ?3)",
+              "insert site");
+  s.bind(1, row.site_id).bind(2, row.created_utc).bind(3, row.summary_json).run();
+}
+
+std::vector<SiteRow> Store::sites() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_, "SELECT site_id, created_utc, summary_json FROM sites ORDER BY seq",
+              "list sites");
+  std::vector<SiteRow> out;
+  while (s.step()) out.push_back({s.text(0), s.text(1), s.text(2)});
+  return out;
+}
+
+bool Store::delete_site(const std::string& site_id) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_, "DELETE FROM sites WHERE site_id = ?1", "delete site");
+  s.bind(1, site_id).run();
+  return sqlite3_changes(db_) > 0;
+}
+
+std::int64_t Store::site_count() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_, "SELECT COUNT(*) FROM sites", "count sites");
+  s.step();
+  return s.integer(0);
+}
+
+std::int64_t Store::active_jobs_using(const std::string& site_id) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_,
+              "SELECT COUNT(*) FROM jobs WHERE site_id = ?1 AND state IN ('queued', 'running')",
+              "jobs using site");
+  s.bind(1, site_id).step();
+  return s.integer(0);
+}
+
+// ---- Jobs ----
+
+JobRow Store::read_job(Statement& s) {
+  JobRow r;
+  r.job_id = s.text(0);
+  r.seq = s.integer(1);
+  r.site_id = s.optional_text(2);
+  r.priority = static_cast<int>(s.integer(3));
+  r.state = parse_job_state(s.text(4)).value_or(JobState::kFailed);
+  r.idempotency_key = s.optional_text(5);
+  r.request_sha256 = s.text(6);
+  r.scenario_json = s.text(7);
+  r.histories_total = s.integer(8);
+  r.histories_done = s.integer(9);
+  r.attempts = static_cast<int>(s.integer(10));
+  r.crashes = static_cast<int>(s.integer(11));
+  r.created_utc = s.text(12);
+  r.started_utc = s.optional_text(13);
+  r.finished_utc = s.optional_text(14);
+  r.error_code = s.optional_text(15);
+  r.error_message = s.optional_text(16);
+  return r;
+}
+
+Store::Insert Store::insert_job(JobRow row) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  exec("BEGIN IMMEDIATE", "begin");
+  try {
+    if (row.idempotency_key) {
+      Statement q(db_,
+                  std::string("SELECT ") + kJobColumns + " FROM jobs WHERE idempotency_key = ?1",
+                  "find idempotency key");
+      q.bind(1, row.idempotency_key);
+      if (q.step()) {
+        Insert existing{read_job(q), false};
+        exec("COMMIT", "commit");
+        return existing;
+      }
+    }
+    {
+      Statement s(db_, "SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs", "next seq");
+      s.step();
+      row.seq = s.integer(0);
+    }
+    Statement s(db_,
+                "INSERT INTO jobs (job_id, seq, site_id, priority, state, idempotency_key, "
+                "request_sha256, scenario_json, histories_total, created_utc) VALUES "
+                "(?1, ?2, ?3, ?4, 'queued', ?5, ?6, ?7, ?8, ?9)",
+                "insert job");
+    s.bind(1, row.job_id)
+        .bind(2, row.seq)
+        .bind(3, row.site_id)
+        .bind(4, row.priority)
+        .bind(5, row.idempotency_key)
+        .bind(6, row.request_sha256)
+        .bind(7, row.scenario_json)
+        .bind(8, row.histories_total)
+        .bind(9, row.created_utc)
+        .run();
+    exec("COMMIT", "commit");
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+  row.state = JobState::kQueued;
+  return {std::move(row), true};
+}
+
+std::optional<JobRow> Store::job(const std::string& job_id) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_, std::string("SELECT ") + kJobColumns + " FROM jobs WHERE job_id = ?1",
+              "get job");
+  s.bind(1, job_id);
+  if (!s.step()) return std::nullopt;
+  return read_job(s);
+}
+
+std::vector<JobRow> Store::jobs(std::optional<JobState> state, int limit) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  std::string sql = std::string("SELECT ") + kJobColumns + " FROM jobs";
+  if (state) sql += " WHERE state = ?2";
+  sql += " ORDER BY seq DESC LIMIT ?1";
+  Statement s(db_, sql, "list jobs");
+  s.bind(1, limit);
+  if (state) s.bind(2, std::string(job_state_name(*state)));
+  std::vector<JobRow> out;
+  while (s.step()) out.push_back(read_job(s));
+  return out;
+}
+
+std::array<std::int64_t, kJobStateCount> Store::job_counts() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_, "SELECT state, COUNT(*) FROM jobs GROUP BY state", "count jobs");
+  std::array<std::int64_t, kJobStateCount> counts{};
+  while (s.step())
+    if (const auto st = parse_job_state(s.text(0)))
+      counts[static_cast<std::size_t>(*st)] = s.integer(1);
+  return counts;
+}
+
+std::optional<JobRow> Store::next_queued() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_,
+              std::string("SELECT ") + kJobColumns +
+                  " FROM jobs WHERE state = 'queued' ORDER BY priority DESC, seq LIMIT 1",
+              "next job");
+  if (!s.step()) return std::nullopt;
+  return read_job(s);
+}
+
+bool Store::mark_running(const std::string& job_id, const std::string& started_utc) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_,
+              "UPDATE jobs SET state = 'running', attempts = attempts + 1, started_utc = ?2, "
+              "histories_done = 0 WHERE job_id = ?1 AND state = 'queued'",
+              "start job");
+  s.bind(1, job_id).bind(2, started_utc).run();
+  return sqlite3_changes(db_) > 0;
+}
+
+void Store::update_progress(const std::string& job_id, std::int64_t histories_done) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_,
+              "UPDATE jobs SET histories_done = ?2 WHERE job_id = ?1 AND state = 'running'",
+              "job progress");
+  s.bind(1, job_id).bind(2, histories_done).run();
+}
+
+bool Store::mark_done(const std::string& job_id, const std::string& finished_utc,
+                      std::int64_t histories_done, const std::string& summary_json,
+                      const std::vector<BuildingRow>& buildings) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  exec("BEGIN IMMEDIATE", "begin");
+  try {
+    Statement s(db_,
+                "UPDATE jobs SET state = 'done', finished_utc = ?2, histories_done = ?3, "
+                "summary_json = ?4, error_code = NULL, error_message = NULL "
+                "WHERE job_id = ?1 AND state = 'running'",
+                "finish job");
+    s.bind(1, job_id).bind(2, finished_utc).bind(3, histories_done).bind(4, summary_json).run();
+    if (sqlite3_changes(db_) == 0) {
+      exec("ROLLBACK", "rollback");
+      return false;
+    }
+    Statement clear(db_, "DELETE FROM job_buildings WHERE job_id = ?1", "clear buildings");
+    clear.bind(1, job_id).run();
+    for (std::size_t k = 0; k < buildings.size(); ++k) {
+      const BuildingRow& b = buildings[k];
+      Statement ins(db_,
+                    "INSERT INTO job_buildings (job_id, idx, building_id, expected_impacts, "
+                    "impacts_std_error, expected_penetrations, penetrations_std_error) VALUES "
+                    "(?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+                    "insert building");
+      ins.bind(1, job_id)
+          .bind(2, static_cast<std::int64_t>(k))
+          .bind(3, b.building_id)
+          .bind(4, b.expected_impacts)
+          .bind(5, b.impacts_std_error)
+          .bind(6, b.expected_penetrations)
+          .bind(7, b.penetrations_std_error)
+          .run();
+    }
+    exec("COMMIT", "commit");
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+  return true;
+}
+
+bool Store::mark_failed(const std::string& job_id, const std::string& finished_utc,
+                        const std::string& code, const std::string& message) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_,
+              "UPDATE jobs SET state = 'failed', finished_utc = ?2, error_code = ?3, "
+              "error_message = ?4 WHERE job_id = ?1 AND state IN ('queued', 'running')",
+              "fail job");
+  s.bind(1, job_id).bind(2, finished_utc).bind(3, code).bind(4, message).run();
+  return sqlite3_changes(db_) > 0;
+}
+
+std::optional<JobState> Store::cancel(const std::string& job_id, const std::string& finished_utc) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  exec("BEGIN IMMEDIATE", "begin");
+  try {
+    Statement q(db_, "SELECT state FROM jobs WHERE job_id = ?1", "job state");
+    q.bind(1, job_id);
+    if (!q.step()) {
+      exec("COMMIT", "commit");
+      return std::nullopt;
+    }
+    const JobState before = parse_job_state(q.text(0)).value_or(JobState::kFailed);
+    if (!is_final(before)) {
+      Statement s(db_,
+                  "UPDATE jobs SET state = 'cancelled', finished_utc = ?2 WHERE job_id = ?1",
+                  "cancel job");
+      s.bind(1, job_id).bind(2, finished_utc).run();
+    }
+    exec("COMMIT", "commit");
+    return before;
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+}
+
+void Store::requeue(const std::string& job_id) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_,
+              "UPDATE jobs SET state = 'queued', histories_done = 0, started_utc = NULL "
+              "WHERE job_id = ?1 AND state = 'running'",
+              "requeue job");
+  s.bind(1, job_id).run();
+}
+
+std::vector<std::string> Store::recover_interrupted(int max_crashes, const std::string& now_utc) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  exec("BEGIN IMMEDIATE", "begin");
+  std::vector<std::string> requeued;
+  try {
+    Statement mark(db_, "UPDATE jobs SET crashes = crashes + 1 WHERE state = 'running'",
+                   "count crash");
+    mark.run();
+    Statement fail(db_,
+                   "UPDATE jobs SET state = 'failed', finished_utc = ?2, error_code = 'crashed', "
+                   "error_message = 'the daemon stopped abnormally ' || crashes || "
+                   "' times while running this job' WHERE state = 'running' AND crashes >= ?1",
+                   "fail crashed jobs");
+    fail.bind(1, max_crashes).bind(2, now_utc).run();
+    Statement list(db_, "SELECT job_id FROM jobs WHERE state = 'running' ORDER BY seq",
+                   "interrupted jobs");
+    while (list.step()) requeued.push_back(list.text(0));
+    Statement back(db_,
+                   "UPDATE jobs SET state = 'queued', histories_done = 0 WHERE state = 'running'",
+                   "requeue interrupted");
+    back.run();
+    exec("COMMIT", "commit");
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+  return requeued;
+}
+
+std::optional<std::string> Store::summary_json(const std::string& job_id) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_, "SELECT summary_json FROM jobs WHERE job_id = ?1 AND state = 'done'",
+              "job summary");
+  s.bind(1, job_id);
+  if (!s.step()) return std::nullopt;
+  return s.optional_text(0);
+}
+
+std::vector<BuildingRow> Store::buildings(const std::string& job_id) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_,
+              "SELECT building_id, expected_impacts, impacts_std_error, expected_penetrations, "
+              "penetrations_std_error FROM job_buildings WHERE job_id = ?1 ORDER BY idx",
+              "job buildings");
+  s.bind(1, job_id);
+  std::vector<BuildingRow> out;
+  while (s.step()) out.push_back({s.text(0), s.real(1), s.real(2), s.real(3), s.real(4)});
+  return out;
+}
+
+std::string Store::integrity_check() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_, "PRAGMA integrity_check", "integrity check");
+  std::string out;
+  while (s.step()) {
+    if (!out.empty()) out += '\n';
+    out += s.text(0);
+  }
+  return out;
+}
+
+}  // namespace fragsim::server
