@@ -60,6 +60,8 @@ Options parse_args(const std::vector<std::string>& args) {
     o.command = Command::kRun;
   } else if (first == "validate") {
     o.command = Command::kValidate;
+  } else if (first == "submit") {
+    o.command = Command::kSubmit;
   } else {
     throw UsageError("unknown command \"" + first + "\"");
   }
@@ -90,6 +92,44 @@ Options parse_args(const std::vector<std::string>& args) {
         continue;
       }
     }
+    if (o.command == Command::kSubmit) {
+      if (take_value(args, k, "--out", value)) {
+        if (value.empty()) throw UsageError("--out: empty directory name");
+        o.out = value;
+        continue;
+      }
+      if (take_value(args, k, "--server", value)) {
+        if (value.rfind("http://", 0) != 0 && value.rfind("https://", 0) != 0)
+          throw UsageError("--server: expected http://HOST:PORT, got \"" + value + "\"");
+        o.server = value;
+        continue;
+      }
+      if (take_value(args, k, "--token-file", value)) {
+        o.token_file = value;
+        continue;
+      }
+      if (take_value(args, k, "--priority", value)) {
+        char* end = nullptr;
+        const long p = std::strtol(value.c_str(), &end, 10);
+        if (value.empty() || *end != '\0' || p < -1000 || p > 1000)
+          throw UsageError("--priority: expected an integer in [-1000, 1000], got \"" + value +
+                           "\"");
+        o.priority = static_cast<int>(p);
+        continue;
+      }
+      if (take_value(args, k, "--idempotency-key", value)) {
+        o.idempotency_key = value;
+        continue;
+      }
+      if (a == "--no-wait") {
+        o.wait = false;
+        continue;
+      }
+      if (a == "--quiet" || a == "-q") {
+        o.quiet = true;
+        continue;
+      }
+    }
     if (a.size() > 1 && a[0] == '-') throw UsageError("unknown option \"" + a + "\"");
     if (!o.scenario.empty()) throw UsageError("more than one scenario file (\"" + a + "\")");
     o.scenario = a;
@@ -105,6 +145,8 @@ const char* usage_text() {
 Usage:
   fragsim run SCENARIO.json --out DIR [--threads N] [--samples-scale X] [--quiet]
   fragsim validate SCENARIO.json
+  fragsim submit SCENARIO.json [--server URL] [--token-file FILE] [--priority N]
+                 [--idempotency-key KEY] [--no-wait] [--out DIR] [--quiet]
   fragsim --version
   fragsim --help
 
@@ -112,6 +154,10 @@ Commands:
   run        Validate the scenario, simulate it and write DIR/summary.json and DIR/results.h5.
              The files appear only when the run completes (Ctrl-C cancels: nothing is written).
   validate   Check the scenario (JSON contract and site geometry) without running it.
+  submit     Run the scenario on a fragsimd server (docs/http-api.md): an inline site is
+             uploaded first (POST /v1/sites) and the job names it by site_id; then the job's
+             progress is followed and its summary printed (--out DIR also downloads
+             summary.json and results.h5). Ctrl-C stops following; the job keeps running.
 
 Options (run):
   --out DIR           Output directory (created if missing).
@@ -121,8 +167,16 @@ Options (run):
                       The real fragment counts are unchanged; standard errors grow.
   --quiet, -q         No progress and no report on success (errors still go to stderr).
 
+Options (submit):
+  --server URL        fragsimd address (default http://127.0.0.1:8080).
+  --token-file FILE   Bearer token: the first token in FILE (one per line, # comments).
+  --priority N        Job priority in [-1000, 1000] (default 0; higher runs first).
+  --idempotency-key K Resubmitting with the same key returns the same job.
+  --no-wait           Print the job id and return once the job is queued.
+  --out DIR           Download summary.json and results.h5 into DIR when the job is done.
+
 Exit status: 0 success, 2 invalid input or command line (the message names the field),
-             1 internal error, 130 cancelled.
+             1 internal error (submit: server unreachable, job failed), 130 cancelled.
 The scenario format is described in docs/scenario.md.
 )";
 }

@@ -13,7 +13,7 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class Command { kHelp, kVersion, kRun, kValidate };
+enum class Command { kHelp, kVersion, kRun, kValidate, kSubmit };
 
 struct Options {
   Command command = Command::kHelp;
@@ -21,7 +21,13 @@ struct Options {
   std::string out;                      // run: --out DIR (required)
   std::optional<int> threads;           // run: --threads N overrides settings.threads
   std::optional<double> samples_scale;  // run: --samples-scale X multiplies every group's samples
-  bool quiet = false;                   // run: no progress, no report
+  bool quiet = false;                   // run, submit: no progress, no report
+  // submit
+  std::string server = "http://127.0.0.1:8080";
+  std::string token_file;
+  std::optional<int> priority;
+  std::string idempotency_key;
+  bool wait = true;  // follow the job to its end
 };
 
 Options parse_args(const std::vector<std::string>& args);  // args without argv[0]

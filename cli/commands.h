@@ -15,5 +15,7 @@ inline constexpr int kExitCancelled = 130;  // 128 + SIGINT, as shells report it
 int validate_command(const Options& options);
 // `cancel` is set by the SIGINT/SIGTERM handler.
 int run_command(const Options& options, const std::atomic<bool>& cancel);
+// Runs the scenario on a fragsimd server; `cancel` stops following (the job keeps running).
+int submit_command(const Options& options, const std::atomic<bool>& cancel);
 
 }  // namespace fragsim::cli

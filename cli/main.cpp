@@ -53,6 +53,9 @@ int main(int argc, char** argv) {
       case Command::kRun:
         install_signal_handlers();
         return run_command(options, g_cancel);
+      case Command::kSubmit:
+        install_signal_handlers();
+        return submit_command(options, g_cancel);
     }
     return kExitInternal;
   } catch (const UsageError& e) {

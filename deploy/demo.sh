@@ -1,8 +1,40 @@
 #!/usr/bin/env bash
-# Quick start, command 1: build (installing dependencies if missing) and run the bundled demo site.
+# Quick start, command 1: build (installing dependencies if missing), start fragsimd with a data
+# directory under out/, upload the bundled demo site, submit the demo job, follow it, print its
+# summary (files in out/demo/), and stop the daemon.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$root/deploy/build.sh"
 cd "$root"
-./build/cli/fragsim run examples/demo/scenario.json --out out/demo
-echo "results: out/demo/summary.json, out/demo/results.h5"
+
+data="out/fragsimd"
+mkdir -p "$data"
+# A bearer token for this demo (the daemon always authenticates unless told otherwise).
+if [ ! -s "$data/tokens" ]; then
+  (umask 077 && od -An -tx1 -N24 /dev/urandom | tr -d ' \n' > "$data/tokens" && echo >> "$data/tokens")
+fi
+rm -f "$data/port"
+
+./build/server/fragsimd --listen 127.0.0.1:0 --data-dir "$data" --token-file "$data/tokens" \
+  --port-file "$data/port" 2> "$data/fragsimd.log" &
+daemon=$!
+stop_daemon() {
+  if kill -0 "$daemon" 2> /dev/null; then
+    kill -TERM "$daemon" && wait "$daemon" || true
+  fi
+}
+trap stop_daemon EXIT
+
+for _ in $(seq 1 100); do
+  [ -s "$data/port" ] && break
+  kill -0 "$daemon" 2> /dev/null || { cat "$data/fragsimd.log" >&2; exit 1; }
+  sleep 0.1
+done
+[ -s "$data/port" ] || { echo "fragsimd did not start; log: $data/fragsimd.log" >&2; exit 1; }
+url="http://127.0.0.1:$(cat "$data/port")"
+echo "fragsimd listening on $url (log: $data/fragsimd.log)"
+
+./build/cli/fragsim submit examples/demo/scenario.json --server "$url" \
+  --token-file "$data/tokens" --out out/demo
+stop_daemon
+echo "results: out/demo/summary.json, out/demo/results.h5 (daemon data: $data)"

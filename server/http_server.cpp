@@ -1,5 +1,7 @@
 #include "server/http_server.h"
 
+// After Eigen (through http_server.h): httplib.h pulls in <resolv.h>, whose `_res` macro breaks
+// Eigen's parameter names.
 #include <httplib.h>
 
 #include <chrono>

@@ -1,0 +1,198 @@
+// `fragsim submit`: the client side of fragsimd (docs/http-api.md). Uploads an inline site, submits
+// the job by site_id, follows its progress, prints the summary and optionally downloads the files.
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <thread>
+
+#include "api/output_dir.h"
+#include "api/run_outputs.h"
+#include "api/scenario_json.h"
+#include "api/summary_json.h"
+#include "cli/commands.h"
+#include "core/common/error.h"
+
+// After Eigen (through the api headers): httplib.h pulls in <resolv.h>, whose `_res` macro breaks
+// Eigen's parameter names.
+#include <httplib.h>
+
+namespace fragsim::cli {
+
+namespace {
+
+using Json = nlohmann::json;
+
+std::string read_text(const std::string& path, const std::string& what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(what, "cannot read " + path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The first token in a token file (one per line; blank lines and # comments skipped).
+std::string first_token(const std::string& path) {
+  std::istringstream in(read_text(path, "--token-file"));
+  std::string line;
+  while (std::getline(in, line)) {
+    const auto a = line.find_first_not_of(" \t\r");
+    if (a == std::string::npos || line[a] == '#') continue;
+    const auto b = line.find_last_not_of(" \t\r");
+    return line.substr(a, b - a + 1);
+  }
+  throw InputError("--token-file", path + " holds no token");
+}
+
+// A failed request: the server's error body when it sent one.
+class ServerError : public std::runtime_error {
+ public:
+  ServerError(int status, const std::string& message)
+      : std::runtime_error(message), status_(status) {}
+  int status() const { return status_; }
+
+ private:
+  int status_;
+};
+
+class Client {
+ public:
+  Client(const std::string& url, const std::string& token) : url_(url), http_(url) {
+    if (!token.empty()) http_.set_bearer_token_auth(token);
+    http_.set_connection_timeout(std::chrono::seconds(10));
+    http_.set_read_timeout(std::chrono::seconds(600));
+    http_.set_write_timeout(std::chrono::seconds(600));
+  }
+
+  // Returns (status, body); throws ServerError for a status >= 400 and for no answer.
+  std::pair<int, std::string> request(const std::string& method, const std::string& path,
+                                      const std::string& body = "") {
+    httplib::Result res = method == "POST"
+                              ? http_.Post(path, body, "application/json")
+                              : http_.Get(path);
+    if (!res)
+      throw ServerError(0, "cannot reach " + url_ + " (" + httplib::to_string(res.error()) + ")");
+    if (res->status >= 400) {
+      std::string message = "HTTP " + std::to_string(res->status);
+      try {
+        const Json e = Json::parse(res->body);
+        message += ' ';
+        message += e.value("code", std::string());
+        message += ": ";
+        if (e.contains("field") && e["field"].is_string() && !e["field"].get<std::string>().empty())
+          message += e["field"].get<std::string>() + ": ";
+        message += e.value("message", std::string());
+      } catch (const std::exception&) {
+        message += ": " + res->body.substr(0, 200);
+      }
+      throw ServerError(res->status, method + " " + path + ": " + message);
+    }
+    return {res->status, res->body};
+  }
+
+ private:
+  std::string url_;
+  httplib::Client http_;
+};
+
+}  // namespace
+
+int submit_command(const Options& o, const std::atomic<bool>& cancel) {
+  const std::string text = read_text(o.scenario, "");
+  Json scenario = api::parse_json_text(text);
+  // Check what can be checked here before anything is sent: a scenario with an inline site in
+  // full; one naming a stored site (site_id) is checked by the server.
+  if (!scenario.is_object() || !scenario.contains("site_id"))
+    (void)api::validate_scenario(api::parse_scenario_document(scenario).scenario);
+  const std::string token = o.token_file.empty() ? "" : first_token(o.token_file);
+  Client client(o.server, token);
+
+  try {
+    if (scenario.contains("site")) {
+      const auto [status, body] = client.request("POST", "/v1/sites", scenario["site"].dump());
+      const std::string site_id = Json::parse(body).at("site_id").get<std::string>();
+      if (!o.quiet)
+        std::cerr << (status == 201 ? "site uploaded: " : "site already on the server: ")
+                  << site_id << "\n";
+      scenario.erase("site");
+      scenario["site_id"] = site_id;
+    }
+    if (o.priority) scenario["priority"] = *o.priority;
+    if (!o.idempotency_key.empty()) scenario["idempotency_key"] = o.idempotency_key;
+    const auto [status, body] = client.request("POST", "/v1/jobs", scenario.dump());
+    const std::string job_id = Json::parse(body).at("job_id").get<std::string>();
+    if (!o.wait) {
+      std::cout << job_id << "\n";
+      return kExitOk;
+    }
+    if (!o.quiet) std::cerr << "job " << (status == 202 ? "queued: " : "known: ") << job_id << "\n";
+
+    // Follow: a line when the state changes, and about every 2 s while it runs.
+    std::string state;
+    auto last_line = std::chrono::steady_clock::now() - std::chrono::hours(1);
+    Json job;
+    while (true) {
+      job = Json::parse(client.request("GET", "/v1/jobs/" + job_id).second);
+      const std::string now_state = job.at("state").get<std::string>();
+      const auto now = std::chrono::steady_clock::now();
+      if (!o.quiet && (now_state != state || now - last_line > std::chrono::seconds(2))) {
+        std::cerr << "  " << now_state;
+        if (now_state == "running") {
+          char buf[160];
+          std::snprintf(buf, sizeof buf, " %5.1f%%  %lld / %lld histories",
+                        100.0 * job.value("progress", 0.0),
+                        static_cast<long long>(job.value("histories_done", 0LL)),
+                        static_cast<long long>(job.value("histories_total", 0LL)));
+          std::cerr << buf;
+          if (job["eta_s"].is_number())
+            std::cerr << "  eta " << static_cast<int>(job["eta_s"].get<double>() + 0.5) << " s";
+        }
+        std::cerr << "\n";
+        last_line = now;
+      }
+      state = now_state;
+      if (state == "done" || state == "failed" || state == "cancelled") break;
+      if (cancel.load()) {
+        std::cerr << "stopped following; job " << job_id << " continues on the server\n";
+        return kExitCancelled;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    }
+    if (state == "failed") {
+      const Json& e = job["error"];
+      std::cerr << "error: job " << job_id << " failed: "
+                << (e.is_object() ? e.value("code", "") + ": " + e.value("message", "") : "")
+                << "\n";
+      return e.is_object() && e.value("code", "") == "invalid_input" ? kExitInvalidInput
+                                                                     : kExitInternal;
+    }
+    if (state == "cancelled") {
+      std::cerr << "job " << job_id << " was cancelled: no results\n";
+      return kExitCancelled;
+    }
+
+    const std::string summary_text = client.request("GET", "/v1/jobs/" + job_id + "/summary").second;
+    if (!o.out.empty()) {
+      const std::string h5 = client.request("GET", "/v1/jobs/" + job_id + "/results.h5").second;
+      api::OutputDir out(o.out);
+      out.stage_text(api::kSummaryFileName, summary_text);
+      out.stage_text(api::kResultsFileName, h5);
+      out.commit();
+    }
+    if (!o.quiet) {
+      std::cout << api::render_summary_text(nlohmann::ordered_json::parse(summary_text));
+      if (!o.out.empty())
+        std::cout << "\nWrote " << (std::filesystem::path(o.out) / api::kSummaryFileName).string()
+                  << " and " << (std::filesystem::path(o.out) / api::kResultsFileName).string()
+                  << "\n";
+    }
+    return kExitOk;
+  } catch (const ServerError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return e.status() >= 400 && e.status() < 500 ? kExitInvalidInput : kExitInternal;
+  }
+}
+
+}  // namespace fragsim::cli
