@@ -1,0 +1,357 @@
+// fragsimd end to end: the daemon as a separate process, real HTTP over loopback.
+#include <sqlite3.h>
+
+#include <atomic>
+#include <set>
+
+#include "api/results_h5.h"
+#include "tests/server/daemon_support.h"
+
+namespace fragsim::server::testing {
+namespace {
+
+// Every dataset of two results.h5 files, byte for byte (attributes hold timing and creation time
+// and may differ).
+void expect_same_datasets(const fs::path& a, const fs::path& b) {
+  const auto names = api::list_datasets(a);
+  ASSERT_EQ(names, api::list_datasets(b));
+  ASSERT_FALSE(names.empty());
+  for (const auto& name : names)
+    EXPECT_EQ(api::read_dataset_raw(a, name), api::read_dataset_raw(b, name)) << name;
+}
+
+// summary.json without what legitimately differs between two runs of one scenario: run time,
+// and the hash of the scenario text (a file for the CLI, the stored request for the daemon).
+Json comparable_summary(const std::string& text) {
+  Json s = Json::parse(text);
+  s.erase("timing");
+  s["provenance"].erase("scenario_sha256");
+  return s;
+}
+
+// `fragsim run` on `scenario` into dir/cli-<name>; returns that directory.
+fs::path cli_run(const fs::path& dir, const std::string& name, const Json& scenario) {
+  const fs::path file = dir / (name + ".json");
+  write_text(file, scenario.dump());
+  const fs::path out = dir / ("cli-" + name);
+  EXPECT_EQ(run_process({FRAGSIM_CLI, "run", file.string(), "--out", out.string(), "--quiet",
+                         "--threads", "1"},
+                        dir / "cli.log"),
+            0)
+      << read_text(dir / "cli.log");
+  return out;
+}
+
+// Downloads a finished job's results.h5 and summary.json into dir/<job_id>/.
+fs::path download(httplib::Client& c, const fs::path& dir, const std::string& id) {
+  const fs::path out = dir / id;
+  fs::create_directories(out);
+  auto h5 = c.Get("/v1/jobs/" + id + "/results.h5");
+  EXPECT_TRUE(h5 && h5->status == 200);
+  if (h5) write_text(out / "results.h5", h5->body);
+  auto summary = c.Get("/v1/jobs/" + id + "/summary");
+  EXPECT_TRUE(summary && summary->status == 200);
+  if (summary) write_text(out / "summary.json", summary->body);
+  return out;
+}
+
+Json with_seed(Json scenario, std::uint64_t seed) {
+  scenario["settings"]["seed"] = seed;
+  return scenario;
+}
+
+Json scaled_samples(Json scenario, double factor) {
+  for (auto& g : scenario["fragment_groups"])
+    g["samples"] = static_cast<std::int64_t>(g["samples"].get<double>() * factor);
+  return scenario;
+}
+
+TEST(Daemon, DemoJobIsBitIdenticalToTheCli) {
+  const fs::path dir = fresh_dir("fragsimd_demo_");
+  Daemon d(dir);
+  ASSERT_NO_FATAL_FAILURE(d.start());
+  auto c = d.client();
+  const Json demo = demo_scenario();
+  const std::string site = upload_site(*c, demo);
+  const std::string id = submit(*c, by_site_id(demo, site));
+  const Json status = wait_final(*c, id);
+  ASSERT_EQ(status.value("state", ""), "done") << status.dump();
+  EXPECT_EQ(status["histories_done"], status["histories_total"]);
+  const fs::path served = download(*c, dir, id);
+
+  const fs::path cli = cli_run(dir, "demo", demo);
+  expect_same_datasets(served / "results.h5", cli / "results.h5");
+  EXPECT_EQ(comparable_summary(read_text(served / "summary.json")),
+            comparable_summary(read_text(cli / "summary.json")));
+
+  // The building figures and the PTN field served as JSON are those of the files.
+  auto b = c->Get("/v1/jobs/" + id + "/buildings");
+  ASSERT_TRUE(b && b->status == 200);
+  const Json summary = Json::parse(read_text(cli / "summary.json"));
+  const Json buildings = Json::parse(b->body)["buildings"];
+  ASSERT_EQ(buildings.size(), summary["buildings"].size());
+  for (std::size_t k = 0; k < buildings.size(); ++k) {
+    EXPECT_EQ(buildings[k]["id"], summary["buildings"][k]["id"]);
+    EXPECT_EQ(buildings[k]["expected_impacts"], summary["buildings"][k]["expected_impacts"]);
+    EXPECT_EQ(buildings[k]["expected_penetrations"],
+              summary["buildings"][k]["expected_penetrations"]);
+  }
+  auto ptn = c->Get("/v1/jobs/" + id + "/ptn");
+  ASSERT_TRUE(ptn && ptn->status == 200);
+  const Json field = Json::parse(ptn->body);
+  const auto density = api::read_dataset_double(cli / "results.h5", "/ptn/density_per_m2");
+  ASSERT_EQ(field["density_per_m2"].size(), density.size());
+  for (std::size_t k = 0; k < density.size(); ++k)
+    ASSERT_EQ(field["density_per_m2"][k].get<double>(), density[k]) << "triangle " << k;
+
+  EXPECT_EQ(d.kill(SIGTERM), 0) << d.log();
+}
+
+TEST(Daemon, JobsSurviveKillNineAndRerunIdentically) {
+  const fs::path dir = fresh_dir("fragsimd_crash_");
+  Daemon d(dir);
+  ASSERT_NO_FATAL_FAILURE(d.start());
+  auto c = d.client();
+  const Json demo = demo_scenario();
+  const std::string site = upload_site(*c, demo);
+  // The first job is long enough to be caught running; the other two wait behind it.
+  const Json first = scaled_samples(by_site_id(demo, site), 3.0);
+  const Json second = by_site_id(with_seed(scaled_samples(demo, 0.25), 7), site);
+  const Json third = with_seed(minimal_scenario(), 11);  // inline site
+  const std::string a = submit(*c, first);
+  const std::string b = submit(*c, second);
+  const std::string e = submit(*c, third);
+
+  const auto deadline = Clock::now() + std::chrono::seconds(120);
+  while (Clock::now() < deadline) {
+    const Json s = job_status(*c, a);
+    if (s.value("state", "") == "running" && s.value("histories_done", 0) > 0) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(job_status(*c, a).value("state", ""), "running");
+  d.kill(SIGKILL);
+
+  ASSERT_NO_FATAL_FAILURE(d.start());
+  c = d.client();
+  for (const auto& id : {a, b, e}) {
+    const Json s = wait_final(*c, id);
+    EXPECT_EQ(s.value("state", ""), "done") << s.dump();
+  }
+  EXPECT_EQ(job_status(*c, a)["attempts"], 2);
+  EXPECT_EQ(job_status(*c, b)["attempts"], 1);
+
+  // Each result equals an uninterrupted run of the same scenario.
+  Json first_inline = scaled_samples(demo, 3.0);
+  Json second_inline = with_seed(scaled_samples(demo, 0.25), 7);
+  const std::vector<std::pair<std::string, Json>> cases = {
+      {a, first_inline}, {b, second_inline}, {e, third}};
+  for (const auto& [id, scenario] : cases) {
+    const fs::path served = download(*c, dir, id);
+    const fs::path cli = cli_run(dir, id, scenario);
+    expect_same_datasets(served / "results.h5", cli / "results.h5");
+  }
+  EXPECT_EQ(d.kill(SIGTERM), 0);
+
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open_v2((d.data() / "fragsimd.sqlite").c_str(), &db, SQLITE_OPEN_READONLY,
+                            nullptr),
+            SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA integrity_check", -1, &stmt, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
+  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(stmt, 0)), "ok");
+  sqlite3_finalize(stmt);
+  sqlite3_close(db);
+}
+
+TEST(Daemon, ShutdownPutsTheRunningJobBackInTheQueue) {
+  const fs::path dir = fresh_dir("fragsimd_term_");
+  Daemon d(dir);
+  ASSERT_NO_FATAL_FAILURE(d.start());
+  auto c = d.client();
+  const std::string id = submit(*c, scaled_samples(demo_scenario(), 3.0));
+  const auto deadline = Clock::now() + std::chrono::seconds(120);
+  while (Clock::now() < deadline && job_status(*c, id).value("state", "") != "running")
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_EQ(d.kill(SIGTERM), 0) << "a clean shutdown exits 0";
+  ASSERT_NO_FATAL_FAILURE(d.start());
+  c = d.client();
+  const Json s = wait_final(*c, id);
+  EXPECT_EQ(s.value("state", ""), "done");
+  EXPECT_EQ(d.log().find("interrupted by a previous daemon"), std::string::npos)
+      << "a clean stop is not a crash";
+}
+
+struct BadRequest {
+  std::string what;
+  std::string method;
+  std::string path;
+  std::string body;
+  std::string content_type;
+  std::string token;
+  int status;
+  std::string code;
+  std::optional<std::string> field;
+};
+
+TEST(Daemon, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
+  const fs::path dir = fresh_dir("fragsimd_bad_");
+  Daemon d(dir, {"--max-body-bytes", "200000"});
+  ASSERT_NO_FATAL_FAILURE(d.start());
+  auto c = d.client();
+  const Json minimal = minimal_scenario();
+  Json wrong_type = minimal;
+  wrong_type["fragment_groups"][0]["mass_kg"] = "heavy";
+  Json unknown_site = minimal;
+  unknown_site.erase("site");
+  unknown_site["site_id"] = "s_00000000000000aa";
+  const std::string json = "application/json";
+  const std::vector<BadRequest> cases = {
+      {"malformed JSON", "POST", "/v1/jobs", "{\"schema\": ", json, kToken, 400, "malformed_json",
+       std::nullopt},
+      {"wrong type", "POST", "/v1/jobs", wrong_type.dump(), json, kToken, 422, "invalid_input",
+       "fragment_groups[0].mass_kg"},
+      {"unknown site", "POST", "/v1/jobs", unknown_site.dump(), json, kToken, 422,
+       "invalid_input", "site_id"},
+      {"oversized body", "POST", "/v1/sites", std::string(300000, ' '), json, kToken, 413,
+       "payload_too_large", std::nullopt},
+      {"missing token", "GET", "/v1/jobs", "", "", "", 401, "unauthorized", std::nullopt},
+      {"wrong token", "GET", "/v1/jobs", "", "", "not-the-token", 401, "unauthorized",
+       std::nullopt},
+      {"wrong content type", "POST", "/v1/jobs", minimal.dump(), "text/plain", kToken, 415,
+       "unsupported_media_type", std::nullopt},
+      {"unknown route", "GET", "/v1/nothing", "", "", kToken, 404, "not_found", std::nullopt},
+      {"unknown job", "GET", "/v1/jobs/j_0000000000000000", "", "", kToken, 404, "not_found",
+       std::nullopt},
+      {"not an id", "GET", "/v1/jobs/..%2F..%2Fetc", "", "", kToken, 404, "not_found",
+       std::nullopt},
+      {"wrong method", "PUT", "/v1/jobs", "{}", json, kToken, 405, "method_not_allowed",
+       std::nullopt},
+      {"bad filter", "GET", "/v1/jobs?state=finished", "", "", kToken, 400, "bad_parameter",
+       "state"},
+      {"too deep", "POST", "/v1/jobs", std::string(100, '[') + std::string(100, ']'), json, kToken,
+       400, "too_deep", std::nullopt},
+  };
+  for (const auto& bad : cases) {
+    SCOPED_TRACE(bad.what);
+    httplib::Client raw("127.0.0.1", d.port());
+    httplib::Headers headers;
+    if (!bad.token.empty()) headers.emplace("Authorization", "Bearer " + bad.token);
+    httplib::Result r = bad.method == "GET"    ? raw.Get(bad.path, headers)
+                        : bad.method == "POST" ? raw.Post(bad.path, headers, bad.body,
+                                                          bad.content_type)
+                                               : raw.Put(bad.path, headers, bad.body,
+                                                         bad.content_type);
+    ASSERT_TRUE(r) << httplib::to_string(r.error());
+    EXPECT_EQ(r->status, bad.status) << r->body;
+    Json body;
+    ASSERT_NO_THROW(body = Json::parse(r->body)) << r->body;
+    EXPECT_EQ(body.value("code", ""), bad.code) << r->body;
+    EXPECT_TRUE(body.contains("message") && body["message"].is_string() &&
+                !body["message"].get<std::string>().empty());
+    ASSERT_TRUE(body.contains("field"));
+    if (bad.field) {
+      EXPECT_EQ(body["field"], *bad.field);
+    } else if (!body["field"].is_null()) {
+      EXPECT_TRUE(body["field"].is_string());
+    }
+    if (bad.status == 405) {
+      EXPECT_EQ(r->get_header_value("Allow"), "GET, POST");
+    }
+    if (bad.status == 401) {
+      EXPECT_TRUE(r->has_header("WWW-Authenticate"));
+    }
+    auto health = c->Get("/v1/health");
+    ASSERT_TRUE(health && health->status == 200) << "the daemon stopped serving";
+  }
+  // Nothing of the refused requests was queued.
+  auto jobs = c->Get("/v1/jobs");
+  ASSERT_TRUE(jobs && jobs->status == 200);
+  EXPECT_TRUE(Json::parse(jobs->body)["jobs"].empty());
+  EXPECT_TRUE(d.alive());
+}
+
+TEST(Daemon, FiftyClientsPollWhileAJobRuns) {
+  const fs::path dir = fresh_dir("fragsimd_poll_");
+  Daemon d(dir);
+  ASSERT_NO_FATAL_FAILURE(d.start());
+  auto c = d.client();
+  const Json demo = demo_scenario();
+  const std::string site = upload_site(*c, demo);
+  const std::string done = submit(*c, by_site_id(scaled_samples(demo, 0.25), site));
+  ASSERT_EQ(wait_final(*c, done).value("state", ""), "done");
+  const std::string running = submit(*c, by_site_id(demo, site));
+
+  std::atomic<int> errors{0};
+  std::atomic<int> requests{0};
+  std::atomic<bool> stop{false};
+  std::vector<std::thread> clients;
+  for (int k = 0; k < 50; ++k) {
+    clients.emplace_back([&, k] {
+      auto client = d.client();
+      const std::vector<std::string> paths = {"/v1/jobs/" + running, "/v1/jobs/" + done,
+                                              "/v1/jobs/" + done + "/summary",
+                                              "/v1/jobs/" + done + "/buildings", "/v1/health",
+                                              "/metrics"};
+      std::size_t n = static_cast<std::size_t>(k);
+      while (!stop.load()) {
+        const std::string& path = paths[n++ % paths.size()];
+        auto r = client->Get(path);
+        ++requests;
+        if (!r || r->status != 200) {
+          ++errors;
+          ADD_FAILURE() << path << ": " << (r ? std::to_string(r->status) + " " + r->body
+                                              : httplib::to_string(r.error()));
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
+    });
+  }
+  const Json s = wait_final(*c, running);
+  stop = true;
+  for (auto& t : clients) t.join();
+  EXPECT_EQ(s.value("state", ""), "done");
+  EXPECT_EQ(errors.load(), 0);
+  EXPECT_GT(requests.load(), 50);
+}
+
+TEST(Daemon, CancelStopsARunningJobAndLeavesNoResults) {
+  const fs::path dir = fresh_dir("fragsimd_cancel_");
+  Daemon d(dir);
+  ASSERT_NO_FATAL_FAILURE(d.start());
+  auto c = d.client();
+  const std::string id = submit(*c, scaled_samples(demo_scenario(), 50.0));
+  const auto deadline = Clock::now() + std::chrono::seconds(120);
+  while (Clock::now() < deadline) {
+    const Json s = job_status(*c, id);
+    if (s.value("state", "") == "running" && s.value("histories_done", 0) > 0) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  const auto t0 = Clock::now();
+  auto r = c->Delete("/v1/jobs/" + id);
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(Json::parse(r->body)["state"], "cancelled");
+  // The contract: a cancelled job stops within a second (DELETE returns once it has stopped).
+  EXPECT_LT(seconds, 1.0);
+  auto health = c->Get("/v1/health");
+  ASSERT_TRUE(health && health->status == 200);
+  EXPECT_EQ(Json::parse(health->body)["jobs"]["running"], 0);
+  const Json s = job_status(*c, id);
+  EXPECT_EQ(s["state"], "cancelled");
+  EXPECT_LT(s["histories_done"].get<std::int64_t>(), s["histories_total"].get<std::int64_t>());
+  for (const char* part : {"/summary", "/buildings", "/ptn", "/results.h5"}) {
+    auto res = c->Get("/v1/jobs/" + id + part);
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 409) << part;
+    EXPECT_EQ(Json::parse(res->body)["code"], "not_ready") << part;
+  }
+  EXPECT_FALSE(fs::exists(d.data() / "jobs" / id / "results.h5"));
+  auto again = c->Delete("/v1/jobs/" + id);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->status, 409);
+}
+
+}  // namespace
+}  // namespace fragsim::server::testing
