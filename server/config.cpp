@@ -228,7 +228,7 @@ const char* usage_text() {
          "  --listen HOST:PORT       address (default 127.0.0.1:8080; port 0 = any free port)\n"
          "  --data-dir DIR           queue, sites and results (default ./fragsimd-data)\n"
          "  --threads N              Monte Carlo threads per job (default: all cores)\n"
-         "  --http-threads N         request threads (default 32)\n"
+         "  --http-threads N         request threads (default 64)\n"
          "  --token-file FILE        bearer tokens, one per line (required unless --no-auth)\n"
          "  --no-auth                no authentication (only on a loopback address)\n"
          "  --max-body-bytes N       largest request body (default 268435456)\n"

@@ -14,7 +14,7 @@ struct Config {
   int listen_port = 8080;  // 0: any free port (see port_file)
   std::string data_dir = "fragsimd-data";
   int threads = 0;  // Monte Carlo threads per job; 0 = all cores
-  int http_threads = 32;
+  int http_threads = 64;  // one per open (keep-alive) connection: more clients than this wait
   std::string token_file;
   bool auth = true;
   std::int64_t max_body_bytes = 256LL << 20;

@@ -4,7 +4,11 @@
 // Eigen's parameter names.
 #include <httplib.h>
 
+#include <sys/socket.h>
+
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <fstream>
 
 #include "server/log.h"
@@ -12,6 +16,8 @@
 namespace fragsim::server {
 
 namespace {
+
+constexpr int kListenBacklog = 1024;
 
 std::string lower(std::string s) {
   for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -72,8 +78,11 @@ HttpServer::HttpServer(Service& service)
   const auto timeout = std::chrono::duration<double>(c.request_timeout_s);
   s.set_read_timeout(std::chrono::duration_cast<std::chrono::microseconds>(timeout));
   s.set_write_timeout(std::chrono::duration_cast<std::chrono::microseconds>(timeout));
-  s.set_keep_alive_max_count(1000);
-  s.set_keep_alive_timeout(5);
+  // cpp-httplib holds a pool thread per open connection: an idle keep-alive connection is closed
+  // after 2 s, and any connection after 100 requests, so that clients beyond --http-threads wait
+  // at most about that long for a thread.
+  s.set_keep_alive_max_count(100);
+  s.set_keep_alive_timeout(2);
 
   const auto handler = [this](const httplib::Request& req, httplib::Response& res) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -147,6 +156,14 @@ HttpServer::~HttpServer() = default;
 
 int HttpServer::bind() {
   const Config& c = service_.config();
+  // cpp-httplib 0.11 (Debian 12) listens with a backlog of 5: fifty clients connecting at once
+  // overflow it and wait for the kernel's SYN retry (1 s, then 3 s). Calling listen() again on the
+  // bound socket raises the backlog (Linux, capped by net.core.somaxconn).
+  int listen_fd = -1;
+  server_->set_socket_options([&listen_fd](socket_t sock) {
+    httplib::default_socket_options(sock);
+    listen_fd = sock;
+  });
   int port = c.listen_port;
   if (port == 0) {
     port = server_->bind_to_any_port(c.listen_host);
@@ -156,6 +173,9 @@ int HttpServer::bind() {
   if (port < 0)
     throw std::runtime_error("cannot listen on " + c.listen_host + ":" +
                              std::to_string(c.listen_port) + " (address in use or not local?)");
+  if (listen_fd >= 0 && ::listen(listen_fd, kListenBacklog) != 0)
+    log(LogLevel::kWarn, "listen backlog not raised", {{"error", std::strerror(errno)}});
+  server_->set_socket_options(httplib::default_socket_options);
   return port;
 }
 

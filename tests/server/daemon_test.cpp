@@ -69,7 +69,7 @@ Json scaled_samples(Json scenario, double factor) {
 TEST(Daemon, DemoJobIsBitIdenticalToTheCli) {
   const fs::path dir = fresh_dir("fragsimd_demo_");
   Daemon d(dir);
-  ASSERT_NO_FATAL_FAILURE(d.start());
+  ASSERT_NO_THROW(d.start()) << d.log();
   auto c = d.client();
   const Json demo = demo_scenario();
   const std::string site = upload_site(*c, demo);
@@ -110,7 +110,7 @@ TEST(Daemon, DemoJobIsBitIdenticalToTheCli) {
 TEST(Daemon, JobsSurviveKillNineAndRerunIdentically) {
   const fs::path dir = fresh_dir("fragsimd_crash_");
   Daemon d(dir);
-  ASSERT_NO_FATAL_FAILURE(d.start());
+  ASSERT_NO_THROW(d.start()) << d.log();
   auto c = d.client();
   const Json demo = demo_scenario();
   const std::string site = upload_site(*c, demo);
@@ -131,7 +131,7 @@ TEST(Daemon, JobsSurviveKillNineAndRerunIdentically) {
   ASSERT_EQ(job_status(*c, a).value("state", ""), "running");
   d.kill(SIGKILL);
 
-  ASSERT_NO_FATAL_FAILURE(d.start());
+  ASSERT_NO_THROW(d.start()) << d.log();
   c = d.client();
   for (const auto& id : {a, b, e}) {
     const Json s = wait_final(*c, id);
@@ -167,14 +167,14 @@ TEST(Daemon, JobsSurviveKillNineAndRerunIdentically) {
 TEST(Daemon, ShutdownPutsTheRunningJobBackInTheQueue) {
   const fs::path dir = fresh_dir("fragsimd_term_");
   Daemon d(dir);
-  ASSERT_NO_FATAL_FAILURE(d.start());
+  ASSERT_NO_THROW(d.start()) << d.log();
   auto c = d.client();
   const std::string id = submit(*c, scaled_samples(demo_scenario(), 3.0));
   const auto deadline = Clock::now() + std::chrono::seconds(120);
   while (Clock::now() < deadline && job_status(*c, id).value("state", "") != "running")
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_EQ(d.kill(SIGTERM), 0) << "a clean shutdown exits 0";
-  ASSERT_NO_FATAL_FAILURE(d.start());
+  ASSERT_NO_THROW(d.start()) << d.log();
   c = d.client();
   const Json s = wait_final(*c, id);
   EXPECT_EQ(s.value("state", ""), "done");
@@ -197,7 +197,7 @@ struct BadRequest {
 TEST(Daemon, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
   const fs::path dir = fresh_dir("fragsimd_bad_");
   Daemon d(dir, {"--max-body-bytes", "200000"});
-  ASSERT_NO_FATAL_FAILURE(d.start());
+  ASSERT_NO_THROW(d.start()) << d.log();
   auto c = d.client();
   const Json minimal = minimal_scenario();
   Json wrong_type = minimal;
@@ -274,7 +274,7 @@ TEST(Daemon, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
 TEST(Daemon, FiftyClientsPollWhileAJobRuns) {
   const fs::path dir = fresh_dir("fragsimd_poll_");
   Daemon d(dir);
-  ASSERT_NO_FATAL_FAILURE(d.start());
+  ASSERT_NO_THROW(d.start()) << d.log();
   auto c = d.client();
   const Json demo = demo_scenario();
   const std::string site = upload_site(*c, demo);
@@ -318,7 +318,7 @@ TEST(Daemon, FiftyClientsPollWhileAJobRuns) {
 TEST(Daemon, CancelStopsARunningJobAndLeavesNoResults) {
   const fs::path dir = fresh_dir("fragsimd_cancel_");
   Daemon d(dir);
-  ASSERT_NO_FATAL_FAILURE(d.start());
+  ASSERT_NO_THROW(d.start()) << d.log();
   auto c = d.client();
   const std::string id = submit(*c, scaled_samples(demo_scenario(), 50.0));
   const auto deadline = Clock::now() + std::chrono::seconds(120);
