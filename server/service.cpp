@@ -156,8 +156,10 @@ bool Service::authorised(const Request& req) const {
   return ok;
 }
 
-Response Service::handle(const Request& req) {
-  static const std::vector<Route> kRoutes = {
+namespace {
+
+const std::vector<Service::Route>& routes() {
+  static const std::vector<Service::Route> kRoutes = {
       {RouteId::kHealth, "/v1/health", {"GET"}, true},
       {RouteId::kOpenapi, "/v1/openapi.yaml", {"GET"}, true},
       {RouteId::kMetrics, "/metrics", {"GET"}},
@@ -170,6 +172,20 @@ Response Service::handle(const Request& req) {
       {RouteId::kJobPtn, "/v1/jobs/{id}/ptn", {"GET"}},
       {RouteId::kJobResults, "/v1/jobs/{id}/results.h5", {"GET"}},
   };
+  return kRoutes;
+}
+
+}  // namespace
+
+std::vector<RouteInfo> route_table() {
+  std::vector<RouteInfo> out;
+  for (const auto& r : routes())
+    out.push_back({r.pattern, {r.methods.begin(), r.methods.end()}, r.public_route});
+  return out;
+}
+
+Response Service::handle(const Request& req) {
+  const auto& kRoutes = routes();
   const std::string& path = req.path;
   for (const Route& route : kRoutes) {
     // Match segment by segment; "{id}" takes one non-empty segment.

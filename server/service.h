@@ -44,6 +44,15 @@ struct Response {
 Response error_response(int status, const std::string& code, const std::string& message,
                         const std::optional<std::string>& field = std::nullopt);
 
+// The routes fragsimd serves: pattern ("{id}" takes one path segment), methods, and whether the
+// route is public (no token). api/openapi.yaml describes exactly these (tests/server check it).
+struct RouteInfo {
+  std::string pattern;
+  std::vector<std::string> methods;
+  bool public_route = false;
+};
+std::vector<RouteInfo> route_table();
+
 class Service {
  public:
   // Opens (creates) the data directory and database, loads the sites, recovers jobs a dead daemon
@@ -54,6 +63,8 @@ class Service {
   Service& operator=(const Service&) = delete;
 
   Response handle(const Request& req);
+
+  struct Route;
   // Stops the scheduler (a running job goes back to the queue).
   void shutdown();
 
@@ -61,7 +72,6 @@ class Service {
   Metrics& metrics() { return metrics_; }
 
  private:
-  struct Route;
   Response dispatch(const Request& req, const Route& route, const std::string& id);
 
   // Routes
