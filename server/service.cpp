@@ -1,6 +1,12 @@
 #include "server/service.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -121,12 +127,31 @@ struct Service::Route {
   bool public_route = false;  // no token needed
 };
 
+Service::DataDirLock::DataDirLock(const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path file = dir / "fragsimd.lock";
+  fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0)
+    throw std::runtime_error("cannot open " + file.string() + ": " + std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd_);
+    fd_ = -1;
+    throw std::runtime_error("data directory " + dir.string() +
+                             " is in use by another fragsimd (lock " + file.string() + ")");
+  }
+}
+
+Service::DataDirLock::~DataDirLock() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
 Service::Service(Config config)
     : config_(std::move(config)),
       data_dir_(config_.data_dir),
+      lock_(data_dir_),
       tokens_(config_.auth ? read_tokens(config_.token_file) : std::vector<std::string>{}),
       started_(std::chrono::steady_clock::now()),
-      store_((std::filesystem::create_directories(data_dir_), data_dir_ / "fragsimd.sqlite")),
+      store_(data_dir_ / "fragsimd.sqlite"),
       sites_(store_, data_dir_ / "sites"),
       scheduler_(store_, sites_, data_dir_ / "jobs", config_.threads) {
   sites_.load();

@@ -97,8 +97,22 @@ class Service {
   // The job's row when its results can be served; else the error response to send.
   std::variant<JobRow, Response> finished_job(const std::string& id);
 
+  // Held for the daemon's life: a second fragsimd on the same data directory refuses to start
+  // (two schedulers would run the same jobs). The kernel releases it when the process dies.
+  class DataDirLock {
+   public:
+    explicit DataDirLock(const std::filesystem::path& dir);
+    ~DataDirLock();
+    DataDirLock(const DataDirLock&) = delete;
+    DataDirLock& operator=(const DataDirLock&) = delete;
+
+   private:
+    int fd_ = -1;
+  };
+
   Config config_;
   std::filesystem::path data_dir_;
+  DataDirLock lock_;
   std::vector<std::string> tokens_;
   std::chrono::steady_clock::time_point started_;
   Store store_;

@@ -355,3 +355,49 @@ TEST(Daemon, CancelStopsARunningJobAndLeavesNoResults) {
 
 }  // namespace
 }  // namespace fragsim::server::testing
+
+namespace fragsim::server::testing {
+namespace {
+
+TEST(Daemon, SubmitCommandRunsAScenarioOnTheServer) {
+  const fs::path dir = fresh_dir("fragsimd_submit_");
+  Daemon d(dir);
+  ASSERT_NO_THROW(d.start()) << d.log();
+  const std::string url = "http://127.0.0.1:" + std::to_string(d.port());
+  const std::string scenario = source_path("examples/minimal/scenario.json").string();
+  const fs::path out = dir / "out";
+  ASSERT_EQ(run_process({FRAGSIM_CLI, "submit", scenario, "--server", url, "--token-file",
+                         (dir / "tokens").string(), "--out", out.string(), "--quiet"},
+                        dir / "submit.log"),
+            0)
+      << read_text(dir / "submit.log");
+  const fs::path cli = cli_run(dir, "minimal", minimal_scenario());
+  expect_same_datasets(out / "results.h5", cli / "results.h5");
+  EXPECT_EQ(comparable_summary(read_text(out / "summary.json")),
+            comparable_summary(read_text(cli / "summary.json")));
+
+  // A wrong token is invalid input (exit 2); nothing is written.
+  write_text(dir / "wrong", "not-the-token\n");
+  EXPECT_EQ(run_process({FRAGSIM_CLI, "submit", scenario, "--server", url, "--token-file",
+                         (dir / "wrong").string(), "--out", (dir / "out2").string()},
+                        dir / "submit2.log"),
+            2);
+  EXPECT_NE(read_text(dir / "submit2.log").find("unauthorized"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "out2"));
+
+  // A second daemon on the same data directory refuses to start.
+  Daemon other(dir);
+  EXPECT_THROW(other.start(), std::runtime_error);
+  EXPECT_NE(read_text(dir / "fragsimd.log").find("in use by another fragsimd"), std::string::npos);
+  EXPECT_TRUE(d.alive());
+  d.kill(SIGTERM);
+
+  // No server: an internal error (exit 1), not a crash.
+  EXPECT_EQ(run_process({FRAGSIM_CLI, "submit", scenario, "--server", url, "--token-file",
+                         (dir / "tokens").string()},
+                        dir / "submit3.log"),
+            1);
+}
+
+}  // namespace
+}  // namespace fragsim::server::testing
