@@ -1,5 +1,8 @@
 #include "server/config.h"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -74,8 +77,13 @@ std::string read_text_file(const std::string& path, const std::string& what) {
 
 }  // namespace
 
+// Loopback: "localhost", "::1" or an IPv4 address literal in 127.0.0.0/8. A host *name* that
+// merely starts with "127." could resolve to anything.
 bool is_loopback_host(const std::string& host) {
-  return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
+  if (host == "localhost" || host == "::1") return true;
+  in_addr addr{};
+  if (::inet_pton(AF_INET, host.c_str(), &addr) != 1) return false;
+  return (ntohl(addr.s_addr) >> 24) == 127;
 }
 
 std::vector<std::string> read_tokens(const std::string& path) {
@@ -131,7 +139,8 @@ void apply_config_file(const std::string& path, Config& c) {
         c.max_queued_jobs = api::read_integer(v, k, 1, kInt64Max);
       } else if (k == "request_timeout_s") {
         c.request_timeout_s = api::read_number(v, k);
-        api::check_in(c.request_timeout_s, 0.001, 86400.0, k);
+        api::check_gt(c.request_timeout_s, 0.0, k);
+        api::check_le(c.request_timeout_s, 86400.0, k);
       } else if (k == "log_level") {
         c.log_level = api::read_string(v, k);
         check_log_level(c.log_level, k);

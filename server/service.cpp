@@ -268,7 +268,9 @@ Response Service::handle(const Request& req) {
       } catch (const api::MalformedJsonError& e) {
         r = error_response(400, "malformed_json", e.message());
       } catch (const InputError& e) {
-        r = error_response(422, "invalid_input", e.message(), e.field());
+        // An empty path is the body as a whole (e.g. an array where an object belongs).
+        r = error_response(422, "invalid_input", e.message(),
+                           e.field().empty() ? std::nullopt : std::optional(e.field()));
       } catch (const LimitError& e) {
         r = error_response(422, "limit_exceeded", e.what(),
                            e.field().empty() ? std::nullopt : std::optional(e.field()));
@@ -287,7 +289,16 @@ Response Service::handle(const Request& req) {
 
 Response Service::dispatch(const Request& req, const Route& route, const std::string& id) {
   const bool get = req.method == "GET" || req.method == "HEAD";
-  auto no_query = [&]() { return check_query(req, {}); };
+  // Query parameters first (the same order on every route), then the id in the path.
+  std::optional<Response> bad;
+  if (route.id == RouteId::kJobs && get) {
+    bad = check_query(req, {"state", "limit"});
+  } else if (route.id == RouteId::kJobPtn) {
+    bad = check_query(req, {"format", "min_density_per_m2"});
+  } else {
+    bad = check_query(req, {});
+  }
+  if (bad) return *bad;
   switch (route.id) {
     case RouteId::kHealth:
       return health();
@@ -296,22 +307,17 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
     case RouteId::kMetrics:
       return metrics_page();
     case RouteId::kSites:
-      if (auto bad = no_query()) return *bad;
       return get ? list_sites() : post_site(req);
     case RouteId::kSite:
-      if (auto bad = no_query()) return *bad;
       if (!api::is_site_id(id)) return error_response(404, "not_found", "no site " + id);
       return get ? get_site(id) : delete_site(id);
     case RouteId::kJobs:
-      if (get) return list_jobs(req);
-      if (auto bad = no_query()) return *bad;
-      return post_job(req);
+      return get ? list_jobs(req) : post_job(req);
     default:
       break;
   }
   if (!api::is_job_id(id)) return error_response(404, "not_found", "no job " + id);
   if (route.id == RouteId::kJobPtn) return job_ptn(req, id);
-  if (auto bad = no_query()) return *bad;
   switch (route.id) {
     case RouteId::kJob:
       return get ? get_job(id) : delete_job(id);
@@ -497,8 +503,10 @@ Response Service::post_job(const Request& req) {
     const std::lock_guard<std::mutex> lock(catalogue_mutex_);
     if (row.site_id && !sites_.find(*row.site_id))  // deleted while the request was parsed
       throw InputError("site_id", "unknown site \"" + *row.site_id + "\"");
+    // A retry of a request already accepted is answered below whatever the queue holds.
+    const bool retry = row.idempotency_key && store_.has_idempotency_key(*row.idempotency_key);
     const auto queued = store_.job_counts()[static_cast<std::size_t>(JobState::kQueued)];
-    if (queued >= config_.max_queued_jobs)
+    if (!retry && queued >= config_.max_queued_jobs)
       throw LimitError("", std::to_string(queued) +
                                " jobs are queued, the limit (--max-queued-jobs); try later");
     inserted = store_.insert_job(row);
@@ -526,7 +534,6 @@ Response Service::post_job(const Request& req) {
 }
 
 Response Service::list_jobs(const Request& req) {
-  if (auto bad = check_query(req, {"state", "limit"})) return *bad;
   std::optional<JobState> state;
   int limit = 1000;
   if (const auto it = req.query.find("state"); it != req.query.end()) {
@@ -605,7 +612,6 @@ Response Service::job_buildings(const std::string& id) {
 }
 
 Response Service::job_ptn(const Request& req, const std::string& id) {
-  if (auto bad = check_query(req, {"format", "min_density_per_m2"})) return *bad;
   bool geojson = false;
   if (const auto it = req.query.find("format"); it != req.query.end()) {
     if (it->second == "geojson") {

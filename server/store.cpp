@@ -293,6 +293,13 @@ std::optional<JobRow> Store::job(const std::string& job_id) {
   return read_job(s);
 }
 
+bool Store::has_idempotency_key(const std::string& key) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(db_, "SELECT 1 FROM jobs WHERE idempotency_key = ?1", "find idempotency key");
+  s.bind(1, key);
+  return s.step();
+}
+
 std::vector<JobRow> Store::jobs(std::optional<JobState> state, int limit) {
   const std::lock_guard<std::mutex> lock(mutex_);
   std::string sql = std::string("SELECT ") + kJobColumns + " FROM jobs";
@@ -449,7 +456,8 @@ std::vector<std::string> Store::recover_interrupted(int max_crashes, const std::
                    "interrupted jobs");
     while (list.step()) requeued.push_back(list.text(0));
     Statement back(db_,
-                   "UPDATE jobs SET state = 'queued', histories_done = 0 WHERE state = 'running'",
+                   "UPDATE jobs SET state = 'queued', histories_done = 0, started_utc = NULL "
+                   "WHERE state = 'running'",
                    "requeue interrupted");
     back.run();
     exec("COMMIT", "commit");

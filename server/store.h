@@ -80,6 +80,7 @@ class Store {
   // inserted and the existing job comes back.
   Insert insert_job(JobRow row);
   std::optional<JobRow> job(const std::string& job_id);
+  bool has_idempotency_key(const std::string& key);
   // Newest first, optionally one state only.
   std::vector<JobRow> jobs(std::optional<JobState> state, int limit);
   std::array<std::int64_t, kJobStateCount> job_counts();

@@ -1,0 +1,1162 @@
+// fragsimd's request handling without sockets: Service::handle(Request) -> Response. Routing,
+// authentication, content types, error bodies, sites, jobs and their life cycle, results, metrics
+// (docs/http-api.md is the contract).
+#include "server/service.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <memory>
+#include <thread>
+#include <tuple>
+
+#include "api/job_request.h"
+#include "api/scenario_json.h"
+#include "api/site_document.h"
+#include "api/test_support.h"
+#include "core/run/run.h"
+
+namespace fragsim::server {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+using api::testing::minimal_example;
+
+constexpr const char* kToken = "test-token-1";
+constexpr const char* kOtherToken = "second-token";
+constexpr const char* kUnknownJob = "j_0123456789abcdef";
+constexpr const char* kUnknownSite = "s_0000000000000000";
+// Far more histories than a test lasts: keeps the worker busy so that later jobs stay queued.
+// The service's destructor stops it (a running job is requeued at shutdown).
+constexpr std::int64_t kBlockerSamples = 50'000'000;
+
+Json minimal_site() {
+  return minimal_example()["site"];
+}
+
+// The minimal example by site_id, `samples` histories.
+Json job_on(const std::string& site_id, std::int64_t samples = 200) {
+  Json j = minimal_example();
+  j.erase("site");
+  j["site_id"] = site_id;
+  j["fragment_groups"][0]["samples"] = samples;
+  return j;
+}
+
+Json blocker_job(const std::string& site_id) {
+  Json j = job_on(site_id, kBlockerSamples);
+  j["settings"]["record_fragments"] = false;
+  j["priority"] = api::kMaxJobPriority;
+  return j;
+}
+
+Json body_of(const Response& r) {
+  return Json::parse(r.body);
+}
+
+std::optional<std::string> header(const Response& r, const std::string& name) {
+  const auto lower = [](std::string s) {
+    for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+  };
+  for (const auto& [k, v] : r.headers)
+    if (lower(k) == lower(name)) return v;
+  return std::nullopt;
+}
+
+// An error response as the contract has it: status, JSON body {code, message, field}.
+void expect_error(const Response& r, int status, const std::string& code,
+                  const std::optional<std::string>& field = std::nullopt) {
+  EXPECT_EQ(r.status, status) << r.body;
+  EXPECT_EQ(r.content_type, "application/json");
+  Json j;
+  try {
+    j = body_of(r);
+  } catch (const std::exception&) {
+    ADD_FAILURE() << "error body is not JSON: " << r.body;
+    return;
+  }
+  ASSERT_TRUE(j.is_object()) << r.body;
+  EXPECT_EQ(j.size(), 3u) << r.body;
+  EXPECT_EQ(j.value("code", ""), code) << r.body;
+  ASSERT_TRUE(j.contains("message")) << r.body;
+  EXPECT_TRUE(j["message"].is_string());
+  EXPECT_FALSE(j["message"].get<std::string>().empty());
+  ASSERT_TRUE(j.contains("field")) << r.body;
+  if (field) {
+    EXPECT_EQ(j["field"], *field) << r.body;
+  } else {
+    EXPECT_TRUE(j["field"].is_null()) << r.body;
+  }
+}
+
+std::size_t count_occurrences(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (auto p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
+  return n;
+}
+
+class ServiceTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = api::testing::fresh_test_dir("fragsim_service_test_");
+    std::ofstream(dir_ / "tokens") << "# fragsimd test tokens\n\n" << kToken << "\n  "
+                                   << kOtherToken << "  \n";
+  }
+  void TearDown() override {
+    service_.reset();
+    fs::remove_all(dir_);
+  }
+
+  Config config() const {
+    Config c;
+    c.data_dir = (dir_ / "data").string();
+    c.token_file = (dir_ / "tokens").string();
+    c.auth = true;
+    c.threads = 1;
+    return c;
+  }
+  Service& start(const std::function<void(Config&)>& adjust = {}) {
+    Config c = config();
+    if (adjust) adjust(c);
+    service_ = std::make_unique<Service>(c);
+    return *service_;
+  }
+  void restart() {
+    service_.reset();
+    service_ = std::make_unique<Service>(config());
+  }
+
+  Response call(const std::string& method, const std::string& path,
+                std::map<std::string, std::string> query = {}, std::string body = {},
+                std::map<std::string, std::string> headers = {}, bool auth = true) {
+    Request req;
+    req.method = method;
+    req.path = path;
+    req.query = std::move(query);
+    req.headers = std::move(headers);
+    if (auth && !req.headers.count("authorization"))
+      req.headers["authorization"] = std::string("Bearer ") + kToken;
+    req.body = std::move(body);
+    return service_->handle(req);
+  }
+  Response get(const std::string& path, std::map<std::string, std::string> query = {}) {
+    return call("GET", path, std::move(query));
+  }
+  Response get_anonymous(const std::string& path) { return call("GET", path, {}, {}, {}, false); }
+  Response del(const std::string& path) { return call("DELETE", path); }
+  Response post_text(const std::string& path, const std::string& text,
+                     const std::string& content_type = "application/json") {
+    std::map<std::string, std::string> headers;
+    if (!content_type.empty()) headers["content-type"] = content_type;
+    return call("POST", path, {}, text, headers);
+  }
+  Response post(const std::string& path, const Json& body) { return post_text(path, body.dump()); }
+
+  // Posts the minimal example's site; returns its id.
+  std::string add_site(const Json& site = minimal_site()) {
+    const Response r = post("/v1/sites", site);
+    EXPECT_TRUE(r.status == 201 || r.status == 200) << r.status << " " << r.body;
+    return body_of(r).value("site_id", "");
+  }
+  // Posts a job; returns its id (asserting 202).
+  std::string add_job(const Json& body) {
+    const Response r = post("/v1/jobs", body);
+    EXPECT_EQ(r.status, 202) << r.body;
+    return body_of(r).value("job_id", "");
+  }
+  Json job(const std::string& id) {
+    const Response r = get("/v1/jobs/" + id);
+    EXPECT_EQ(r.status, 200) << r.body;
+    return body_of(r);
+  }
+  // Polls the job until `done(status)`; a generous deadline, no timing assertion.
+  Json wait_for(const std::string& id, const std::function<bool(const Json&)>& done) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    Json j = job(id);
+    while (!done(j) && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      j = job(id);
+    }
+    return j;
+  }
+  Json wait_for_state(const std::string& id, const std::string& state) {
+    return wait_for(id, [&](const Json& j) { return j["state"] == state || j["state"] == "failed"; });
+  }
+  std::string metrics_text() {
+    const Response r = get("/metrics");
+    EXPECT_EQ(r.status, 200) << r.body;
+    return r.body;
+  }
+
+  fs::path dir_;
+  std::unique_ptr<Service> service_;
+};
+
+using ServiceRouting = ServiceTest;
+using ServiceAuth = ServiceTest;
+using ServiceInput = ServiceTest;
+using ServiceSites = ServiceTest;
+using ServiceJobs = ServiceTest;
+using ServiceQueue = ServiceTest;
+using ServiceResults = ServiceTest;
+using ServiceMetrics = ServiceTest;
+
+// ---- Routing ----
+
+TEST_F(ServiceRouting, UnknownPathIs404WithAnErrorBody) {
+  start();
+  for (const char* path : {"/v1/nothing", "/", "/v1", "/v1/health/", "/v2/health", "/v1/sites/",
+                           "/v1/jobs//summary", "/v1/jobs/j_0123456789abcdef/other"}) {
+    SCOPED_TRACE(path);
+    const Response r = get(path);
+    expect_error(r, 404, "not_found");
+    EXPECT_EQ(r.route, "unmatched");
+  }
+  // The route is checked before the token.
+  expect_error(get_anonymous("/v1/nothing"), 404, "not_found");
+}
+
+TEST_F(ServiceRouting, MalformedOrUnknownIdsAre404) {
+  start();
+  for (const char* path : {"/v1/sites/abc", "/v1/sites/S_0123456789ABCDEF", "/v1/sites/j_0123456789abcdef",
+                           "/v1/sites/s_0000000000000000", "/v1/jobs/abc", "/v1/jobs/..",
+                           "/v1/jobs/s_0123456789abcdef", "/v1/jobs/j_0123456789abcdef",
+                           "/v1/jobs/j_0123456789abcdef/summary", "/v1/jobs/j_0123456789abcdef/ptn",
+                           "/v1/jobs/x/results.h5", "/v1/jobs/j_0123456789abcdef/buildings"}) {
+    SCOPED_TRACE(path);
+    expect_error(get(path), 404, "not_found");
+  }
+  expect_error(del("/v1/jobs/j_0123456789abcdef"), 404, "not_found");
+  expect_error(del("/v1/sites/s_0000000000000000"), 404, "not_found");
+}
+
+TEST_F(ServiceRouting, OtherMethodIs405WithAllow) {
+  start();
+  const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
+      {"PUT", "/v1/sites", "GET, POST"},
+      {"DELETE", "/v1/jobs", "GET, POST"},
+      {"DELETE", "/v1/health", "GET"},
+      {"POST", "/v1/openapi.yaml", "GET"},
+      {"PATCH", "/metrics", "GET"},
+      {"POST", "/v1/jobs/j_0123456789abcdef", "GET, DELETE"},
+      {"PUT", "/v1/sites/s_0123456789abcdef", "GET, DELETE"},
+      {"DELETE", "/v1/jobs/j_0123456789abcdef/summary", "GET"},
+      {"POST", "/v1/jobs/j_0123456789abcdef/results.h5", "GET"},
+  };
+  for (const auto& [method, path, allow] : cases) {
+    SCOPED_TRACE(method + " " + path);
+    const Response r = call(method, path);
+    expect_error(r, 405, "method_not_allowed");
+    EXPECT_EQ(header(r, "Allow"), allow);
+    // Checked before the token.
+    const Response anonymous = call(method, path, {}, {}, {}, false);
+    EXPECT_EQ(anonymous.status, 405);
+    EXPECT_EQ(header(anonymous, "Allow"), allow);
+  }
+}
+
+TEST_F(ServiceRouting, HeadIsTreatedAsGet) {
+  start();
+  const Response head = call("HEAD", "/v1/health", {}, {}, {}, false);
+  EXPECT_EQ(head.status, 200);
+  EXPECT_EQ(head.route, "/v1/health");
+  EXPECT_EQ(body_of(head)["status"], "ok");
+
+  const Response sites = call("HEAD", "/v1/sites");
+  EXPECT_EQ(sites.status, 200);
+  EXPECT_EQ(body_of(sites), Json::parse(R"({"sites": []})"));
+  EXPECT_EQ(call("HEAD", "/v1/jobs").status, 200);
+  expect_error(call("HEAD", std::string("/v1/jobs/") + kUnknownJob), 404, "not_found");
+  // HEAD needs the token like GET.
+  expect_error(call("HEAD", "/v1/sites", {}, {}, {}, false), 401, "unauthorized");
+}
+
+TEST_F(ServiceRouting, MatchedRoutesAreLabelledWithTheirPattern) {
+  start();
+  EXPECT_EQ(get("/v1/health").route, "/v1/health");
+  EXPECT_EQ(get("/v1/sites").route, "/v1/sites");
+  EXPECT_EQ(get(std::string("/v1/jobs/") + kUnknownJob).route, "/v1/jobs/{id}");
+  EXPECT_EQ(get(std::string("/v1/jobs/") + kUnknownJob + "/ptn").route, "/v1/jobs/{id}/ptn");
+  EXPECT_EQ(call("PUT", "/v1/sites").route, "/v1/sites");
+  EXPECT_EQ(get_anonymous("/metrics").route, "/metrics");
+}
+
+TEST_F(ServiceRouting, OrderOfChecks) {
+  // docs/http-api.md: route (404), method (405), token (401), query parameters (400), content
+  // type of a POST (415), JSON text (400), contract (422).
+  start();
+  const std::map<std::string, std::string> bad_query = {{"x", "1"}};
+  const std::map<std::string, std::string> text_plain = {{"content-type", "text/plain"}};
+  expect_error(call("POST", "/v1/nothing", bad_query, "{", text_plain, false), 404, "not_found");
+  expect_error(call("PUT", "/v1/jobs", bad_query, "{", text_plain, false), 405,
+               "method_not_allowed");
+  expect_error(call("POST", "/v1/jobs", bad_query, "{", text_plain, false), 401, "unauthorized");
+  expect_error(call("POST", "/v1/jobs", bad_query, "{", text_plain), 400, "bad_parameter", "x");
+  expect_error(call("POST", "/v1/sites", bad_query, "{", text_plain), 400, "bad_parameter", "x");
+  expect_error(call("POST", "/v1/jobs", {}, "{", text_plain), 415, "unsupported_media_type");
+  expect_error(post_text("/v1/jobs", "{"), 400, "malformed_json");
+  expect_error(post_text("/v1/jobs", "{}"), 422, "invalid_input", "schema");
+}
+
+// ---- Authentication ----
+
+TEST_F(ServiceAuth, MissingTokenIs401WithWwwAuthenticate) {
+  start();
+  const Response r = get_anonymous("/v1/sites");
+  expect_error(r, 401, "unauthorized");
+  const auto challenge = header(r, "WWW-Authenticate");
+  ASSERT_TRUE(challenge.has_value());
+  EXPECT_EQ(challenge->rfind("Bearer", 0), 0u) << *challenge;
+}
+
+TEST_F(ServiceAuth, WrongTokenIs401) {
+  start();
+  for (const std::string& value :
+       {std::string("Bearer wrong"), std::string("Bearer test-token-"),
+        std::string("Bearer test-token-1x"), std::string("Bearer  test-token-1"),
+        std::string("Bearer "), std::string("Bearer"), std::string("Basic dGVzdC10b2tlbi0x"),
+        std::string(kToken), std::string("Bearer # fragsimd test tokens"), std::string("")}) {
+    SCOPED_TRACE("Authorization: " + value);
+    const Response r = call("GET", "/v1/sites", {}, {}, {{"authorization", value}});
+    expect_error(r, 401, "unauthorized");
+    EXPECT_TRUE(header(r, "WWW-Authenticate").has_value());
+  }
+}
+
+TEST_F(ServiceAuth, EveryTokenOfTheFileIsAcceptedAndTheSchemeIsCaseInsensitive) {
+  start();
+  for (const std::string& value : {std::string("Bearer ") + kToken,
+                                   std::string("Bearer ") + kOtherToken,
+                                   std::string("bearer ") + kToken,
+                                   std::string("BEARER ") + kOtherToken}) {
+    SCOPED_TRACE(value);
+    EXPECT_EQ(call("GET", "/v1/sites", {}, {}, {{"authorization", value}}).status, 200);
+  }
+}
+
+TEST_F(ServiceAuth, EveryPrivateRouteNeedsTheToken) {
+  start();
+  const std::string job = std::string("/v1/jobs/") + kUnknownJob;
+  const std::vector<std::pair<std::string, std::string>> routes = {
+      {"GET", "/metrics"},          {"GET", "/v1/sites"},
+      {"POST", "/v1/sites"},        {"GET", "/v1/sites/s_0123456789abcdef"},
+      {"DELETE", "/v1/sites/s_0123456789abcdef"},
+      {"GET", "/v1/jobs"},          {"POST", "/v1/jobs"},
+      {"GET", job},                 {"DELETE", job},
+      {"GET", job + "/summary"},    {"GET", job + "/buildings"},
+      {"GET", job + "/ptn"},        {"GET", job + "/results.h5"},
+      {"GET", "/v1/sites/not-an-id"}};
+  for (const auto& [method, path] : routes) {
+    SCOPED_TRACE(method + " " + path);
+    // A body that would be refused (415, 400) is not looked at before the token.
+    const Response r = call(method, path, {}, "{not json", {}, false);
+    expect_error(r, 401, "unauthorized");
+  }
+}
+
+TEST_F(ServiceAuth, PublicRoutesNeedNoToken) {
+  start();
+  const Response health = get_anonymous("/v1/health");
+  EXPECT_EQ(health.status, 200);
+  EXPECT_EQ(health.content_type, "application/json");
+  const Json h = body_of(health);
+  EXPECT_EQ(h["status"], "ok");
+  EXPECT_TRUE(h["version"].is_string());
+  EXPECT_TRUE(h["git_sha"].is_string());
+  EXPECT_TRUE(h["uptime_s"].is_number());
+  EXPECT_GE(h["uptime_s"].get<double>(), 0.0);
+  EXPECT_EQ(h["jobs"], Json::parse(R"({"queued": 0, "running": 0})"));
+
+  const Response openapi = get_anonymous("/v1/openapi.yaml");
+  EXPECT_EQ(openapi.status, 200);
+  EXPECT_EQ(openapi.content_type, "application/yaml");
+  EXPECT_EQ(openapi.body.rfind("openapi: 3.0.3", 0), 0u);
+  EXPECT_EQ(openapi.body, api::testing::read_text(api::testing::source_path("api/openapi.yaml")));
+
+  // A wrong token does not spoil a public route.
+  EXPECT_EQ(call("GET", "/v1/health", {}, {}, {{"authorization", "Bearer wrong"}}).status, 200);
+}
+
+TEST_F(ServiceAuth, NoAuthNeedsNoToken) {
+  start([](Config& c) {
+    c.auth = false;
+    c.token_file.clear();
+  });
+  EXPECT_EQ(get_anonymous("/v1/sites").status, 200);
+  EXPECT_EQ(get_anonymous("/metrics").status, 200);
+}
+
+// ---- Bodies and input errors ----
+
+TEST_F(ServiceInput, PostWithoutJsonContentTypeIs415) {
+  start();
+  const std::string site = minimal_site().dump();
+  for (const char* type : {"", "text/plain", "application/jsonx", "application/x-www-form-urlencoded",
+                           "application/geo+json"}) {
+    SCOPED_TRACE(type);
+    expect_error(post_text("/v1/sites", site, type), 415, "unsupported_media_type");
+    expect_error(post_text("/v1/jobs", job_on(kUnknownSite).dump(), type), 415,
+                 "unsupported_media_type");
+  }
+  EXPECT_EQ(get("/v1/sites").body, R"({"sites":[]})");
+}
+
+TEST_F(ServiceInput, JsonContentTypeWithParametersIsAccepted) {
+  start();
+  const std::string site = minimal_site().dump();
+  EXPECT_EQ(post_text("/v1/sites", site, "application/json; charset=utf-8").status, 201);
+  EXPECT_EQ(post_text("/v1/sites", site, "Application/JSON;charset=UTF-8").status, 200);
+  EXPECT_EQ(post_text("/v1/sites", site, "application/json ; charset=utf-8").status, 200);
+}
+
+TEST_F(ServiceInput, MalformedJsonIs400) {
+  start();
+  for (const char* path : {"/v1/sites", "/v1/jobs"}) {
+    SCOPED_TRACE(path);
+    const Response r = post_text(path, "{\"terrain\": ");
+    expect_error(r, 400, "malformed_json");
+    EXPECT_NE(body_of(r)["message"].get<std::string>().find("line 1"), std::string::npos)
+        << r.body;
+    expect_error(post_text(path, ""), 400, "malformed_json");
+  }
+}
+
+TEST_F(ServiceInput, NestingBeyond64LevelsIs400TooDeep) {
+  start();
+  const std::string too_deep = std::string(65, '[') + std::string(65, ']');
+  const std::string deepest = std::string(64, '[') + std::string(64, ']');
+  for (const char* path : {"/v1/sites", "/v1/jobs"}) {
+    SCOPED_TRACE(path);
+    const Response r = post_text(path, too_deep);
+    EXPECT_EQ(r.status, 400) << r.body;
+    EXPECT_EQ(body_of(r)["code"], "too_deep");
+    // 64 levels are parsed (and refused as JSON that breaks the contract, not as too deep).
+    const Response ok_depth = post_text(path, deepest);
+    EXPECT_EQ(ok_depth.status, 422) << ok_depth.body;
+    EXPECT_EQ(body_of(ok_depth)["code"], "invalid_input");
+  }
+  const std::string deep_object = "{\"site\": " + std::string(70, '[') + std::string(70, ']') + "}";
+  EXPECT_EQ(body_of(post_text("/v1/jobs", deep_object))["code"], "too_deep");
+}
+
+// docs/http-api.md, Errors: too_deep names the path where the limit was reached.
+TEST_F(ServiceInput, TooDeepNamesWhereTheLimitWasReached) {
+  start();
+  const std::string too_deep = std::string(65, '[') + std::string(65, ']');
+  const Response r = post_text("/v1/sites", too_deep);
+  EXPECT_EQ(r.status, 400);
+  const Json body = body_of(r);
+  EXPECT_EQ(body["code"], "too_deep");
+  std::string path;
+  for (int k = 0; k < 64; ++k) path += "[0]";
+  EXPECT_EQ(body["field"], path);
+}
+
+TEST_F(ServiceInput, SiteErrorsAre422WithSiteRelativePaths) {
+  start();
+  Json site = minimal_site();
+  site["terrain"] = {{"grid",
+                      {{"origin_m", {0, 0}},
+                       {"spacing_m", 10},
+                       {"nx", "3"},
+                       {"ny", 3},
+                       {"elevation_m", std::vector<double>(9, 0.0)}}},
+                     {"material", "soil"}};
+  expect_error(post("/v1/sites", site), 422, "invalid_input", "terrain.grid.nx");
+
+  site = minimal_site();
+  site["terrain"]["plane"]["cell_m"] = -1;
+  const Response r = post("/v1/sites", site);
+  expect_error(r, 422, "invalid_input", "terrain.plane.cell_m");
+  EXPECT_EQ(body_of(r)["message"], "must be > 0 (got -1)");
+
+  site = minimal_site();
+  site["terain"] = site["terrain"];
+  expect_error(post("/v1/sites", site), 422, "invalid_input", "terain");
+
+  // Geometry (checked when the site is built).
+  site = minimal_site();
+  site["buildings"][0]["footprint_m"] = {{60, -10}, {80, 10}, {80, -10}, {60, 10}};
+  expect_error(post("/v1/sites", site), 422, "invalid_input", "buildings[0].footprint_m");
+
+  EXPECT_EQ(get("/v1/sites").body, R"({"sites":[]})");
+}
+
+TEST_F(ServiceInput, JobErrorsAre422WithTheirPaths) {
+  start();
+  const std::string site = add_site();
+  Json j = job_on(site);
+  j["fragment_groups"][0]["mass_kg"] = "heavy";
+  expect_error(post("/v1/jobs", j), 422, "invalid_input", "fragment_groups[0].mass_kg");
+
+  j = job_on(site);
+  j["fragment_groups"][0]["samples"] = 0;
+  expect_error(post("/v1/jobs", j), 422, "invalid_input", "fragment_groups[0].samples");
+
+  j = job_on(site);
+  j["priority"] = 5000;
+  expect_error(post("/v1/jobs", j), 422, "invalid_input", "priority");
+
+  j = job_on(site);
+  j["idempotency_key"] = "has space";
+  expect_error(post("/v1/jobs", j), 422, "invalid_input", "idempotency_key");
+
+  j = job_on(site);
+  j["site"] = minimal_site();
+  expect_error(post("/v1/jobs", j), 422, "invalid_input", "site_id");
+
+  // An inline site gets the geometry check at submission, with the scenario's path.
+  j = minimal_example();
+  j["site"]["buildings"][0]["footprint_m"] = {{60, -10}, {80, 10}, {80, -10}, {60, 10}};
+  expect_error(post("/v1/jobs", j), 422, "invalid_input", "site.buildings[0].footprint_m");
+
+  EXPECT_EQ(get("/v1/jobs").body, R"({"jobs":[]})");
+}
+
+TEST_F(ServiceInput, UnknownSiteIdIs422) {
+  start();
+  const Response r = post("/v1/jobs", job_on(kUnknownSite));
+  expect_error(r, 422, "invalid_input", "site_id");
+  EXPECT_EQ(body_of(r)["message"], std::string("unknown site \"") + kUnknownSite + "\"");
+}
+
+TEST_F(ServiceInput, TooManySamplesIs422LimitExceeded) {
+  start([](Config& c) { c.max_samples_per_job = 1000; });
+  const std::string site = add_site();
+  expect_error(post("/v1/jobs", job_on(site, 1001)), 422, "limit_exceeded", "fragment_groups");
+  // The limit is on the sum over the groups.
+  Json two = job_on(site, 600);
+  Json second = two["fragment_groups"][0];
+  second["name"] = "second";
+  two["fragment_groups"].push_back(second);
+  expect_error(post("/v1/jobs", two), 422, "limit_exceeded", "fragment_groups");
+  EXPECT_EQ(get("/v1/jobs").body, R"({"jobs":[]})");
+  // At the limit: accepted.
+  EXPECT_EQ(post("/v1/jobs", job_on(site, 1000)).status, 202);
+}
+
+TEST_F(ServiceInput, TooManySitesIs422LimitExceeded) {
+  start([](Config& c) { c.max_sites = 1; });
+  const std::string first = add_site();
+  Json other = minimal_site();
+  other["buildings"][0]["height_m"] = 7;
+  expect_error(post("/v1/sites", other), 422, "limit_exceeded");
+  // The site already registered is still answered (200, no new site).
+  const Response again = post("/v1/sites", minimal_site());
+  EXPECT_EQ(again.status, 200);
+  EXPECT_EQ(body_of(again)["site_id"], first);
+  EXPECT_EQ(body_of(get("/v1/sites"))["sites"].size(), 1u);
+}
+
+// ---- Sites ----
+
+TEST_F(ServiceSites, PostThenTheSameSiteAgain) {
+  start();
+  const Response created = post("/v1/sites", minimal_site());
+  ASSERT_EQ(created.status, 201) << created.body;
+  const Json s = body_of(created);
+  const std::string id = s["site_id"];
+  EXPECT_EQ(id, api::parse_site_document(minimal_site()).site_id);
+  EXPECT_EQ(header(created, "Location"), "/v1/sites/" + id);
+  for (const char* key : {"site_id", "created_utc", "terrain_triangles", "building_triangles",
+                          "buildings", "building_ids", "materials", "extent_m", "jobs_using"})
+    EXPECT_TRUE(s.contains(key)) << key;
+  EXPECT_EQ(s["terrain_triangles"], 3200);
+  EXPECT_EQ(s["buildings"], 1);
+  EXPECT_EQ(s["building_ids"], Json::array({"B1"}));
+  EXPECT_EQ(s["materials"], Json::array({"concrete_wall", "metal_roof", "soil"}));
+  EXPECT_EQ(s["extent_m"], Json::array({-200, -200, 0, 200, 200, 6}));
+  EXPECT_EQ(s["jobs_using"], 0);
+  const auto built = api::build_site(api::parse_site_document(minimal_site()));
+  EXPECT_EQ(s["building_triangles"].get<std::size_t>(), built->building_triangles().size());
+
+  // The same site, spelt differently (key order, whitespace, 6 as 6.0): 200, same id and time.
+  Json respelt = minimal_site();
+  respelt["buildings"][0]["height_m"] = 6.0;
+  const Response again = post_text("/v1/sites", respelt.dump(2));
+  EXPECT_EQ(again.status, 200) << again.body;
+  EXPECT_EQ(body_of(again), s);
+  EXPECT_EQ(header(again, "Location"), "/v1/sites/" + id);
+  EXPECT_EQ(body_of(get("/v1/sites"))["sites"].size(), 1u);
+}
+
+TEST_F(ServiceSites, GetListAndDelete) {
+  start();
+  const std::string a = add_site();
+  Json other = minimal_site();
+  other.erase("buildings");
+  const std::string b = add_site(other);
+  ASSERT_NE(a, b);
+
+  const Json list = body_of(get("/v1/sites"));
+  ASSERT_EQ(list["sites"].size(), 2u);
+  EXPECT_EQ(list["sites"][0]["site_id"], a);  // oldest first
+  EXPECT_EQ(list["sites"][1]["site_id"], b);
+  EXPECT_EQ(list["sites"][1]["buildings"], 0);
+
+  const Response one = get("/v1/sites/" + b);
+  EXPECT_EQ(one.status, 200);
+  EXPECT_EQ(body_of(one), list["sites"][1]);
+
+  const Response deleted = del("/v1/sites/" + a);
+  EXPECT_EQ(deleted.status, 204);
+  EXPECT_TRUE(deleted.body.empty());
+  expect_error(get("/v1/sites/" + a), 404, "not_found");
+  expect_error(del("/v1/sites/" + a), 404, "not_found");
+  const Json after = body_of(get("/v1/sites"));
+  ASSERT_EQ(after["sites"].size(), 1u);
+  EXPECT_EQ(after["sites"][0]["site_id"], b);
+  // Jobs can no longer name it.
+  expect_error(post("/v1/jobs", job_on(a)), 422, "invalid_input", "site_id");
+  // And it can be registered again (201: new).
+  EXPECT_EQ(post("/v1/sites", minimal_site()).status, 201);
+}
+
+TEST_F(ServiceSites, SitesAndJobsSurviveARestart) {
+  start();
+  const std::string site = add_site();
+  const Response posted = post("/v1/jobs", blocker_job(site));
+  ASSERT_EQ(posted.status, 202);
+  const std::string job_id = body_of(posted)["job_id"];
+  restart();
+  const Response s = get("/v1/sites/" + site);
+  EXPECT_EQ(s.status, 200) << s.body;
+  const Json j = job(job_id);
+  EXPECT_EQ(j["job_id"], job_id);
+  EXPECT_EQ(j["site_id"], site);
+  // A clean shutdown puts a running job back in the queue; it may have started again since.
+  EXPECT_TRUE(j["state"] == "queued" || j["state"] == "running") << j.dump();
+  EXPECT_EQ(j["histories_total"], kBlockerSamples);
+}
+
+TEST_F(ServiceSites, OneServicePerDataDirectory) {
+  start();
+  const std::string site = add_site();
+  // A second service (daemon) on the same data directory refuses to start.
+  EXPECT_THROW({ Service second(config()); }, std::runtime_error);
+  EXPECT_EQ(get("/v1/sites/" + site).status, 200);  // the first one is unaffected
+  restart();  // once the first has stopped, the directory can be used again
+  EXPECT_EQ(get("/v1/sites/" + site).status, 200);
+}
+
+// ---- Jobs ----
+
+TEST_F(ServiceJobs, PostJobIs202WithLocationAndJobStatus) {
+  start();
+  const std::string site = add_site();
+  Json body = job_on(site, 300);
+  body["priority"] = 7;
+  const Response r = post("/v1/jobs", body);
+  ASSERT_EQ(r.status, 202) << r.body;
+  EXPECT_EQ(r.content_type, "application/json");
+  const Json j = body_of(r);
+  const std::string id = j["job_id"];
+  EXPECT_TRUE(api::is_job_id(id)) << id;
+  EXPECT_EQ(header(r, "Location"), "/v1/jobs/" + id);
+
+  const std::vector<std::string> keys = {
+      "job_id",         "site_id",        "state",           "priority",  "idempotency_key",
+      "created_utc",    "started_utc",    "finished_utc",    "histories_done",
+      "histories_total", "progress",      "histories_per_s", "eta_s",     "attempts",
+      "error",          "links"};
+  for (const auto& key : keys) EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j.size(), keys.size()) << j.dump();
+  EXPECT_EQ(j["site_id"], site);
+  EXPECT_EQ(j["state"], "queued");
+  EXPECT_EQ(j["priority"], 7);
+  EXPECT_TRUE(j["idempotency_key"].is_null());
+  EXPECT_TRUE(j["created_utc"].is_string());
+  EXPECT_TRUE(j["started_utc"].is_null());
+  EXPECT_TRUE(j["finished_utc"].is_null());
+  EXPECT_EQ(j["histories_done"], 0);
+  EXPECT_EQ(j["histories_total"], 300);
+  EXPECT_EQ(j["progress"], 0.0);
+  EXPECT_TRUE(j["histories_per_s"].is_null());
+  EXPECT_TRUE(j["eta_s"].is_null());
+  EXPECT_EQ(j["attempts"], 0);
+  EXPECT_TRUE(j["error"].is_null());
+  const std::string self = "/v1/jobs/" + id;
+  EXPECT_EQ(j["links"], Json({{"self", self},
+                              {"summary", self + "/summary"},
+                              {"buildings", self + "/buildings"},
+                              {"ptn", self + "/ptn"},
+                              {"results_h5", self + "/results.h5"}}));
+
+  const Json again = job(id);
+  EXPECT_EQ(again["job_id"], id);
+  EXPECT_EQ(again.size(), keys.size());
+}
+
+TEST_F(ServiceJobs, InlineSiteJobHasNullSiteId) {
+  start();
+  Json body = minimal_example();
+  body["fragment_groups"][0]["samples"] = 100;
+  const Response r = post("/v1/jobs", body);
+  ASSERT_EQ(r.status, 202) << r.body;
+  EXPECT_TRUE(body_of(r)["site_id"].is_null());
+  EXPECT_EQ(body_of(get("/v1/sites"))["sites"].size(), 0u);  // not registered
+}
+
+TEST_F(ServiceJobs, IdempotencyKey) {
+  start();
+  const std::string site = add_site();
+  Json body = job_on(site, 100);
+  body["idempotency_key"] = "study-42";
+  const Response first = post("/v1/jobs", body);
+  ASSERT_EQ(first.status, 202) << first.body;
+  const std::string id = body_of(first)["job_id"];
+  EXPECT_EQ(body_of(first)["idempotency_key"], "study-42");
+
+  // Same key, same body (whatever its spelling): 200, the same job.
+  const Response repeat = post_text("/v1/jobs", body.dump(4));
+  EXPECT_EQ(repeat.status, 200) << repeat.body;
+  EXPECT_EQ(body_of(repeat)["job_id"], id);
+  EXPECT_EQ(header(repeat, "Location"), "/v1/jobs/" + id);
+
+  // Same key, another body: 409, field idempotency_key.
+  Json changed = body;
+  changed["fragment_groups"][0]["samples"] = 101;
+  expect_error(post("/v1/jobs", changed), 409, "conflict", "idempotency_key");
+  Json other_priority = body;
+  other_priority["priority"] = 1;
+  expect_error(post("/v1/jobs", other_priority), 409, "conflict", "idempotency_key");
+
+  const Json jobs = body_of(get("/v1/jobs"));
+  ASSERT_EQ(jobs["jobs"].size(), 1u);
+  EXPECT_EQ(jobs["jobs"][0]["job_id"], id);
+
+  // Without a key every POST is a new job; another key is another job.
+  EXPECT_NE(add_job(job_on(site, 100)), id);
+  body["idempotency_key"] = "study-43";
+  EXPECT_NE(add_job(body), id);
+  EXPECT_EQ(body_of(get("/v1/jobs"))["jobs"].size(), 3u);
+}
+
+TEST_F(ServiceJobs, BadQueryParametersAre400NamingTheParameter) {
+  start();
+  const std::string site = add_site();
+  const std::string job_id = add_job(job_on(site, 100));
+  const std::string ptn = "/v1/jobs/" + job_id + "/ptn";
+  using Query = std::map<std::string, std::string>;
+  const std::vector<std::tuple<std::string, Query, std::string>> cases = {
+      {"/v1/jobs", {{"state", "foo"}}, "state"},
+      {"/v1/jobs", {{"state", "Done"}}, "state"},
+      {"/v1/jobs", {{"limit", "0"}}, "limit"},
+      {"/v1/jobs", {{"limit", "1001"}}, "limit"},
+      {"/v1/jobs", {{"limit", "-1"}}, "limit"},
+      {"/v1/jobs", {{"limit", "ten"}}, "limit"},
+      {"/v1/jobs", {{"limit", ""}}, "limit"},
+      {"/v1/jobs", {{"limit", "99999999999"}}, "limit"},
+      {"/v1/jobs", {{"sort", "asc"}}, "sort"},
+      {"/v1/sites", {{"x", "1"}}, "x"},
+      {"/v1/sites/" + site, {{"verbose", "1"}}, "verbose"},
+      {"/v1/jobs/" + job_id, {{"verbose", "1"}}, "verbose"},
+      {"/v1/jobs/" + job_id + "/summary", {{"format", "json"}}, "format"},
+      {ptn, {{"min_density_per_m2", "0.1"}}, "min_density_per_m2"},
+      {ptn, {{"format", "json"}, {"min_density_per_m2", "0.1"}}, "min_density_per_m2"},
+      {ptn, {{"format", "xml"}}, "format"},
+      {ptn, {{"format", "geojson"}, {"min_density_per_m2", "-1"}}, "min_density_per_m2"},
+      {ptn, {{"format", "geojson"}, {"min_density_per_m2", "abc"}}, "min_density_per_m2"},
+      {ptn, {{"format", "geojson"}, {"min_density_per_m2", "0.1x"}}, "min_density_per_m2"},
+      {ptn, {{"format", "geojson"}, {"min_density_per_m2", "inf"}}, "min_density_per_m2"},
+      {ptn, {{"format", "geojson"}, {"min_density_per_m2", "nan"}}, "min_density_per_m2"},
+      {ptn, {{"format", "geojson"}, {"min_density_per_m2", ""}}, "min_density_per_m2"},
+      {ptn, {{"threshold", "1"}}, "threshold"},
+  };
+  for (const auto& [path, query, field] : cases) {
+    std::string q;
+    for (const auto& [k, v] : query) q += k + "=" + v + "&";
+    SCOPED_TRACE(path + "?" + q);
+    expect_error(get(path, query), 400, "bad_parameter", field);
+  }
+  // A POST with a query parameter.
+  const Response post_query =
+      call("POST", "/v1/jobs", {{"priority", "1"}}, job_on(site, 100).dump(),
+           {{"content-type", "application/json"}});
+  expect_error(post_query, 400, "bad_parameter", "priority");
+
+  // Good values.
+  EXPECT_EQ(get("/v1/jobs", {{"state", "queued"}, {"limit", "1"}}).status, 200);
+  EXPECT_EQ(get("/v1/jobs", {{"limit", "1000"}}).status, 200);
+}
+
+TEST_F(ServiceJobs, ListIsNewestFirstWithStateAndLimit) {
+  start();
+  const std::string site = add_site();
+  const std::string blocker = add_job(blocker_job(site));
+  ASSERT_EQ(wait_for_state(blocker, "running")["state"], "running");
+  std::vector<std::string> ids;
+  for (int k = 0; k < 3; ++k) {
+    Json body = job_on(site, 100);
+    body["priority"] = -1000;
+    ids.push_back(add_job(body));
+  }
+  const auto listed = [&](std::map<std::string, std::string> query) {
+    std::vector<std::string> out;
+    const Response r = get("/v1/jobs", std::move(query));
+    EXPECT_EQ(r.status, 200) << r.body;
+    const Json list = body_of(r);
+    for (const Json& j : list["jobs"]) out.push_back(j["job_id"]);
+    return out;
+  };
+  EXPECT_EQ(listed({}), (std::vector<std::string>{ids[2], ids[1], ids[0], blocker}));
+  EXPECT_EQ(listed({{"limit", "2"}}), (std::vector<std::string>{ids[2], ids[1]}));
+  EXPECT_EQ(listed({{"state", "queued"}}), (std::vector<std::string>{ids[2], ids[1], ids[0]}));
+  EXPECT_TRUE(listed({{"state", "done"}}).empty());
+  EXPECT_EQ(del("/v1/jobs/" + ids[1]).status, 200);
+  EXPECT_EQ(listed({{"state", "cancelled"}}), std::vector<std::string>{ids[1]});
+}
+
+// ---- The queue: a long job keeps the worker busy, later jobs stay queued ----
+
+TEST_F(ServiceQueue, ResultsOfAJobNotDoneAre409NotReady) {
+  start();
+  const std::string site = add_site();
+  const std::string blocker = add_job(blocker_job(site));
+  Json body = job_on(site, 100);
+  body["priority"] = -1000;
+  const std::string queued = add_job(body);
+  for (const std::string& id : {queued, blocker}) {
+    for (const char* part : {"/summary", "/buildings", "/ptn", "/results.h5"}) {
+      SCOPED_TRACE(id + part);
+      const Response r = get("/v1/jobs/" + id + part);
+      expect_error(r, 409, "not_ready");
+      EXPECT_FALSE(r.file.has_value());
+    }
+  }
+  const Response geo = get("/v1/jobs/" + queued + "/ptn", {{"format", "geojson"}});
+  expect_error(geo, 409, "not_ready");
+  EXPECT_EQ(job(queued)["state"], "queued");
+}
+
+TEST_F(ServiceQueue, CancellingAQueuedJob) {
+  start();
+  const std::string site = add_site();
+  add_job(blocker_job(site));
+  Json body = job_on(site, 100);
+  body["priority"] = -1000;
+  const std::string id = add_job(body);
+
+  const Response r = del("/v1/jobs/" + id);
+  ASSERT_EQ(r.status, 200) << r.body;
+  const Json j = body_of(r);
+  EXPECT_EQ(j["job_id"], id);
+  EXPECT_EQ(j["state"], "cancelled");
+  EXPECT_TRUE(j["finished_utc"].is_string());
+  EXPECT_TRUE(j["started_utc"].is_null());
+  EXPECT_EQ(j["attempts"], 0);
+  EXPECT_EQ(job(id)["state"], "cancelled");
+
+  for (const char* part : {"/summary", "/buildings", "/ptn", "/results.h5"}) {
+    SCOPED_TRACE(part);
+    const Response results = get("/v1/jobs/" + id + part);
+    expect_error(results, 409, "not_ready");
+    EXPECT_NE(body_of(results)["message"].get<std::string>().find("cancelled"),
+              std::string::npos);
+  }
+  // Cancelling again: already final.
+  expect_error(del("/v1/jobs/" + id), 409, "conflict");
+}
+
+TEST_F(ServiceQueue, DeletingASiteUsedByAQueuedJobIs409) {
+  start();
+  const std::string site = add_site();
+  const std::string blocker = add_job(blocker_job(site));
+  Json body = job_on(site, 100);
+  body["priority"] = -1000;
+  const std::string queued = add_job(body);
+
+  EXPECT_EQ(body_of(get("/v1/sites/" + site))["jobs_using"], 2);
+  expect_error(del("/v1/sites/" + site), 409, "conflict");
+  EXPECT_EQ(get("/v1/sites/" + site).status, 200);
+
+  // The queued job first (the worker would start it once the blocker is gone).
+  EXPECT_EQ(del("/v1/jobs/" + queued).status, 200);
+  EXPECT_EQ(body_of(get("/v1/sites/" + site))["jobs_using"], 1);
+  expect_error(del("/v1/sites/" + site), 409, "conflict");  // still the blocker
+  EXPECT_EQ(del("/v1/jobs/" + blocker).status, 200);
+  EXPECT_EQ(body_of(get("/v1/sites/" + site))["jobs_using"], 0);
+  EXPECT_EQ(del("/v1/sites/" + site).status, 204);
+}
+
+TEST_F(ServiceQueue, CancellingTheRunningJob) {
+  start();
+  const std::string site = add_site();
+  const std::string blocker = add_job(blocker_job(site));
+  const Json running = wait_for_state(blocker, "running");
+  ASSERT_EQ(running["state"], "running") << running.dump();
+  EXPECT_EQ(running["attempts"], 1);
+  EXPECT_TRUE(running["started_utc"].is_string());
+
+  const Response r = del("/v1/jobs/" + blocker);
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(body_of(r)["state"], "cancelled");
+  expect_error(get("/v1/jobs/" + blocker + "/summary"), 409, "not_ready");
+  EXPECT_FALSE(fs::exists(dir_ / "data" / "jobs" / blocker / "summary.json"));
+}
+
+TEST_F(ServiceQueue, QueuedJobLimitIs422LimitExceeded) {
+  start([](Config& c) { c.max_queued_jobs = 2; });
+  const std::string site = add_site();
+  const std::string blocker = add_job(blocker_job(site));
+  ASSERT_EQ(wait_for_state(blocker, "running")["state"], "running");
+  Json body = job_on(site, 100);
+  body["priority"] = -1000;
+  add_job(body);
+  add_job(body);
+  expect_error(post("/v1/jobs", body), 422, "limit_exceeded");
+  EXPECT_EQ(body_of(get("/v1/jobs", {{"state", "queued"}}))["jobs"].size(), 2u);
+}
+
+TEST_F(ServiceQueue, HealthAndMetricsCountTheQueue) {
+  start();
+  const std::string site = add_site();
+  const std::string blocker = add_job(blocker_job(site));
+  ASSERT_EQ(wait_for_state(blocker, "running")["state"], "running");
+  Json body = job_on(site, 100);
+  body["priority"] = -1000;
+  add_job(body);
+  const std::string cancelled = add_job(body);
+  ASSERT_EQ(del("/v1/jobs/" + cancelled).status, 200);
+
+  EXPECT_EQ(body_of(get_anonymous("/v1/health"))["jobs"],
+            Json::parse(R"({"queued": 1, "running": 1})"));
+  const std::string m = metrics_text();
+  EXPECT_NE(m.find("\nfragsimd_jobs{state=\"queued\"} 1\n"), std::string::npos) << m;
+  EXPECT_NE(m.find("\nfragsimd_jobs{state=\"running\"} 1\n"), std::string::npos) << m;
+  EXPECT_NE(m.find("\nfragsimd_jobs{state=\"cancelled\"} 1\n"), std::string::npos) << m;
+  EXPECT_NE(m.find("\nfragsimd_jobs{state=\"done\"} 0\n"), std::string::npos) << m;
+  EXPECT_NE(m.find("\nfragsimd_queue_length 1\n"), std::string::npos) << m;
+  EXPECT_NE(m.find("\nfragsimd_sites 1\n"), std::string::npos) << m;
+}
+
+// docs/http-api.md, POST /v1/jobs and "Idempotency": a repeat with the same key and body returns
+// the existing job (200) "whatever its state", even when the retried POST is the one that filled
+// the queue (--max-queued-jobs).
+TEST_F(ServiceQueue, IdempotentRepeatIsAnsweredWhenTheQueueIsFull) {
+  start([](Config& c) { c.max_queued_jobs = 1; });
+  const std::string site = add_site();
+  const std::string blocker = add_job(blocker_job(site));
+  ASSERT_EQ(wait_for_state(blocker, "running")["state"], "running");
+  Json body = job_on(site, 100);
+  body["priority"] = -1000;
+  body["idempotency_key"] = "retry-after-timeout";
+  const std::string id = add_job(body);  // the queue is now full
+  const Response repeat = post("/v1/jobs", body);
+  EXPECT_EQ(repeat.status, 200) << repeat.body;
+  EXPECT_EQ(body_of(repeat).value("job_id", ""), id);
+}
+
+// docs/http-api.md, Metrics: fragsimd_histories_total counts the histories of finished (done)
+// jobs; the running job's progress is in its JobStatus only.
+TEST_F(ServiceQueue, HistoriesTotalCountsFinishedJobsOnly) {
+  start();
+  const std::string site = add_site();
+  const std::string blocker = add_job(blocker_job(site));
+  const Json progressed =
+      wait_for(blocker, [](const Json& j) { return j["histories_done"].get<std::int64_t>() > 0; });
+  ASSERT_GT(progressed["histories_done"].get<std::int64_t>(), 0) << progressed.dump();
+  EXPECT_EQ(progressed["state"], "running");
+  EXPECT_GT(progressed["progress"].get<double>(), 0.0);
+  EXPECT_TRUE(progressed["histories_per_s"].is_number());
+  EXPECT_TRUE(progressed["eta_s"].is_number());
+  const std::string m = metrics_text();
+  EXPECT_NE(m.find("\nfragsimd_histories_total 0\n"), std::string::npos) << m;
+}
+
+// ---- A job that runs to the end ----
+
+TEST_F(ServiceResults, SmallJobIsDoneAndItsResultsAreServed) {
+  start();
+  const std::string site = add_site();
+  const Json scenario = job_on(site, 200);
+  const std::string id = add_job(scenario);
+  const Json j = wait_for_state(id, "done");
+  ASSERT_EQ(j["state"], "done") << j.dump();
+  EXPECT_EQ(j["histories_done"], 200);
+  EXPECT_EQ(j["histories_total"], 200);
+  EXPECT_EQ(j["progress"], 1.0);
+  EXPECT_EQ(j["attempts"], 1);
+  EXPECT_TRUE(j["started_utc"].is_string());
+  EXPECT_TRUE(j["finished_utc"].is_string());
+  EXPECT_TRUE(j["error"].is_null());
+  EXPECT_TRUE(j["histories_per_s"].is_null());
+  EXPECT_TRUE(j["eta_s"].is_null());
+
+  const fs::path job_dir = fs::path(config().data_dir) / "jobs" / id;
+
+  // summary.json, served as a file.
+  const Response summary = get("/v1/jobs/" + id + "/summary");
+  ASSERT_EQ(summary.status, 200) << summary.body;
+  ASSERT_TRUE(summary.file.has_value());
+  EXPECT_EQ(fs::weakly_canonical(*summary.file), fs::weakly_canonical(job_dir / "summary.json"));
+  ASSERT_TRUE(fs::is_regular_file(*summary.file));
+  const Json summary_json = Json::parse(api::testing::read_text(*summary.file));
+  EXPECT_EQ(summary_json["schema"], "fragsim.result/1");
+  EXPECT_EQ(summary.content_type, "application/json");
+
+  // Buildings, in scenario order.
+  const Response buildings = get("/v1/jobs/" + id + "/buildings");
+  ASSERT_EQ(buildings.status, 200) << buildings.body;
+  const Json b = body_of(buildings);
+  EXPECT_EQ(b["job_id"], id);
+  ASSERT_EQ(b["buildings"].size(), 1u);
+  EXPECT_EQ(b["buildings"][0]["id"], "B1");
+  for (const char* key : {"expected_impacts", "impacts_std_error", "expected_penetrations",
+                          "penetrations_std_error"})
+    EXPECT_TRUE(b["buildings"][0][key].is_number()) << key;
+
+  // PTN as JSON: the same field as a direct run of the same scenario (bit for bit).
+  const Response ptn = get("/v1/jobs/" + id + "/ptn");
+  ASSERT_EQ(ptn.status, 200) << ptn.body;
+  EXPECT_EQ(ptn.content_type, "application/json");
+  const Json p = body_of(ptn);
+  EXPECT_EQ(p["job_id"], id);
+  EXPECT_EQ(p["triangles"], 3200);
+  Json inline_scenario = minimal_example();
+  inline_scenario["fragment_groups"][0]["samples"] = 200;
+  const run::RunResult direct = run::run(api::parse_scenario(inline_scenario));
+  EXPECT_EQ(p["density_per_m2"].get<std::vector<double>>(), direct.ptn_density_per_m2);
+  EXPECT_EQ(p["std_error_per_m2"].get<std::vector<double>>(), direct.ptn_std_error_per_m2);
+  EXPECT_EQ(b["buildings"][0]["expected_impacts"].get<double>(), direct.buildings[0].impacts.mean);
+
+  // PTN as GeoJSON, all triangles and filtered.
+  const Response geo = get("/v1/jobs/" + id + "/ptn", {{"format", "geojson"}});
+  ASSERT_EQ(geo.status, 200) << geo.body;
+  EXPECT_EQ(geo.content_type, "application/geo+json");
+  EXPECT_EQ(body_of(geo)["features"].size(), 3200u);
+  const double threshold = p["threshold_per_m2"];
+  const Response hazardous = get("/v1/jobs/" + id + "/ptn",
+                                 {{"format", "geojson"}, {"min_density_per_m2", "1e-9"}});
+  ASSERT_EQ(hazardous.status, 200) << hazardous.body;
+  const auto expected = static_cast<std::size_t>(
+      std::count_if(direct.ptn_density_per_m2.begin(), direct.ptn_density_per_m2.end(),
+                    [](double d) { return d >= 1e-9; }));
+  EXPECT_EQ(body_of(hazardous)["features"].size(), expected);
+  EXPECT_GT(threshold, 0.0);
+
+  // results.h5, served as a file.
+  const Response h5 = get("/v1/jobs/" + id + "/results.h5");
+  ASSERT_EQ(h5.status, 200) << h5.body;
+  ASSERT_TRUE(h5.file.has_value());
+  EXPECT_EQ(fs::weakly_canonical(*h5.file), fs::weakly_canonical(job_dir / "results.h5"));
+  EXPECT_TRUE(fs::is_regular_file(*h5.file));
+  EXPECT_EQ(h5.content_type, "application/x-hdf5");
+  EXPECT_EQ(header(h5, "Content-Disposition"), "attachment; filename=\"" + id + ".h5\"");
+
+  // HEAD like GET.
+  EXPECT_EQ(call("HEAD", "/v1/jobs/" + id + "/results.h5").file, h5.file);
+
+  // A done job is final.
+  expect_error(del("/v1/jobs/" + id), 409, "conflict");
+  EXPECT_EQ(job(id)["state"], "done");
+
+  // Listing and counters.
+  const Json done = body_of(get("/v1/jobs", {{"state", "done"}}));
+  ASSERT_EQ(done["jobs"].size(), 1u);
+  EXPECT_EQ(done["jobs"][0]["job_id"], id);
+  EXPECT_TRUE(body_of(get("/v1/jobs", {{"state", "queued"}}))["jobs"].empty());
+  // The counter is raised just after the job is marked done: poll (generous deadline).
+  std::string m = metrics_text();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (m.find("\nfragsimd_histories_total 200\n") == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    m = metrics_text();
+  }
+  EXPECT_NE(m.find("\nfragsimd_jobs{state=\"done\"} 1\n"), std::string::npos) << m;
+  EXPECT_NE(m.find("\nfragsimd_histories_total 200\n"), std::string::npos) << m;
+
+  // Done jobs do not hold their site.
+  EXPECT_EQ(body_of(get("/v1/sites/" + site))["jobs_using"], 0);
+  EXPECT_EQ(del("/v1/sites/" + site).status, 204);
+  EXPECT_EQ(get("/v1/jobs/" + id + "/ptn").status, 200);  // results stay
+}
+
+// ---- Metrics ----
+
+TEST_F(ServiceMetrics, NeedsAToken) {
+  start();
+  expect_error(get_anonymous("/metrics"), 401, "unauthorized");
+}
+
+TEST_F(ServiceMetrics, DocumentedMetricNames) {
+  start();
+  service_->metrics().record_request("GET", "/v1/jobs/{id}", 200, 0.003);
+  service_->metrics().record_request("GET", "/v1/jobs/{id}", 200, 0.2);
+  service_->metrics().record_request("POST", "/v1/jobs", 422, 0.0005);
+  const Response r = get("/metrics");
+  ASSERT_EQ(r.status, 200);
+  EXPECT_EQ(r.content_type.rfind("text/plain", 0), 0u) << r.content_type;
+  const std::string& m = r.body;
+  for (const char* line : {
+           "# TYPE fragsimd_jobs gauge\n",
+           "fragsimd_jobs{state=\"queued\"} 0\n",
+           "fragsimd_jobs{state=\"running\"} 0\n",
+           "fragsimd_jobs{state=\"done\"} 0\n",
+           "fragsimd_jobs{state=\"failed\"} 0\n",
+           "fragsimd_jobs{state=\"cancelled\"} 0\n",
+           "# TYPE fragsimd_queue_length gauge\n",
+           "fragsimd_queue_length 0\n",
+           "# TYPE fragsimd_histories_total counter\n",
+           "fragsimd_histories_total 0\n",
+           "# TYPE fragsimd_histories_per_second gauge\n",
+           "fragsimd_histories_per_second 0\n",
+           "# TYPE fragsimd_sites gauge\n",
+           "fragsimd_sites 0\n",
+           "# TYPE fragsimd_uptime_seconds gauge\n",
+           "# TYPE fragsimd_http_requests_total counter\n",
+           "fragsimd_http_requests_total{method=\"GET\",route=\"/v1/jobs/{id}\",status=\"200\"} 2\n",
+           "fragsimd_http_requests_total{method=\"POST\",route=\"/v1/jobs\",status=\"422\"} 1\n",
+           "# TYPE fragsimd_http_request_duration_seconds histogram\n",
+           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.001\"} 0\n",
+           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.005\"} 1\n",
+           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.1\"} 1\n",
+           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.5\"} 2\n",
+           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"+Inf\"} 2\n",
+           "fragsimd_http_request_duration_seconds_count{route=\"/v1/jobs/{id}\"} 2\n",
+           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs\",le=\"0.001\"} 1\n",
+           "fragsimd_http_request_duration_seconds_count{route=\"/v1/jobs\"} 1\n",
+       }) {
+    EXPECT_EQ(count_occurrences(m, line), 1u) << line << "\n" << m;
+  }
+  EXPECT_NE(m.find("fragsimd_uptime_seconds "), std::string::npos);
+  EXPECT_NE(m.find("fragsimd_http_request_duration_seconds_sum{route=\"/v1/jobs/{id}\"} 0.203"),
+            std::string::npos)
+      << m;
+  // Buckets: the eight documented bounds and +Inf per route.
+  EXPECT_EQ(count_occurrences(m, "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs\","),
+            9u);
+}
+
+TEST_F(ServiceMetrics, HandleAloneRecordsNoRequests) {
+  start();
+  get("/v1/sites");
+  get("/v1/nothing");
+  get_anonymous("/v1/health");
+  const std::string m = metrics_text();
+  EXPECT_EQ(m.find("fragsimd_http_requests_total{"), std::string::npos) << m;
+  EXPECT_EQ(m.find("fragsimd_http_request_duration_seconds_bucket{"), std::string::npos) << m;
+}
+
+TEST_F(ServiceMetrics, SitesGauge) {
+  start();
+  add_site();
+  Json other = minimal_site();
+  other.erase("buildings");
+  const std::string b = add_site(other);
+  EXPECT_NE(metrics_text().find("\nfragsimd_sites 2\n"), std::string::npos);
+  ASSERT_EQ(del("/v1/sites/" + b).status, 204);
+  EXPECT_NE(metrics_text().find("\nfragsimd_sites 1\n"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace fragsim::server
