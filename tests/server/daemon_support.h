@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tests/api/test_support.h"
 #include "tests/server/daemon_process.h"
 
 namespace fragsim::server::testing {
@@ -12,12 +13,7 @@ using Json = nlohmann::json;
 
 // An empty directory of the test's own (process id and test name in its name).
 inline fs::path fresh_dir(const std::string& prefix) {
-  const fs::path dir = fs::temp_directory_path() /
-                       (prefix + std::to_string(::getpid()) + "_" +
-                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
+  return api::testing::fresh_test_dir(prefix);
 }
 
 inline Json demo_scenario() {
