@@ -133,7 +133,7 @@ class History {
   // and sliding, which only remove ground-frame energy, are covered because the bound is
   // evaluated afresh from every new state).
   bool can_never_matter(const Vec3& p, const Vec3& v) const {
-    if (site_.has_buildings()) return false;
+    if (site_.has_buildings() || !st_.harmless_cutoff) return false;
     const double drop = p.z() - ctx_.terrain_min_z;
     if (ctx_.still_air) {
       const double ke_max = 0.5 * mass_ * v.squaredNorm() + mass_ * g_ * drop;
@@ -164,6 +164,61 @@ class History {
           if (area > 0.0) scratch_.ptn.push_back({tri, weight_ / area});
         });
   }
+
+  // PTN contribution of a ground step (slide/roll). The step lies over one triangle T (its
+  // xy-path stays inside T's projection), so when the centre's height above T's plane is within
+  // [0, H] at both ends it is inside T's prism throughout and enters it at the step's start: the
+  // only prism test is T's, at velocity va (what clip() over the candidate walk would find, as
+  // the step begins on T's edge or where the slide starts). Otherwise the general walk.
+  void add_ptn_ground_step(const impact::GroundSegment& sg, double s_end) {
+    const Vec3 b = sg.a + s_end * (sg.b - sg.a);
+    const double ha = sg.ha, hb = sg.ha + s_end * (sg.hb - sg.ha);  // linear along the segment
+    const double top = ctx_.prisms.person_height_m();
+    if (!(ha >= 0.0 && ha <= top && hb >= 0.0 && hb <= top)) {
+      add_ptn_segment(sg.a, b, [&](double s) { return sg.va + s * s_end * (sg.vb - sg.va); });
+      return;
+    }
+    // A later step over the same triangle (after kGroundMaxDt_s) would only add a contribution
+    // that the first-crossing rule discards.
+    if (sg.triangle == last_ground_prism_) return;
+    SectionTimer timer(prof_, out_.tally_s);
+    ++out_.stats.ptn_triangle_tests;
+    const double speed2 = sg.va.squaredNorm();
+    if (0.5 * mass_ * speed2 < st_.hazardous_ke_j || !(speed2 > 0.0)) return;
+    const double area = ctx_.prisms.projected_area(sg.triangle, sg.va / std::sqrt(speed2));
+    if (area > 0.0) {
+      scratch_.ptn.push_back({sg.triangle, weight_ / area});
+      last_ground_prism_ = sg.triangle;
+    }
+  }
+
+  // Ground phase: can the fragment, at centre p with velocity v on the terrain, never again be
+  // hazardous nor reach a building? Along the slide the energy per unit mass
+  // E = v^2 / (2k) + g z_s (z_s the surface height under the centre; k = 1 sliding, 5/7 rolling)
+  // falls by at least c g n_min per metre of path (c = mu or mu_r, n_min = the smallest normal z
+  // of the terrain) and never jumps up at an edge (ground_motion.h). E >= g z_min, so
+  //   remaining path <= (v^2 / (2k) + g (z_s - z_min)) / (c g n_min)
+  // and the kinetic energy can never exceed m k (E - g z_min) = m v^2 / 2 + k m g (z_s - z_min).
+  // A building is reached only if the centre's xy comes into its bounding box. Small slack
+  // absorbs rounding (a hair of travel past an edge on the old plane).
+  bool ground_can_never_matter(const Vec3& p, const Vec3& v, bool rolling) const {
+    if (!site_.has_buildings() || !st_.harmless_cutoff) return can_never_matter(p, v);
+    const double k = impact::ground_k(rolling);
+    const scene::Material& mat = site_.materials()[site_.terrain_material()];
+    const double c = rolling ? mat.rolling_resistance : mat.friction;
+    if (!(c > 0.0) || !(ctx_.terrain_min_nz > 0.0)) return false;
+    const std::int64_t tri = site_.terrain_triangle_at(p.x(), p.y());
+    if (tri < 0) return false;
+    const double zs = site_.terrain_plane_height(static_cast<std::uint32_t>(tri), p.x(), p.y());
+    const double drop = std::max(0.0, zs - ctx_.terrain_min_z) + kGroundSlack_m;
+    const double ke_max = 0.5 * mass_ * v.squaredNorm() + k * mass_ * g_ * drop;
+    if (!(ke_max < st_.hazardous_ke_j)) return false;
+    const double reach =
+        (1.0 + 1e-6) * (0.5 * v.squaredNorm() / k + g_ * drop) / (c * g_ * ctx_.terrain_min_nz) +
+        kGroundSlack_m;
+    return !site_.building_within_xy(p.x(), p.y(), reach);
+  }
+  static constexpr double kGroundSlack_m = 1e-3;
 
   // Rotation state at time t of the current flight segment (torque-free from its start). Times
   // are asked for in nearly increasing order, so the propagation starts from the latest cached
@@ -295,6 +350,7 @@ class History {
   FirstImpact first_;
   std::uint32_t bounces_ = 0;
   double ground_path_m_ = 0.0;
+  std::uint32_t last_ground_prism_ = std::numeric_limits<std::uint32_t>::max();
   TrajectoryRecord traj_;
 };
 
@@ -579,8 +635,9 @@ void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) 
   const bool buildings = site_.has_buildings();
   std::optional<FlightEvent> hit_building;
   bool harmless = false;
-  const auto on_segment = [&](const Vec3& a, const Vec3& b, double ta, double tb, const Vec3& va,
-                              const Vec3& vb) {
+  const auto on_segment = [&](const impact::GroundSegment& sg) {
+    const Vec3 &a = sg.a, &b = sg.b, &va = sg.va, &vb = sg.vb;
+    const double ta = sg.ta, tb = sg.tb;
     record_point(tb, b);
     double s_end = 1.0;
     if (buildings && site_.segment_near_buildings(a, b)) {
@@ -605,10 +662,9 @@ void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) 
     // The acceleration is constant over a step, so |v|^2 (convex in time) peaks at an end: a
     // step slower than hazardous at both ends crosses no prism hazardously.
     const double v2max = std::max(va.squaredNorm(), vb.squaredNorm());
-    if (0.5 * mass_ * v2max >= st_.hazardous_ke_j)
-      add_ptn_segment(a, a + s_end * (b - a), [&](double s) { return va + s * s_end * (vb - va); });
+    if (0.5 * mass_ * v2max >= st_.hazardous_ke_j) add_ptn_ground_step(sg, s_end);
     if (hit_building) return true;
-    harmless = can_never_matter(b, vb);
+    harmless = ground_can_never_matter(b, vb, in.rolling);
     return harmless;
   };
   const impact::GroundMotionResult r = impact::move_on_ground(site_, in, on_segment);
@@ -806,6 +862,8 @@ RunContext::RunContext(const Scenario& sc, const scene::Site& s)
   for (const auto& g : sc.groups) cd.emplace_back(g.cd);
   terrain_min_z = lowest_terrain_z(s);
   terrain_max_z = highest_terrain_z(s);
+  for (std::uint32_t t = 0; t < s.terrain_triangle_count(); ++t)
+    terrain_min_nz = std::min(terrain_min_nz, s.terrain_triangle_normal(t).z());
   top_z = prisms.top_z();
   if (s.has_buildings()) top_z = std::max(top_z, s.buildings_bounds().hi.z());
   step_min_at_ends = sc.atmosphere.wind_mps.z() <= 0.0;

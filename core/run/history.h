@@ -53,6 +53,7 @@ struct RunContext {
   tally::PtnPrisms prisms;
   double terrain_min_z = 0.0;   // local
   double terrain_max_z = 0.0;   // local
+  double terrain_min_nz = 1.0;  // smallest z of a terrain triangle's unit normal (> 0)
   double top_z = 0.0;           // highest point anything can be hit or tallied (local)
   bool step_min_at_ends = true; // no updraft: a step's lowest point is one of its ends
   bool still_air = true;        // no wind: drag only removes mechanical energy

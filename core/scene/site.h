@@ -132,6 +132,9 @@ class Site {
   // Height at (x, y) of the plane through terrain triangle t (also outside the triangle).
   double terrain_plane_height(std::uint32_t t, double x, double y) const;
   const TerrainIndex2D& terrain_index() const { return index_; }
+  // Plane or grid terrain: terrain_index() bucket (i, j) = grid cell (i, j), holding triangle
+  // 2k below its (i,j)-(i+1,j+1) diagonal and 2k + 1 above it (k = j nx + i).
+  bool terrain_is_lattice() const { return terrain_is_lattice_; }
   std::uint16_t terrain_material() const { return terrain_material_; }
 
   // Buildings
@@ -156,6 +159,20 @@ class Site {
     return false;
   }
   static constexpr std::size_t kBuildingBoxScan = 64;
+  // Does some building's bounding box come within horizontal distance r of (x, y)? Building by
+  // building up to kBuildingBoxScan buildings, the overall bounds beyond (conservative).
+  bool building_within_xy(double x, double y, double r) const {
+    const auto near = [&](const Box3& box) {
+      const double dx = std::max({box.lo.x() - x, 0.0, x - box.hi.x()});
+      const double dy = std::max({box.lo.y() - y, 0.0, y - box.hi.y()});
+      return dx * dx + dy * dy <= r * r;
+    };
+    if (buildings_.empty() || !near(buildings_bounds_)) return false;
+    if (buildings_.size() > kBuildingBoxScan) return true;
+    for (const Building& bd : buildings_)
+      if (near(bd.bounds)) return true;
+    return false;
+  }
   // True when p lies inside a building's closed mesh (ray parity).
   bool inside_building(const Vec3& p) const;
 
