@@ -161,10 +161,12 @@ inline double lattice_exit_time(const scene::TerrainIndex2D& grid, std::uint32_t
 }
 
 // on_segment(const GroundSegment&) is called for every straight piece of the path; it returns
-// true to stop the motion there (a building hit, or nothing left to tally).
-template <class SegmentFn>
+// true to stop the motion there (a building hit, or nothing left to tally). prefetch(triangle)
+// is told the triangle a step will cross into, ahead of time (a hint: the caller may start
+// loading its own data for it).
+template <class SegmentFn, class PrefetchFn>
 GroundMotionResult move_on_ground(const scene::Site& site, const GroundMotionInput& in,
-                                  SegmentFn&& on_segment) {
+                                  SegmentFn&& on_segment, PrefetchFn&& prefetch) {
   GroundMotionResult r;
   r.t_s = in.t_s;
   r.position_m = in.position_m;
@@ -223,6 +225,14 @@ GroundMotionResult move_on_ground(const scene::Site& site, const GroundMotionInp
     std::int64_t across = -1;  // lattice: the triangle beyond the exit edge
     const double t_edge = lattice ? lattice_exit_time(site.terrain_index(), t1, p, v, a, across)
                                   : triangle_exit_time(site, t1, p, v, a);
+    // The next triangle's plane and normal are read at the end of this step and its data by the
+    // caller at the next one: start loading them now (random access over a large terrain).
+    if (across >= 0) {
+      const auto t_next = static_cast<std::uint32_t>(across);
+      __builtin_prefetch(&site.terrain_triangle_normal(t_next));
+      __builtin_prefetch(&site.terrain_plane_coefficients(t_next));
+      prefetch(t_next);
+    }
     if (t_edge <= dt) {
       // At least nudge_m of travel (|v| dt + |a| dt^2 / 2 = nudge_m), unless it stops first.
       const double amag = a.norm();
@@ -294,6 +304,12 @@ GroundMotionResult move_on_ground(const scene::Site& site, const GroundMotionInp
   r.position_m = p;
   r.velocity_mps = v;
   return r;
+}
+
+template <class SegmentFn>
+GroundMotionResult move_on_ground(const scene::Site& site, const GroundMotionInput& in,
+                                  SegmentFn&& on_segment) {
+  return move_on_ground(site, in, on_segment, [](std::uint32_t) {});
 }
 
 }  // namespace fragsim::impact

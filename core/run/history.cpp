@@ -200,18 +200,18 @@ class History {
   //   remaining path <= (v^2 / (2k) + g (z_s - z_min)) / (c g n_min)
   // and the kinetic energy can never exceed m k (E - g z_min) = m v^2 / 2 + k m g (z_s - z_min).
   // A building is reached only if the centre's xy comes into its bounding box. Small slack
-  // absorbs rounding (a hair of travel past an edge on the old plane).
-  bool ground_can_never_matter(const Vec3& p, const Vec3& v, bool rolling) const {
+  // absorbs rounding (a hair of travel past an edge on the old plane). z_surface: the terrain
+  // height under p.
+  bool ground_can_never_matter(const Vec3& p, double z_surface, const Vec3& v, bool rolling) const {
     if (!site_.has_buildings() || !st_.harmless_cutoff) return can_never_matter(p, v);
+    const double ke = 0.5 * mass_ * v.squaredNorm();
+    if (!(ke < st_.hazardous_ke_j)) return false;
     const double k = impact::ground_k(rolling);
     const scene::Material& mat = site_.materials()[site_.terrain_material()];
     const double c = rolling ? mat.rolling_resistance : mat.friction;
     if (!(c > 0.0) || !(ctx_.terrain_min_nz > 0.0)) return false;
-    const std::int64_t tri = site_.terrain_triangle_at(p.x(), p.y());
-    if (tri < 0) return false;
-    const double zs = site_.terrain_plane_height(static_cast<std::uint32_t>(tri), p.x(), p.y());
-    const double drop = std::max(0.0, zs - ctx_.terrain_min_z) + kGroundSlack_m;
-    const double ke_max = 0.5 * mass_ * v.squaredNorm() + k * mass_ * g_ * drop;
+    const double drop = std::max(0.0, z_surface - ctx_.terrain_min_z) + kGroundSlack_m;
+    const double ke_max = ke + k * mass_ * g_ * drop;
     if (!(ke_max < st_.hazardous_ke_j)) return false;
     const double reach =
         (1.0 + 1e-6) * (0.5 * v.squaredNorm() / k + g_ * drop) / (c * g_ * ctx_.terrain_min_nz) +
@@ -664,10 +664,12 @@ void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) 
     const double v2max = std::max(va.squaredNorm(), vb.squaredNorm());
     if (0.5 * mass_ * v2max >= st_.hazardous_ke_j) add_ptn_ground_step(sg, s_end);
     if (hit_building) return true;
-    harmless = ground_can_never_matter(b, vb, in.rolling);
+    // Surface height under b: on T's plane (b is inside T or on its edge, where the planes meet).
+    harmless = ground_can_never_matter(b, b.z() - sg.hb, vb, in.rolling);
     return harmless;
   };
-  const impact::GroundMotionResult r = impact::move_on_ground(site_, in, on_segment);
+  const impact::GroundMotionResult r = impact::move_on_ground(
+      site_, in, on_segment, [&](std::uint32_t tri) { ctx_.prisms.prefetch(tri); });
   out_.stats.ground_steps += r.steps;
   ground_path_m_ = r.path_m;
   end_.t = r.t_s;

@@ -123,11 +123,6 @@ std::int64_t Site::terrain_triangle_at(double x, double y) const {
   return best_t;
 }
 
-double Site::terrain_plane_height(std::uint32_t t, double x, double y) const {
-  const auto& g = terrain_plane_[t];
-  return g[0] * x + g[1] * y + g[2];
-}
-
 double Site::terrain_height(double x, double y) const {
   if (terrain_is_plane_) return terrain_bounds_.contains_xy(x, y) ? plane_elevation_ : kNaN;
   const std::int64_t t = terrain_triangle_at(x, y);

@@ -130,7 +130,14 @@ class Site {
   // -1 outside the terrain's projection.
   std::int64_t terrain_triangle_at(double x, double y) const;
   // Height at (x, y) of the plane through terrain triangle t (also outside the triangle).
-  double terrain_plane_height(std::uint32_t t, double x, double y) const;
+  double terrain_plane_height(std::uint32_t t, double x, double y) const {
+    const auto& g = terrain_plane_[t];
+    return g[0] * x + g[1] * y + g[2];
+  }
+  // Its coefficients: z = [0] x + [1] y + [2].
+  const std::array<double, 3>& terrain_plane_coefficients(std::uint32_t t) const {
+    return terrain_plane_[t];
+  }
   const TerrainIndex2D& terrain_index() const { return index_; }
   // Plane or grid terrain: terrain_index() bucket (i, j) = grid cell (i, j), holding triangle
   // 2k below its (i,j)-(i+1,j+1) diagonal and 2k + 1 above it (k = j nx + i).
