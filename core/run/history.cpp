@@ -46,6 +46,33 @@ double highest_terrain_z(const scene::Site& site) {
   return z;
 }
 
+// Skips the per-building box pre-test far from every building. It keeps a checkpoint c and the
+// horizontal distance d from c to the nearest building box; a segment with both ends closer than
+// d to c lies in that disc (it is convex), and no point of the disc is in a building's box. Only
+// when an end leaves the disc is the distance measured again, from the segment's start.
+class BuildingProximity {
+ public:
+  explicit BuildingProximity(const scene::Site& site) : site_(site) {}
+  // False: the segment a-b provably overlaps no building's bounding box in xy.
+  bool maybe_near(const Vec3& a, const Vec3& b) {
+    if (!site_.has_buildings()) return false;
+    if (inside(a) && inside(b)) return false;
+    c_ = Vec2(a.x(), a.y());
+    const double d = site_.building_distance_xy(a.x(), a.y());
+    d2_ = d * d;
+    return !inside(b);
+  }
+
+ private:
+  bool inside(const Vec3& p) const {
+    const double dx = p.x() - c_.x(), dy = p.y() - c_.y();
+    return dx * dx + dy * dy < d2_;
+  }
+  const scene::Site& site_;
+  Vec2 c_{0, 0};
+  double d2_ = -1.0;  // no checkpoint yet
+};
+
 // Where and how a history ended.
 struct EndState {
   Outcome outcome = Outcome::kGround;
@@ -442,6 +469,7 @@ FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_star
 
   flight::TrajectoryIntegrator integ(model_, st_.rtol);
   integ.reset(t_start, p_start, v_start);
+  BuildingProximity near_buildings(site_);
   Vec3 p0 = p_start, v0 = v_start;
   Vec3 a0 = model_.acceleration(p0, v0);
   FlightEvent ev;
@@ -494,7 +522,8 @@ FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_star
         }
         unsigned mask = 0;
         if (zlo <= ctx_.terrain_max_z) mask |= scene::kQueryTerrain;
-        if (site_.segment_near_buildings(pa, pb)) mask |= scene::kQueryBuildings;
+        if (near_buildings.maybe_near(pa, pb) && site_.segment_near_buildings(pa, pb))
+          mask |= scene::kQueryBuildings;
         std::optional<scene::SceneHit> hit;
         if (mask != 0) {
           SectionTimer timer(prof_, out_.geometry_s);
@@ -635,12 +664,14 @@ void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) 
   const bool buildings = site_.has_buildings();
   std::optional<FlightEvent> hit_building;
   bool harmless = false;
+  BuildingProximity near_buildings(site_);
   const auto on_segment = [&](const impact::GroundSegment& sg) {
     const Vec3 &a = sg.a, &b = sg.b, &va = sg.va, &vb = sg.vb;
     const double ta = sg.ta, tb = sg.tb;
     record_point(tb, b);
     double s_end = 1.0;
-    if (buildings && site_.segment_near_buildings(a, b)) {
+    const bool near = buildings && near_buildings.maybe_near(a, b);
+    if (near && site_.segment_near_buildings(a, b)) {
       SectionTimer timer(prof_, out_.geometry_s);
       ++out_.stats.scene_queries;
       const auto h = site_.intersect(a, b - a, 0.0, 1.0, scene::kQueryBuildings);

@@ -166,19 +166,24 @@ class Site {
     return false;
   }
   static constexpr std::size_t kBuildingBoxScan = 64;
-  // Does some building's bounding box come within horizontal distance r of (x, y)? Building by
-  // building up to kBuildingBoxScan buildings, the overall bounds beyond (conservative).
-  bool building_within_xy(double x, double y, double r) const {
-    const auto near = [&](const Box3& box) {
+  // Horizontal distance from (x, y) to the nearest building's bounding box (0 inside one,
+  // +inf with no buildings). Building by building up to kBuildingBoxScan buildings, the overall
+  // bounds beyond (a lower bound then).
+  double building_distance_xy(double x, double y) const {
+    const auto dist2 = [&](const Box3& box) {
       const double dx = std::max({box.lo.x() - x, 0.0, x - box.hi.x()});
       const double dy = std::max({box.lo.y() - y, 0.0, y - box.hi.y()});
-      return dx * dx + dy * dy <= r * r;
+      return dx * dx + dy * dy;
     };
-    if (buildings_.empty() || !near(buildings_bounds_)) return false;
-    if (buildings_.size() > kBuildingBoxScan) return true;
-    for (const Building& bd : buildings_)
-      if (near(bd.bounds)) return true;
-    return false;
+    if (buildings_.empty()) return std::numeric_limits<double>::infinity();
+    if (buildings_.size() > kBuildingBoxScan) return std::sqrt(dist2(buildings_bounds_));
+    double d2 = std::numeric_limits<double>::infinity();
+    for (const Building& bd : buildings_) d2 = std::min(d2, dist2(bd.bounds));
+    return std::sqrt(d2);
+  }
+  // Does some building's bounding box come within horizontal distance r of (x, y)?
+  bool building_within_xy(double x, double y, double r) const {
+    return building_distance_xy(x, y) <= r;
   }
   // True when p lies inside a building's closed mesh (ray parity).
   bool inside_building(const Vec3& p) const;
