@@ -229,8 +229,7 @@ GroundMotionResult move_on_ground(const scene::Site& site, const GroundMotionInp
     // caller at the next one: start loading them now (random access over a large terrain).
     if (across >= 0) {
       const auto t_next = static_cast<std::uint32_t>(across);
-      __builtin_prefetch(&site.terrain_triangle_normal(t_next));
-      __builtin_prefetch(&site.terrain_plane_coefficients(t_next));
+      site.prefetch_terrain_triangle(t_next);
       prefetch(t_next);
     }
     if (t_edge <= dt) {

@@ -179,7 +179,7 @@ std::optional<SceneHit> Site::intersect_embree(const Vec3& org, const Vec3& dir,
     h.triangle = rh.prim;
     h.surface = SurfaceType::kTerrain;
     h.material = terrain_material_;
-    h.normal = terrain_normal_[rh.prim];
+    h.normal = terrain_facet_[rh.prim].normal;
     v0 = &terrain_vertices_[terrain_triangles_[rh.prim][0]];
   } else {
     const BuildingTriangle& bt = building_triangles_[rh.prim];
@@ -255,7 +255,7 @@ std::optional<SceneHit> Site::intersect(const Vec3& org, const Vec3& dir, double
   h.triangle = exact->second;
   h.surface = SurfaceType::kTerrain;
   h.material = terrain_material_;
-  h.normal = terrain_normal_[exact->second];
+  h.normal = terrain_facet_[exact->second].normal;
   return h;
 }
 
