@@ -311,4 +311,41 @@ GroundMotionResult move_on_ground(const scene::Site& site, const GroundMotionInp
   return move_on_ground(site, in, on_segment, [](std::uint32_t) {});
 }
 
+struct GroundBoundInput {
+  double mass_kg = 0.0;
+  double gravity_mps2 = kStandardGravity_mps2;
+  double k = 1.0;               // ground_k(rolling)
+  double friction = 0.0;        // c: mu sliding, mu_r rolling
+  double terrain_min_z = 0.0;   // lowest terrain point (local)
+  double terrain_min_nz = 1.0;  // smallest normal z of a terrain triangle
+  double hazardous_ke_j = 0.0;
+};
+
+// Slack for rounding in the bound below: height 1 mm (a step ends at most 1e-7 cell past an edge
+// on its old plane, which can lift the surface height under it by that times the slope change),
+// and 1e-6 relative on the path length.
+inline constexpr double kGroundBoundSlack_m = 1e-3;
+
+// True when a body on the ground at centre p (surface height z_surface under it) with velocity v
+// can provably never again be hazardous nor come into a building's bounding box. Along the slide
+// (see the top) E = v^2 / (2k) + g z_s falls by at least c g n_min per metre of path (n_min the
+// smallest normal z of the terrain) and never jumps up at an edge; E >= g z_min, so
+//   remaining path <= (v^2 / (2k) + g (z_s - z_min)) / (c g n_min)
+// and the kinetic energy never exceeds m k (E - g z_min) = m v^2 / 2 + k m g (z_s - z_min).
+// A building is reached only if the centre's xy comes into its bounding box. Never true without
+// friction.
+inline bool ground_never_matters(const scene::Site& site, const GroundBoundInput& b, const Vec3& p,
+                                 double z_surface, const Vec3& v) {
+  const double ke = 0.5 * b.mass_kg * v.squaredNorm();
+  if (!(ke < b.hazardous_ke_j)) return false;
+  if (!(b.friction > 0.0) || !(b.terrain_min_nz > 0.0)) return false;
+  const double g = b.gravity_mps2;
+  const double drop = std::max(0.0, z_surface - b.terrain_min_z) + kGroundBoundSlack_m;
+  if (!(ke + b.k * b.mass_kg * g * drop < b.hazardous_ke_j)) return false;
+  const double reach =
+      (1.0 + 1e-6) * (0.5 * v.squaredNorm() / b.k + g * drop) / (b.friction * g * b.terrain_min_nz) +
+      kGroundBoundSlack_m;
+  return !site.building_within_xy(p.x(), p.y(), reach);
+}
+
 }  // namespace fragsim::impact

@@ -4,12 +4,13 @@
 #include <chrono>
 #include <cmath>
 
-#include "core/flight/torque_free.h"
+#include "core/flight/segment_rotation.h"
 #include "core/flight/trajectory.h"
 #include "core/fragments/support.h"
 #include "core/impact/bounce.h"
 #include "core/impact/contacts.h"
 #include "core/impact/ground_motion.h"
+#include "core/scene/building_proximity.h"
 
 namespace fragsim::run {
 namespace {
@@ -45,33 +46,6 @@ double highest_terrain_z(const scene::Site& site) {
   for (const Vec3& v : site.terrain_vertices()) z = std::max(z, v.z());
   return z;
 }
-
-// Skips the per-building box pre-test far from every building. It keeps a checkpoint c and the
-// horizontal distance d from c to the nearest building box; a segment with both ends closer than
-// d to c lies in that disc (it is convex), and no point of the disc is in a building's box. Only
-// when an end leaves the disc is the distance measured again, from the segment's start.
-class BuildingProximity {
- public:
-  explicit BuildingProximity(const scene::Site& site) : site_(site) {}
-  // False: the segment a-b provably overlaps no building's bounding box in xy.
-  bool maybe_near(const Vec3& a, const Vec3& b) {
-    if (!site_.has_buildings()) return false;
-    if (inside(a) && inside(b)) return false;
-    c_ = Vec2(a.x(), a.y());
-    const double d = site_.building_distance_xy(a.x(), a.y());
-    d2_ = d * d;
-    return !inside(b);
-  }
-
- private:
-  bool inside(const Vec3& p) const {
-    const double dx = p.x() - c_.x(), dy = p.y() - c_.y();
-    return dx * dx + dy * dy < d2_;
-  }
-  const scene::Site& site_;
-  Vec2 c_{0, 0};
-  double d2_ = -1.0;  // no checkpoint yet
-};
 
 // Where and how a history ended.
 struct EndState {
@@ -137,7 +111,8 @@ class History {
         mass_(init_.body.mass_kg),
         weight_(init_.weight),
         g_(sc_.gravity_mps2),
-        body_(fragments::contact_body(init_.shape, init_.body)) {
+        body_(fragments::contact_body(init_.shape, init_.body)),
+        rot_(body_.inertia_kg_m2) {
     model_.atmosphere = &ctx.atmosphere;
     model_.cd = &ctx.cd[group];
     model_.gravity_mps2 = g_;
@@ -219,85 +194,24 @@ class History {
     }
   }
 
-  // Ground phase: can the fragment, at centre p with velocity v on the terrain, never again be
-  // hazardous nor reach a building? Along the slide the energy per unit mass
-  // E = v^2 / (2k) + g z_s (z_s the surface height under the centre; k = 1 sliding, 5/7 rolling)
-  // falls by at least c g n_min per metre of path (c = mu or mu_r, n_min = the smallest normal z
-  // of the terrain) and never jumps up at an edge (ground_motion.h). E >= g z_min, so
-  //   remaining path <= (v^2 / (2k) + g (z_s - z_min)) / (c g n_min)
-  // and the kinetic energy can never exceed m k (E - g z_min) = m v^2 / 2 + k m g (z_s - z_min).
-  // A building is reached only if the centre's xy comes into its bounding box. Small slack
-  // absorbs rounding (a hair of travel past an edge on the old plane). z_surface: the terrain
-  // height under p.
+  // Ground phase: can the fragment, at centre p (surface height z_surface under it) with
+  // velocity v, never again be hazardous nor reach a building? (impact::ground_never_matters)
   bool ground_can_never_matter(const Vec3& p, double z_surface, const Vec3& v, bool rolling) const {
     if (!site_.has_buildings() || !st_.harmless_cutoff) return can_never_matter(p, v);
-    const double ke = 0.5 * mass_ * v.squaredNorm();
-    if (!(ke < st_.hazardous_ke_j)) return false;
-    const double k = impact::ground_k(rolling);
     const scene::Material& mat = site_.materials()[site_.terrain_material()];
-    const double c = rolling ? mat.rolling_resistance : mat.friction;
-    if (!(c > 0.0) || !(ctx_.terrain_min_nz > 0.0)) return false;
-    const double drop = std::max(0.0, z_surface - ctx_.terrain_min_z) + kGroundSlack_m;
-    const double ke_max = ke + k * mass_ * g_ * drop;
-    if (!(ke_max < st_.hazardous_ke_j)) return false;
-    const double reach =
-        (1.0 + 1e-6) * (0.5 * v.squaredNorm() / k + g_ * drop) / (c * g_ * ctx_.terrain_min_nz) +
-        kGroundSlack_m;
-    return !site_.building_within_xy(p.x(), p.y(), reach);
+    impact::GroundBoundInput b;
+    b.mass_kg = mass_;
+    b.gravity_mps2 = g_;
+    b.k = impact::ground_k(rolling);
+    b.friction = rolling ? mat.rolling_resistance : mat.friction;
+    b.terrain_min_z = ctx_.terrain_min_z;
+    b.terrain_min_nz = ctx_.terrain_min_nz;
+    b.hazardous_ke_j = st_.hazardous_ke_j;
+    return impact::ground_never_matters(site_, b, p, z_surface, v);
   }
-  static constexpr double kGroundSlack_m = 1e-3;
 
-  // Rotation state at time t of the current flight segment (torque-free from its start). Times
-  // are asked for in nearly increasing order, so the propagation starts from the latest cached
-  // state at or before t: each call integrates a short interval, never the whole segment again.
-  flight::RotationState rotation(double t) const {
-    if (rot_.omega_body.squaredNorm() == 0.0 || t == rot_t_) return rot_;
-    if (asym_) return asym_->at(t - rot_t_);  // exact, O(1) at any time of the segment
-    if (t == cache_t_) return cache_rot_;
-    if (t == base_t_) return base_rot_;
-    // Start from the latest known state at or before t: the cache, the base, or the segment's
-    // start.
-    const flight::RotationState* from = &rot_;
-    double t_from = rot_t_;
-    if (base_t_ > t_from && base_t_ < t) {
-      from = &base_rot_;
-      t_from = base_t_;
-    }
-    if (cache_t_ > t_from && cache_t_ < t) {
-      from = &cache_rot_;
-      t_from = cache_t_;
-    }
-    const flight::RotationState s =
-        flight::propagate_torque_free(body_.inertia_kg_m2, *from, t - t_from, rot_rtol_);
-    if (t > cache_t_) {
-      cache_t_ = t;
-      cache_rot_ = s;
-    }
-    return s;
-  }
-  // No later query of this segment is before t: keep its state as the base (each query then
-  // integrates at most from the start of the chord being examined).
-  void advance_rotation_base(double t) const {
-    if (asym_ || rot_.omega_body.squaredNorm() == 0.0 || t <= base_t_) return;
-    base_rot_ = rotation(t);
-    base_t_ = t;
-  }
-  Quat attitude(double t) const { return rotation(t).q.normalized(); }
-  // Starts a flight segment's rotation at time t.
-  void set_rotation(const flight::RotationState& s, double t) {
-    rot_ = s;
-    rot_t_ = t;
-    cache_t_ = base_t_ = t;
-    cache_rot_ = base_rot_ = s;
-    // An asymmetric spinning body: set up the exact torque-free solution once for the segment
-    // (axisymmetric bodies use propagate_torque_free's cheap closed form; near the separatrix
-    // the solution is not valid and the cached numerical path is used).
-    asym_.reset();
-    if (s.omega_body.squaredNorm() > 0.0 && !flight::has_two_equal_moments(body_.inertia_kg_m2)) {
-      flight::AsymmetricTorqueFree sol(body_.inertia_kg_m2, s);
-      if (sol.valid()) asym_.emplace(std::move(sol));
-    }
-  }
+  flight::RotationState rotation(double t) const { return rot_.at(t); }
+  Quat attitude(double t) const { return rot_.attitude(t); }
 
   // Is the body's lowest point on triangle `tri` moving into its plane at time t?
   bool contact_approaching(const flight::TrajectoryIntegrator& integ, std::uint32_t tri,
@@ -365,14 +279,7 @@ class History {
   flight::FlightModel model_;
   double radius_m_ = 0.0;   // bounding radius with bounce, 0 without (the path is the centre's)
   double flat_tol_m_ = 0.0;
-  flight::RotationState rot_;  // attitude at rot_t_ (start of the current flight segment)
-  double rot_t_ = 0.0;
-  mutable flight::RotationState cache_rot_;  // latest state computed in this segment
-  mutable double cache_t_ = 0.0;
-  mutable flight::RotationState base_rot_;  // state at base_t_: no query comes before it
-  mutable double base_t_ = 0.0;
-  std::optional<flight::AsymmetricTorqueFree> asym_;  // exact rotation of this segment
-  double rot_rtol_ = 1e-9;
+  flight::SegmentRotation rot_;  // attitude along the current flight segment
   EndState end_;
   FirstImpact first_;
   std::uint32_t bounces_ = 0;
@@ -384,7 +291,7 @@ class History {
 double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint32_t tri,
                             double ta, double tb) const {
   constexpr int kSamples = 4;
-  advance_rotation_base(ta);
+  rot_.advance_base(ta);
   double t_prev = ta;
   double g_prev = clearance(integ, tri, ta);
   for (int k = 1; k <= kSamples; ++k) {
@@ -416,7 +323,7 @@ double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint
       // Already touching at the start of this sample interval. Right after a bounce the body
       // sits on the plane and is leaving it: look further. Otherwise (touching and approaching)
       // the contact is now.
-      if (k == 1 && t_prev > rot_t_ && contact_approaching(integ, tri, t_prev)) return t_prev;
+      if (k == 1 && t_prev > rot_.start_time() && contact_approaching(integ, tri, t_prev)) return t_prev;
     }
     t_prev = t;
     g_prev = gk;
@@ -469,7 +376,7 @@ FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_star
 
   flight::TrajectoryIntegrator integ(model_, st_.rtol);
   integ.reset(t_start, p_start, v_start);
-  BuildingProximity near_buildings(site_);
+  scene::BuildingProximity near_buildings(site_);
   Vec3 p0 = p_start, v0 = v_start;
   Vec3 a0 = model_.acceleration(p0, v0);
   FlightEvent ev;
@@ -664,7 +571,7 @@ void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) 
   const bool buildings = site_.has_buildings();
   std::optional<FlightEvent> hit_building;
   bool harmless = false;
-  BuildingProximity near_buildings(site_);
+  scene::BuildingProximity near_buildings(site_);
   const auto on_segment = [&](const impact::GroundSegment& sg) {
     const Vec3 &a = sg.a, &b = sg.b, &va = sg.va, &vb = sg.vb;
     const double ta = sg.ta, tb = sg.tb;
@@ -743,8 +650,8 @@ void History::simulate() {
   const Vec3 p_launch = site_.to_local(init_.position_m);
   end_.p = p_launch;
   end_.v = init_.velocity_mps;
-  set_rotation({init_.orientation, init_.omega_body_radps}, 0.0);
-  rot_rtol_ = st_.rtol;  // the attitude at a contact as accurate as the path
+  rot_.set_rtol(st_.rtol);  // the attitude at a contact as accurate as the path
+  rot_.start({init_.orientation, init_.omega_body_radps}, 0.0);
 
   bool flying = true;
   // ---- launch checks ----
@@ -814,7 +721,7 @@ void History::simulate() {
           p = ev.p;
           v = v_after;
           t = ev.t;
-          set_rotation({q, q.conjugate() * w_after}, t);
+          rot_.start({q, q.conjugate() * w_after}, t);
           flying = true;
         }
         break;
