@@ -739,15 +739,22 @@ void History::finish() {
   // ---- per-history tally records (deduplicated: a prism counts once per history) ----
   {
     SectionTimer timer(prof_, out_.tally_s);
-    auto& v = scratch_.ptn;
-    std::stable_sort(v.begin(), v.end(), [](const PtnContribution& x, const PtnContribution& y) {
-      return x.triangle < y.triangle;
-    });
-    std::uint32_t last = std::numeric_limits<std::uint32_t>::max();
-    for (const auto& c : v) {
-      if (c.triangle == last) continue;  // first crossing of that prism wins
+    // The first crossing of a prism wins (contributions are pushed in path order). A stamp per
+    // triangle marks the ones taken in this history. The fold adds one value per triangle and
+    // history, so the order of the list does not change a sum.
+    auto& seen = scratch_.seen;
+    if (seen.size() != site_.terrain_triangle_count()) {
+      seen.assign(site_.terrain_triangle_count(), 0u);
+      scratch_.stamp = 0;
+    }
+    if (++scratch_.stamp == 0) {  // wrapped: no stale mark may equal a new stamp
+      std::fill(seen.begin(), seen.end(), 0u);
+      scratch_.stamp = 1;
+    }
+    for (const auto& c : scratch_.ptn) {
+      if (seen[c.triangle] == scratch_.stamp) continue;
+      seen[c.triangle] = scratch_.stamp;
       out_.ptn.push_back(c);
-      last = c.triangle;
     }
     out_.ptn_end.push_back(static_cast<std::uint32_t>(out_.ptn.size()));
     if (end_.outcome == Outcome::kBuilding) {

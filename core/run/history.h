@@ -63,6 +63,8 @@ struct RunContext {
 // Per-thread scratch space reused between histories (no allocation in the steady state).
 struct HistoryScratch {
   std::vector<PtnContribution> ptn;
+  std::vector<std::uint32_t> seen;  // per terrain triangle: stamp of the last history that took it
+  std::uint32_t stamp = 0;
 };
 
 void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,
