@@ -4,12 +4,13 @@
 #include <chrono>
 #include <cmath>
 
-#include "core/flight/torque_free.h"
+#include "core/flight/segment_rotation.h"
 #include "core/flight/trajectory.h"
 #include "core/fragments/support.h"
 #include "core/impact/bounce.h"
 #include "core/impact/contacts.h"
 #include "core/impact/ground_motion.h"
+#include "core/scene/building_proximity.h"
 
 namespace fragsim::run {
 namespace {
@@ -110,7 +111,8 @@ class History {
         mass_(init_.body.mass_kg),
         weight_(init_.weight),
         g_(sc_.gravity_mps2),
-        body_(fragments::contact_body(init_.shape, init_.body)) {
+        body_(fragments::contact_body(init_.shape, init_.body)),
+        rot_(body_.inertia_kg_m2) {
     model_.atmosphere = &ctx.atmosphere;
     model_.cd = &ctx.cd[group];
     model_.gravity_mps2 = g_;
@@ -133,7 +135,7 @@ class History {
   // and sliding, which only remove ground-frame energy, are covered because the bound is
   // evaluated afresh from every new state).
   bool can_never_matter(const Vec3& p, const Vec3& v) const {
-    if (site_.has_buildings()) return false;
+    if (site_.has_buildings() || !st_.harmless_cutoff) return false;
     const double drop = p.z() - ctx_.terrain_min_z;
     if (ctx_.still_air) {
       const double ke_max = 0.5 * mass_ * v.squaredNorm() + mass_ * g_ * drop;
@@ -165,57 +167,51 @@ class History {
         });
   }
 
-  // Rotation state at time t of the current flight segment (torque-free from its start). Times
-  // are asked for in nearly increasing order, so the propagation starts from the latest cached
-  // state at or before t: each call integrates a short interval, never the whole segment again.
-  flight::RotationState rotation(double t) const {
-    if (rot_.omega_body.squaredNorm() == 0.0 || t == rot_t_) return rot_;
-    if (asym_) return asym_->at(t - rot_t_);  // exact, O(1) at any time of the segment
-    if (t == cache_t_) return cache_rot_;
-    if (t == base_t_) return base_rot_;
-    // Start from the latest known state at or before t: the cache, the base, or the segment's
-    // start.
-    const flight::RotationState* from = &rot_;
-    double t_from = rot_t_;
-    if (base_t_ > t_from && base_t_ < t) {
-      from = &base_rot_;
-      t_from = base_t_;
+  // PTN contribution of a ground step (slide/roll). The step lies over one triangle T (its
+  // xy-path stays inside T's projection), so when the centre's height above T's plane is within
+  // [0, H] at both ends it is inside T's prism throughout and enters it at the step's start: the
+  // only prism test is T's, at velocity va (what clip() over the candidate walk would find, as
+  // the step begins on T's edge or where the slide starts). Otherwise the general walk.
+  void add_ptn_ground_step(const impact::GroundSegment& sg, double s_end) {
+    const Vec3 b = sg.a + s_end * (sg.b - sg.a);
+    const double ha = sg.ha, hb = sg.ha + s_end * (sg.hb - sg.ha);  // linear along the segment
+    const double top = ctx_.prisms.person_height_m();
+    if (!(ha >= 0.0 && ha <= top && hb >= 0.0 && hb <= top)) {
+      add_ptn_segment(sg.a, b, [&](double s) { return sg.va + s * s_end * (sg.vb - sg.va); });
+      return;
     }
-    if (cache_t_ > t_from && cache_t_ < t) {
-      from = &cache_rot_;
-      t_from = cache_t_;
-    }
-    const flight::RotationState s =
-        flight::propagate_torque_free(body_.inertia_kg_m2, *from, t - t_from, rot_rtol_);
-    if (t > cache_t_) {
-      cache_t_ = t;
-      cache_rot_ = s;
-    }
-    return s;
-  }
-  // No later query of this segment is before t: keep its state as the base (each query then
-  // integrates at most from the start of the chord being examined).
-  void advance_rotation_base(double t) const {
-    if (asym_ || rot_.omega_body.squaredNorm() == 0.0 || t <= base_t_) return;
-    base_rot_ = rotation(t);
-    base_t_ = t;
-  }
-  Quat attitude(double t) const { return rotation(t).q.normalized(); }
-  // Starts a flight segment's rotation at time t.
-  void set_rotation(const flight::RotationState& s, double t) {
-    rot_ = s;
-    rot_t_ = t;
-    cache_t_ = base_t_ = t;
-    cache_rot_ = base_rot_ = s;
-    // An asymmetric spinning body: set up the exact torque-free solution once for the segment
-    // (axisymmetric bodies use propagate_torque_free's cheap closed form; near the separatrix
-    // the solution is not valid and the cached numerical path is used).
-    asym_.reset();
-    if (s.omega_body.squaredNorm() > 0.0 && !flight::has_two_equal_moments(body_.inertia_kg_m2)) {
-      flight::AsymmetricTorqueFree sol(body_.inertia_kg_m2, s);
-      if (sol.valid()) asym_.emplace(std::move(sol));
+    // A later step over the same triangle (after kGroundMaxDt_s) would only add a contribution
+    // that the first-crossing rule discards.
+    if (sg.triangle == last_ground_prism_) return;
+    SectionTimer timer(prof_, out_.tally_s);
+    ++out_.stats.ptn_triangle_tests;
+    const double speed2 = sg.va.squaredNorm();
+    if (0.5 * mass_ * speed2 < st_.hazardous_ke_j || !(speed2 > 0.0)) return;
+    const double area = ctx_.prisms.projected_area(sg.triangle, sg.va / std::sqrt(speed2));
+    if (area > 0.0) {
+      scratch_.ptn.push_back({sg.triangle, weight_ / area});
+      last_ground_prism_ = sg.triangle;
     }
   }
+
+  // Ground phase: can the fragment, at centre p (surface height z_surface under it) with
+  // velocity v, never again be hazardous nor reach a building? (impact::ground_never_matters)
+  bool ground_can_never_matter(const Vec3& p, double z_surface, const Vec3& v, bool rolling) const {
+    if (!site_.has_buildings() || !st_.harmless_cutoff) return can_never_matter(p, v);
+    const scene::Material& mat = site_.materials()[site_.terrain_material()];
+    impact::GroundBoundInput b;
+    b.mass_kg = mass_;
+    b.gravity_mps2 = g_;
+    b.k = impact::ground_k(rolling);
+    b.friction = rolling ? mat.rolling_resistance : mat.friction;
+    b.terrain_min_z = ctx_.terrain_min_z;
+    b.terrain_min_nz = ctx_.terrain_min_nz;
+    b.hazardous_ke_j = st_.hazardous_ke_j;
+    return impact::ground_never_matters(site_, b, p, z_surface, v);
+  }
+
+  flight::RotationState rotation(double t) const { return rot_.at(t); }
+  Quat attitude(double t) const { return rot_.attitude(t); }
 
   // Is the body's lowest point on triangle `tri` moving into its plane at time t?
   bool contact_approaching(const flight::TrajectoryIntegrator& integ, std::uint32_t tri,
@@ -283,25 +279,19 @@ class History {
   flight::FlightModel model_;
   double radius_m_ = 0.0;   // bounding radius with bounce, 0 without (the path is the centre's)
   double flat_tol_m_ = 0.0;
-  flight::RotationState rot_;  // attitude at rot_t_ (start of the current flight segment)
-  double rot_t_ = 0.0;
-  mutable flight::RotationState cache_rot_;  // latest state computed in this segment
-  mutable double cache_t_ = 0.0;
-  mutable flight::RotationState base_rot_;  // state at base_t_: no query comes before it
-  mutable double base_t_ = 0.0;
-  std::optional<flight::AsymmetricTorqueFree> asym_;  // exact rotation of this segment
-  double rot_rtol_ = 1e-9;
+  flight::SegmentRotation rot_;  // attitude along the current flight segment
   EndState end_;
   FirstImpact first_;
   std::uint32_t bounces_ = 0;
   double ground_path_m_ = 0.0;
+  std::uint32_t last_ground_prism_ = std::numeric_limits<std::uint32_t>::max();
   TrajectoryRecord traj_;
 };
 
 double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint32_t tri,
                             double ta, double tb) const {
   constexpr int kSamples = 4;
-  advance_rotation_base(ta);
+  rot_.advance_base(ta);
   double t_prev = ta;
   double g_prev = clearance(integ, tri, ta);
   for (int k = 1; k <= kSamples; ++k) {
@@ -333,7 +323,7 @@ double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint
       // Already touching at the start of this sample interval. Right after a bounce the body
       // sits on the plane and is leaving it: look further. Otherwise (touching and approaching)
       // the contact is now.
-      if (k == 1 && t_prev > rot_t_ && contact_approaching(integ, tri, t_prev)) return t_prev;
+      if (k == 1 && t_prev > rot_.start_time() && contact_approaching(integ, tri, t_prev)) return t_prev;
     }
     t_prev = t;
     g_prev = gk;
@@ -386,6 +376,7 @@ FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_star
 
   flight::TrajectoryIntegrator integ(model_, st_.rtol);
   integ.reset(t_start, p_start, v_start);
+  scene::BuildingProximity near_buildings(site_);
   Vec3 p0 = p_start, v0 = v_start;
   Vec3 a0 = model_.acceleration(p0, v0);
   FlightEvent ev;
@@ -438,7 +429,8 @@ FlightEvent History::fly(const Vec3& p_start, const Vec3& v_start, double t_star
         }
         unsigned mask = 0;
         if (zlo <= ctx_.terrain_max_z) mask |= scene::kQueryTerrain;
-        if (site_.segment_near_buildings(pa, pb)) mask |= scene::kQueryBuildings;
+        if (near_buildings.maybe_near(pa, pb) && site_.segment_near_buildings(pa, pb))
+          mask |= scene::kQueryBuildings;
         std::optional<scene::SceneHit> hit;
         if (mask != 0) {
           SectionTimer timer(prof_, out_.geometry_s);
@@ -579,11 +571,14 @@ void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) 
   const bool buildings = site_.has_buildings();
   std::optional<FlightEvent> hit_building;
   bool harmless = false;
-  const auto on_segment = [&](const Vec3& a, const Vec3& b, double ta, double tb, const Vec3& va,
-                              const Vec3& vb) {
+  scene::BuildingProximity near_buildings(site_);
+  const auto on_segment = [&](const impact::GroundSegment& sg) {
+    const Vec3 &a = sg.a, &b = sg.b, &va = sg.va, &vb = sg.vb;
+    const double ta = sg.ta, tb = sg.tb;
     record_point(tb, b);
     double s_end = 1.0;
-    if (buildings && site_.segment_near_buildings(a, b)) {
+    const bool near = buildings && near_buildings.maybe_near(a, b);
+    if (near && site_.segment_near_buildings(a, b)) {
       SectionTimer timer(prof_, out_.geometry_s);
       ++out_.stats.scene_queries;
       const auto h = site_.intersect(a, b - a, 0.0, 1.0, scene::kQueryBuildings);
@@ -605,13 +600,14 @@ void History::slide(const Vec3& p, const Vec3& v, double t, double clearance_m) 
     // The acceleration is constant over a step, so |v|^2 (convex in time) peaks at an end: a
     // step slower than hazardous at both ends crosses no prism hazardously.
     const double v2max = std::max(va.squaredNorm(), vb.squaredNorm());
-    if (0.5 * mass_ * v2max >= st_.hazardous_ke_j)
-      add_ptn_segment(a, a + s_end * (b - a), [&](double s) { return va + s * s_end * (vb - va); });
+    if (0.5 * mass_ * v2max >= st_.hazardous_ke_j) add_ptn_ground_step(sg, s_end);
     if (hit_building) return true;
-    harmless = can_never_matter(b, vb);
+    // Surface height under b: on T's plane (b is inside T or on its edge, where the planes meet).
+    harmless = ground_can_never_matter(b, b.z() - sg.hb, vb, in.rolling);
     return harmless;
   };
-  const impact::GroundMotionResult r = impact::move_on_ground(site_, in, on_segment);
+  const impact::GroundMotionResult r = impact::move_on_ground(
+      site_, in, on_segment, [&](std::uint32_t tri) { ctx_.prisms.prefetch(tri); });
   out_.stats.ground_steps += r.steps;
   ground_path_m_ = r.path_m;
   end_.t = r.t_s;
@@ -654,8 +650,8 @@ void History::simulate() {
   const Vec3 p_launch = site_.to_local(init_.position_m);
   end_.p = p_launch;
   end_.v = init_.velocity_mps;
-  set_rotation({init_.orientation, init_.omega_body_radps}, 0.0);
-  rot_rtol_ = st_.rtol;  // the attitude at a contact as accurate as the path
+  rot_.set_rtol(st_.rtol);  // the attitude at a contact as accurate as the path
+  rot_.start({init_.orientation, init_.omega_body_radps}, 0.0);
 
   bool flying = true;
   // ---- launch checks ----
@@ -725,7 +721,7 @@ void History::simulate() {
           p = ev.p;
           v = v_after;
           t = ev.t;
-          set_rotation({q, q.conjugate() * w_after}, t);
+          rot_.start({q, q.conjugate() * w_after}, t);
           flying = true;
         }
         break;
@@ -743,15 +739,22 @@ void History::finish() {
   // ---- per-history tally records (deduplicated: a prism counts once per history) ----
   {
     SectionTimer timer(prof_, out_.tally_s);
-    auto& v = scratch_.ptn;
-    std::stable_sort(v.begin(), v.end(), [](const PtnContribution& x, const PtnContribution& y) {
-      return x.triangle < y.triangle;
-    });
-    std::uint32_t last = std::numeric_limits<std::uint32_t>::max();
-    for (const auto& c : v) {
-      if (c.triangle == last) continue;  // first crossing of that prism wins
+    // The first crossing of a prism wins (contributions are pushed in path order). A stamp per
+    // triangle marks the ones taken in this history. The fold adds one value per triangle and
+    // history, so the order of the list does not change a sum.
+    auto& seen = scratch_.seen;
+    if (seen.size() != site_.terrain_triangle_count()) {
+      seen.assign(site_.terrain_triangle_count(), 0u);
+      scratch_.stamp = 0;
+    }
+    if (++scratch_.stamp == 0) {  // wrapped: no stale mark may equal a new stamp
+      std::fill(seen.begin(), seen.end(), 0u);
+      scratch_.stamp = 1;
+    }
+    for (const auto& c : scratch_.ptn) {
+      if (seen[c.triangle] == scratch_.stamp) continue;
+      seen[c.triangle] = scratch_.stamp;
       out_.ptn.push_back(c);
-      last = c.triangle;
     }
     out_.ptn_end.push_back(static_cast<std::uint32_t>(out_.ptn.size()));
     if (end_.outcome == Outcome::kBuilding) {
@@ -806,6 +809,8 @@ RunContext::RunContext(const Scenario& sc, const scene::Site& s)
   for (const auto& g : sc.groups) cd.emplace_back(g.cd);
   terrain_min_z = lowest_terrain_z(s);
   terrain_max_z = highest_terrain_z(s);
+  for (std::uint32_t t = 0; t < s.terrain_triangle_count(); ++t)
+    terrain_min_nz = std::min(terrain_min_nz, s.terrain_triangle_normal(t).z());
   top_z = prisms.top_z();
   if (s.has_buildings()) top_z = std::max(top_z, s.buildings_bounds().hi.z());
   step_min_at_ends = sc.atmosphere.wind_mps.z() <= 0.0;

@@ -53,6 +53,7 @@ struct RunContext {
   tally::PtnPrisms prisms;
   double terrain_min_z = 0.0;   // local
   double terrain_max_z = 0.0;   // local
+  double terrain_min_nz = 1.0;  // smallest z of a terrain triangle's unit normal (> 0)
   double top_z = 0.0;           // highest point anything can be hit or tallied (local)
   bool step_min_at_ends = true; // no updraft: a step's lowest point is one of its ends
   bool still_air = true;        // no wind: drag only removes mechanical energy
@@ -62,6 +63,8 @@ struct RunContext {
 // Per-thread scratch space reused between histories (no allocation in the steady state).
 struct HistoryScratch {
   std::vector<PtnContribution> ptn;
+  std::vector<std::uint32_t> seen;  // per terrain triangle: stamp of the last history that took it
+  std::uint32_t stamp = 0;
 };
 
 void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,

@@ -34,6 +34,10 @@ struct Settings {
   bool record_trajectories = false;    // sampled trajectory points in results.h5
   std::int64_t max_recorded_trajectories = 1000;
   bool profile = false;                // time split integration / geometry / tally (costs a bit)
+  // Stop tracking a fragment that provably can neither be hazardous again nor reach a building
+  // (outcome `harmless`, docs/architecture.md). Not a scenario key: it never changes a tally,
+  // only outcomes and cost, and tests compare runs with and without it.
+  bool harmless_cutoff = true;
 };
 
 struct Scenario {

@@ -123,11 +123,6 @@ std::int64_t Site::terrain_triangle_at(double x, double y) const {
   return best_t;
 }
 
-double Site::terrain_plane_height(std::uint32_t t, double x, double y) const {
-  const auto& g = terrain_plane_[t];
-  return g[0] * x + g[1] * y + g[2];
-}
-
 double Site::terrain_height(double x, double y) const {
   if (terrain_is_plane_) return terrain_bounds_.contains_xy(x, y) ? plane_elevation_ : kNaN;
   const std::int64_t t = terrain_triangle_at(x, y);
@@ -184,7 +179,7 @@ std::optional<SceneHit> Site::intersect_embree(const Vec3& org, const Vec3& dir,
     h.triangle = rh.prim;
     h.surface = SurfaceType::kTerrain;
     h.material = terrain_material_;
-    h.normal = terrain_normal_[rh.prim];
+    h.normal = terrain_facet_[rh.prim].normal;
     v0 = &terrain_vertices_[terrain_triangles_[rh.prim][0]];
   } else {
     const BuildingTriangle& bt = building_triangles_[rh.prim];
@@ -260,7 +255,7 @@ std::optional<SceneHit> Site::intersect(const Vec3& org, const Vec3& dir, double
   h.triangle = exact->second;
   h.surface = SurfaceType::kTerrain;
   h.material = terrain_material_;
-  h.normal = terrain_normal_[exact->second];
+  h.normal = terrain_facet_[exact->second].normal;
   return h;
 }
 

@@ -118,7 +118,7 @@ class Site {
   }
   std::size_t terrain_triangle_count() const { return terrain_triangles_.size(); }
   double terrain_triangle_area(std::uint32_t t) const { return terrain_area_[t]; }
-  const Vec3& terrain_triangle_normal(std::uint32_t t) const { return terrain_normal_[t]; }  // up
+  const Vec3& terrain_triangle_normal(std::uint32_t t) const { return terrain_facet_[t].normal; }  // up
   Vec3 terrain_triangle_centroid(std::uint32_t t) const;
   bool terrain_is_plane() const { return terrain_is_plane_; }
   double plane_elevation() const { return plane_elevation_; }  // local z, when terrain_is_plane()
@@ -130,8 +130,17 @@ class Site {
   // -1 outside the terrain's projection.
   std::int64_t terrain_triangle_at(double x, double y) const;
   // Height at (x, y) of the plane through terrain triangle t (also outside the triangle).
-  double terrain_plane_height(std::uint32_t t, double x, double y) const;
+  double terrain_plane_height(std::uint32_t t, double x, double y) const {
+    const auto& g = terrain_facet_[t].plane;
+    return g[0] * x + g[1] * y + g[2];
+  }
+  // Starts loading triangle t's normal and plane (one cache line): for walks that know the next
+  // triangle ahead.
+  void prefetch_terrain_triangle(std::uint32_t t) const { __builtin_prefetch(&terrain_facet_[t]); }
   const TerrainIndex2D& terrain_index() const { return index_; }
+  // Plane or grid terrain: terrain_index() bucket (i, j) = grid cell (i, j), holding triangle
+  // 2k below its (i,j)-(i+1,j+1) diagonal and 2k + 1 above it (k = j nx + i).
+  bool terrain_is_lattice() const { return terrain_is_lattice_; }
   std::uint16_t terrain_material() const { return terrain_material_; }
 
   // Buildings
@@ -156,6 +165,25 @@ class Site {
     return false;
   }
   static constexpr std::size_t kBuildingBoxScan = 64;
+  // Horizontal distance from (x, y) to the nearest building's bounding box (0 inside one,
+  // +inf with no buildings). Building by building up to kBuildingBoxScan buildings, the overall
+  // bounds beyond (a lower bound then).
+  double building_distance_xy(double x, double y) const {
+    const auto dist2 = [&](const Box3& box) {
+      const double dx = std::max({box.lo.x() - x, 0.0, x - box.hi.x()});
+      const double dy = std::max({box.lo.y() - y, 0.0, y - box.hi.y()});
+      return dx * dx + dy * dy;
+    };
+    if (buildings_.empty()) return std::numeric_limits<double>::infinity();
+    if (buildings_.size() > kBuildingBoxScan) return std::sqrt(dist2(buildings_bounds_));
+    double d2 = std::numeric_limits<double>::infinity();
+    for (const Building& bd : buildings_) d2 = std::min(d2, dist2(bd.bounds));
+    return std::sqrt(d2);
+  }
+  // Does some building's bounding box come within horizontal distance r of (x, y)?
+  bool building_within_xy(double x, double y, double r) const {
+    return building_distance_xy(x, y) <= r;
+  }
   // True when p lies inside a building's closed mesh (ray parity).
   bool inside_building(const Vec3& p) const;
 
@@ -198,8 +226,12 @@ class Site {
   std::vector<Vec3> terrain_vertices_;
   std::vector<std::array<std::uint32_t, 3>> terrain_triangles_;
   std::vector<double> terrain_area_;
-  std::vector<Vec3> terrain_normal_;
-  std::vector<std::array<double, 3>> terrain_plane_;  // z = [0] x + [1] y + [2] per triangle
+  // Per triangle, together (the ground walk reads both at every triangle it enters).
+  struct alignas(64) TerrainFacet {
+    Vec3 normal{0, 0, 1};             // unit, upward
+    std::array<double, 3> plane{};    // z = [0] x + [1] y + [2]
+  };
+  std::vector<TerrainFacet> terrain_facet_;
   bool terrain_is_plane_ = false;
   bool terrain_is_lattice_ = false;  // plane or grid: bucket (i, j) holds triangles 2k, 2k + 1
   double plane_elevation_ = 0.0;

@@ -161,8 +161,7 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
   // Per-triangle area and unit normal (upward by construction), and the bounds.
   const std::size_t nt = site.terrain_triangles_.size();
   site.terrain_area_.resize(nt);
-  site.terrain_normal_.resize(nt);
-  site.terrain_plane_.resize(nt);
+  site.terrain_facet_.resize(nt);
   site.terrain_bounds_ = Box3{};
   for (std::size_t t = 0; t < nt; ++t) {
     const auto& tri = site.terrain_triangles_[t];
@@ -172,9 +171,9 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
     const Vec3 n = (b - a).cross(c - a);
     const double len = n.norm();
     site.terrain_area_[t] = 0.5 * len;
-    site.terrain_normal_[t] = n / len;
+    site.terrain_facet_[t].normal = n / len;
     // Plane z = gx x + gy y + gz through the triangle (n_z > 0: not vertical).
-    site.terrain_plane_[t] = {-n.x() / n.z(), -n.y() / n.z(),
+    site.terrain_facet_[t].plane = {-n.x() / n.z(), -n.y() / n.z(),
                               a.z() + (n.x() * a.x() + n.y() * a.y()) / n.z()};
     site.terrain_bounds_.extend(a);
     site.terrain_bounds_.extend(b);

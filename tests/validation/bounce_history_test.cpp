@@ -218,6 +218,63 @@ TEST(BounceHistory, ResultsDoNotDependOnTerrainVertexOrder) {
   }
 }
 
+// The harmless cut-off with buildings on the site (a slide stopped once its energy can neither
+// make it hazardous nor carry it to a building's box) never changes a tally: the PTN field and
+// every building figure are bit-identical with and without it; only outcomes (and cost) change.
+// Sliding blocks and rolling spheres, on a slope (energy from the drop counts), in every
+// direction, with walls near and far.
+TEST(BounceHistory, HarmlessCutOffWithBuildingsChangesNoTally) {
+  for (const auto shape : {fragments::ShapeType::kCuboid, fragments::ShapeType::kSphere}) {
+    run::Scenario sc = bounce_scenario(300.0, 0.3, 0.5);
+    scene::GridTerrainSpec grid;
+    grid.origin_m = {-300.0, -300.0};
+    grid.spacing_m = 10.0;
+    grid.nx = grid.ny = 61;
+    for (int j = 0; j < grid.ny; ++j)
+      for (int i = 0; i < grid.nx; ++i)
+        grid.elevation_m.push_back(-0.03 * (10.0 * i - 300.0) + std::sin(0.3 * i) * std::cos(0.2 * j));
+    sc.site.terrain.geometry = grid;
+    sc.site.materials["soil"].rolling_resistance = 0.2;
+    sc.site.materials["wall"] = scene::MaterialSpec{};
+    sc.site.materials["roof"] = scene::MaterialSpec{};
+    sc.site.buildings = {box_building("near", 60.0, -20.0, 70.0, 20.0, 6.0),
+                         box_building("far", -10.0, 180.0, 30.0, 200.0, 8.0)};
+    sc.site.buildings[0].base_elevation_m.reset();
+    sc.site.buildings[1].base_elevation_m.reset();
+    auto grp = sphere_group(Vec3(0, 0, 1.5), 0.05, 70.0, 400.0, 400);
+    grp.shape.type = shape;
+    if (shape == fragments::ShapeType::kCuboid) grp.shape.aspect = {1.0, 0.6, 0.2};
+    grp.speed_mps.kind = fragments::Distribution::Kind::kUniform;
+    grp.speed_mps.min = 20.0;
+    grp.speed_mps.max = 120.0;
+    grp.direction.elevation_min_deg = -8.0;
+    grp.direction.elevation_max_deg = 8.0;
+    grp.cd.constant = 1.0;
+    sc.groups = {grp};
+    sc.settings.harmless_cutoff = false;
+    const run::RunResult off = run::run(sc);
+    sc.settings.harmless_cutoff = true;
+    const run::RunResult on = run::run(sc);
+    EXPECT_EQ(on.ptn_density_per_m2, off.ptn_density_per_m2);
+    EXPECT_EQ(on.ptn_std_error_per_m2, off.ptn_std_error_per_m2);
+    ASSERT_EQ(on.buildings.size(), off.buildings.size());
+    for (std::size_t b = 0; b < on.buildings.size(); ++b) {
+      EXPECT_EQ(on.buildings[b].impacts.mean, off.buildings[b].impacts.mean);
+      EXPECT_EQ(on.buildings[b].impacts.std_error, off.buildings[b].impacts.std_error);
+      EXPECT_EQ(on.buildings[b].penetrations.mean, off.buildings[b].penetrations.mean);
+      EXPECT_EQ(on.buildings[b].residual_ke_j.mean, off.buildings[b].residual_ke_j.mean);
+    }
+    const auto count = [](const run::RunResult& r, run::Outcome o) {
+      return r.outcome_histories[static_cast<std::size_t>(o)];
+    };
+    EXPECT_EQ(count(on, run::Outcome::kBuilding), count(off, run::Outcome::kBuilding));
+    EXPECT_GT(count(on, run::Outcome::kBuilding), 0);
+    EXPECT_GT(count(on, run::Outcome::kHarmless), 20) << static_cast<int>(shape);  // the rule stops slides
+    EXPECT_EQ(count(off, run::Outcome::kHarmless), 0);
+    EXPECT_LT(on.stats.ground_steps, off.stats.ground_steps);
+  }
+}
+
 // Bit-identical results whatever the thread count and chunk size, with bounce, slide and roll.
 TEST(BounceHistory, DeterministicForThreadsAndChunks) {
   run::Scenario sc = bounce_scenario(300.0, 0.3, 0.6);
