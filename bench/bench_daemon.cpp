@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <iostream>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -23,6 +24,18 @@ using Json = nlohmann::json;
 
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// VmRSS and VmHWM (peak) of a process, MiB, from /proc.
+std::pair<double, double> memory_mib(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  double rss = 0, hwm = 0;
+  while (std::getline(in, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) rss = std::atof(line.c_str() + 6) / 1024.0;
+    if (line.rfind("VmHWM:", 0) == 0) hwm = std::atof(line.c_str() + 6) / 1024.0;
+  }
+  return {rss, hwm};
 }
 
 double percentile(std::vector<double> v, double p) {
@@ -106,12 +119,14 @@ int main(int argc, char** argv) {
 
   Daemon d(dir, {"--threads", std::to_string(threads), "--log-level", "warn"});
   d.start();
+  const auto [idle_rss, idle_hwm] = memory_mib(d.pid());
   auto c = d.client();
   auto site = c->Post("/v1/sites", demo["site"].dump(), "application/json");
   if (!site || site->status >= 300) throw std::runtime_error("POST /v1/sites failed");
   Json job = demo;
   job.erase("site");
   job["site_id"] = Json::parse(site->body)["site_id"];
+  const auto [site_rss, site_hwm] = memory_mib(d.pid());
 
   double daemon_best = 1e300, daemon_run_best = 1e300;
   std::string done_id;
@@ -131,6 +146,11 @@ int main(int argc, char** argv) {
               daemon_best, daemon_run_best);
   std::printf("  overhead: end to end %+.1f %%, run alone %+.1f %%\n",
               100.0 * (daemon_best / cli_best - 1.0), 100.0 * (daemon_run_best / cli_run_best - 1.0));
+  const auto [jobs_rss, jobs_hwm] = memory_mib(d.pid());
+  std::printf("  daemon memory (MiB): started %.1f; demo site loaded %.1f (peak %.1f); after %d "
+              "jobs %.1f (peak %.1f)\n",
+              idle_rss, site_rss, site_hwm, repeat, jobs_rss, jobs_hwm);
+  (void)idle_hwm;
 
   // 2. Latency under polling while the job runs.
   std::mutex m;

@@ -125,6 +125,7 @@ class Daemon {
   bool alive() const { return pid_ > 0 && ::kill(pid_, 0) == 0; }
 
   int port() const { return port_; }
+  pid_t pid() const { return pid_; }
   const fs::path& dir() const { return dir_; }
   fs::path data() const { return dir_ / "data"; }
   std::string log() const { return read_text(dir_ / "fragsimd.log"); }
