@@ -55,6 +55,9 @@ int main(int argc, char** argv) {
         return run_command(options, g_cancel);
       case Command::kSubmit:
         install_signal_handlers();
+        // A server that refuses a body before reading it all closes the connection under the
+        // upload: the write fails with EPIPE and the server's answer is reported.
+        std::signal(SIGPIPE, SIG_IGN);
         return submit_command(options, g_cancel);
     }
     return kExitInternal;

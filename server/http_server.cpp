@@ -115,6 +115,17 @@ HttpServer::HttpServer(Service& service)
   s.Delete(".*", handler);
   s.Options(".*", handler);
 
+  // cpp-httplib 0.11 enforces --max-body-bytes from Content-Length only: a chunked body would be
+  // read whole whatever its size. Such requests are refused before their body is read.
+  s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    if (!req.has_header("Transfer-Encoding")) return httplib::Server::HandlerResponse::Unhandled;
+    set_error_body(res, error_response(411, "length_required",
+                                       "send the body with a Content-Length header (chunked "
+                                       "transfer encoding is not accepted)"));
+    service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
+    return httplib::Server::HandlerResponse::Handled;
+  });
+
   // Errors cpp-httplib answers itself (413 before the body is read, 400 for a malformed request
   // line) get the same JSON body as every other error.
   s.set_error_handler(httplib::Server::HandlerWithResponse([this](const httplib::Request& req,

@@ -210,6 +210,11 @@ std::vector<RouteInfo> route_table() {
 }
 
 Response Service::handle(const Request& req) {
+  // The HTTP layer refuses larger bodies before reading them; this holds for any other caller.
+  if (static_cast<std::int64_t>(req.body.size()) > config_.max_body_bytes)
+    return error_response(413, "payload_too_large",
+                          "the request body is larger than this daemon accepts (" +
+                              std::to_string(config_.max_body_bytes) + " bytes)");
   const auto& kRoutes = routes();
   const std::string& path = req.path;
   for (const Route& route : kRoutes) {

@@ -264,6 +264,26 @@ TEST(Daemon, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
     auto health = c->Get("/v1/health");
     ASSERT_TRUE(health && health->status == 200) << "the daemon stopped serving";
   }
+  // A chunked body is refused before it is read (the size limit needs a Content-Length).
+  {
+    httplib::Client raw("127.0.0.1", d.port());
+    raw.set_bearer_token_auth(kToken);
+    const std::string big(300000, ' ');
+    auto r = raw.Post(
+        "/v1/sites",
+        [&](std::size_t offset, httplib::DataSink& sink) {
+          if (offset < big.size()) {
+            sink.write(big.data() + offset, std::min<std::size_t>(4096, big.size() - offset));
+          } else {
+            sink.done();
+          }
+          return true;
+        },
+        "application/json");
+    ASSERT_TRUE(r) << httplib::to_string(r.error());
+    EXPECT_EQ(r->status, 411) << r->body;
+    EXPECT_EQ(Json::parse(r->body).value("code", ""), "length_required");
+  }
   // Nothing of the refused requests was queued.
   auto jobs = c->Get("/v1/jobs");
   ASSERT_TRUE(jobs && jobs->status == 200);
