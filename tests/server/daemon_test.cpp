@@ -264,25 +264,34 @@ TEST(Daemon, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
     auto health = c->Get("/v1/health");
     ASSERT_TRUE(health && health->status == 200) << "the daemon stopped serving";
   }
-  // A chunked body is refused before it is read (the size limit needs a Content-Length).
-  {
+  // A chunked body is refused before it is read (the size limit needs a Content-Length). A small
+  // body is wholly sent before the answer comes; with a large one the client may instead see its
+  // write fail when the daemon closes the connection. Either way the daemon keeps serving.
+  for (const std::size_t size : {std::size_t{2}, std::size_t{3000000}}) {
+    SCOPED_TRACE("chunked body of " + std::to_string(size) + " bytes");
     httplib::Client raw("127.0.0.1", d.port());
     raw.set_bearer_token_auth(kToken);
-    const std::string big(300000, ' ');
+    const std::string body = size == 2 ? std::string("{}") : std::string(size, ' ');
     auto r = raw.Post(
         "/v1/sites",
         [&](std::size_t offset, httplib::DataSink& sink) {
-          if (offset < big.size()) {
-            sink.write(big.data() + offset, std::min<std::size_t>(4096, big.size() - offset));
+          if (offset < body.size()) {
+            sink.write(body.data() + offset, std::min<std::size_t>(4096, body.size() - offset));
           } else {
             sink.done();
           }
           return true;
         },
         "application/json");
-    ASSERT_TRUE(r) << httplib::to_string(r.error());
-    EXPECT_EQ(r->status, 411) << r->body;
-    EXPECT_EQ(Json::parse(r->body).value("code", ""), "length_required");
+    if (size == 2 || r) {
+      ASSERT_TRUE(r) << httplib::to_string(r.error());
+      EXPECT_EQ(r->status, 411) << r->body;
+      EXPECT_EQ(Json::parse(r->body).value("code", ""), "length_required");
+    } else {
+      EXPECT_EQ(r.error(), httplib::Error::Write);
+    }
+    auto health = c->Get("/v1/health");
+    ASSERT_TRUE(health && health->status == 200) << "the daemon stopped serving";
   }
   // Nothing of the refused requests was queued.
   auto jobs = c->Get("/v1/jobs");
