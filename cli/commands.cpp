@@ -23,16 +23,16 @@
 
 namespace fragsim::cli {
 
-namespace {
-
-std::string read_file(const std::string& path) {
+std::string read_file(const std::string& path, const std::string& field) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError("", "cannot read " + path + ": " + std::strerror(errno));
+  if (!in) throw InputError(field, "cannot read " + path + ": " + std::strerror(errno));
   std::ostringstream text;
   text << in.rdbuf();
-  if (in.bad()) throw InputError("", "cannot read " + path + ": " + std::strerror(errno));
+  if (in.bad()) throw InputError(field, "cannot read " + path + ": " + std::strerror(errno));
   return text.str();
 }
+
+namespace {
 
 // Materials whose thresholds the scenario itself marks as illustrative (not for decisions).
 std::string illustrative_note(const api::ScenarioDocument& doc) {

@@ -2,6 +2,7 @@
 // The `fragsim` commands. Each returns the process exit code or throws: fragsim::InputError and
 // cli::UsageError mean invalid input (exit 2), anything else an internal error (exit 1).
 #include <atomic>
+#include <string>
 
 #include "cli/args.h"
 
@@ -11,6 +12,9 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitInternal = 1;
 inline constexpr int kExitInvalidInput = 2;
 inline constexpr int kExitCancelled = 130;  // 128 + SIGINT, as shells report it
+
+// A whole file; InputError(field, "cannot read PATH: reason") when it cannot be read.
+std::string read_file(const std::string& path, const std::string& field = "");
 
 int validate_command(const Options& options);
 // `cancel` is set by the SIGINT/SIGTERM handler.

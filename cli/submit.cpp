@@ -25,17 +25,9 @@ namespace {
 
 using Json = nlohmann::json;
 
-std::string read_text(const std::string& path, const std::string& what) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(what, "cannot read " + path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 // The first token in a token file (one per line; blank lines and # comments skipped).
 std::string first_token(const std::string& path) {
-  std::istringstream in(read_text(path, "--token-file"));
+  std::istringstream in(read_file(path, "--token-file"));
   std::string line;
   while (std::getline(in, line)) {
     const auto a = line.find_first_not_of(" \t\r");
@@ -100,7 +92,7 @@ class Client {
 }  // namespace
 
 int submit_command(const Options& o, const std::atomic<bool>& cancel) {
-  const std::string text = read_text(o.scenario, "");
+  const std::string text = read_file(o.scenario);
   Json scenario = api::parse_json_text(text);
   // Check what can be checked here before anything is sent: a scenario with an inline site in
   // full; one naming a stored site (site_id) is checked by the server.

@@ -19,11 +19,6 @@ namespace {
 
 constexpr int kListenBacklog = 1024;
 
-std::string lower(std::string s) {
-  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
 Request to_request(const httplib::Request& in) {
   Request r;
   r.method = in.method;
@@ -34,7 +29,7 @@ Request to_request(const httplib::Request& in) {
     httplib::detail::parse_query_text(in.target.substr(q + 1), params);
     for (const auto& [k, v] : params) r.query[k] = v;
   }
-  for (const auto& [k, v] : in.headers) r.headers[lower(k)] = v;
+  for (const auto& [k, v] : in.headers) r.headers[ascii_lower(k)] = v;
   r.body = in.body;
   return r;
 }

@@ -50,12 +50,6 @@ Response json_response(int status, const OJson& j) {
   return r;
 }
 
-std::string lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return s;
-}
-
 // Constant-time comparison: a wrong token takes as long whatever its common prefix.
 bool same_token(const std::string& a, const std::string& b) {
   unsigned char diff = a.size() == b.size() ? 0 : 1;
@@ -98,7 +92,7 @@ nlohmann::json parse_body(const Request& req) {
 
 std::optional<Response> check_json_content_type(const Request& req) {
   const auto it = req.headers.find("content-type");
-  std::string type = it == req.headers.end() ? "" : lower(it->second);
+  std::string type = it == req.headers.end() ? "" : ascii_lower(it->second);
   if (const auto semi = type.find(';'); semi != std::string::npos) type.resize(semi);
   while (!type.empty() && type.back() == ' ') type.pop_back();
   if (type != kJsonType)
@@ -110,6 +104,12 @@ std::optional<Response> check_json_content_type(const Request& req) {
 }
 
 }  // namespace
+
+std::string ascii_lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
 
 Response error_response(int status, const std::string& code, const std::string& message,
                         const std::optional<std::string>& field) {
@@ -174,7 +174,7 @@ bool Service::authorised(const Request& req) const {
   if (it == req.headers.end()) return false;
   const std::string& h = it->second;
   constexpr std::string_view kBearer = "bearer ";
-  if (h.size() <= kBearer.size() || lower(h.substr(0, kBearer.size())) != kBearer) return false;
+  if (h.size() <= kBearer.size() || ascii_lower(h.substr(0, kBearer.size())) != kBearer) return false;
   const std::string token = h.substr(kBearer.size());
   bool ok = false;
   for (const auto& t : tokens_) ok = same_token(token, t) || ok;  // no early exit

@@ -40,6 +40,9 @@ struct Response {
   std::string route = "unmatched";            // the matched pattern, for metrics and logs
 };
 
+// Header names and media types compare case-insensitively.
+std::string ascii_lower(std::string s);
+
 // {"code": ..., "message": ..., "field": ... | null}
 Response error_response(int status, const std::string& code, const std::string& message,
                         const std::optional<std::string>& field = std::nullopt);

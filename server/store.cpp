@@ -173,6 +173,19 @@ void Store::exec(const char* sql, const char* what) {
   }
 }
 
+template <class F>
+auto Store::transaction(F&& body) {
+  exec("BEGIN IMMEDIATE", "begin");
+  try {
+    auto result = body();  // the body's statements are finalised before the commit
+    exec("COMMIT", "commit");
+    return result;
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+}
+
 // ---- Sites ----
 
 void Store::insert_site(const SiteRow& row) {
@@ -242,18 +255,13 @@ JobRow Store::read_job(Statement& s) {
 
 Store::Insert Store::insert_job(JobRow row) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  exec("BEGIN IMMEDIATE", "begin");
-  try {
+  return transaction([&]() -> Insert {
     if (row.idempotency_key) {
       Statement q(db_,
                   std::string("SELECT ") + kJobColumns + " FROM jobs WHERE idempotency_key = ?1",
                   "find idempotency key");
       q.bind(1, row.idempotency_key);
-      if (q.step()) {
-        Insert existing{read_job(q), false};
-        exec("COMMIT", "commit");
-        return existing;
-      }
+      if (q.step()) return {read_job(q), false};
     }
     {
       Statement s(db_, "SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs", "next seq");
@@ -275,13 +283,9 @@ Store::Insert Store::insert_job(JobRow row) {
         .bind(8, row.histories_total)
         .bind(9, row.created_utc)
         .run();
-    exec("COMMIT", "commit");
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
-  }
-  row.state = JobState::kQueued;
-  return {std::move(row), true};
+    row.state = JobState::kQueued;
+    return {std::move(row), true};
+  });
 }
 
 std::optional<JobRow> Store::job(const std::string& job_id) {
@@ -355,18 +359,14 @@ bool Store::mark_done(const std::string& job_id, const std::string& finished_utc
                       std::int64_t histories_done, const std::string& summary_json,
                       const std::vector<BuildingRow>& buildings) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  exec("BEGIN IMMEDIATE", "begin");
-  try {
+  return transaction([&] {
     Statement s(db_,
                 "UPDATE jobs SET state = 'done', finished_utc = ?2, histories_done = ?3, "
                 "summary_json = ?4, error_code = NULL, error_message = NULL "
                 "WHERE job_id = ?1 AND state = 'running'",
                 "finish job");
     s.bind(1, job_id).bind(2, finished_utc).bind(3, histories_done).bind(4, summary_json).run();
-    if (sqlite3_changes(db_) == 0) {
-      exec("ROLLBACK", "rollback");
-      return false;
-    }
+    if (sqlite3_changes(db_) == 0) return false;  // no longer running: nothing was written
     Statement clear(db_, "DELETE FROM job_buildings WHERE job_id = ?1", "clear buildings");
     clear.bind(1, job_id).run();
     for (std::size_t k = 0; k < buildings.size(); ++k) {
@@ -385,12 +385,8 @@ bool Store::mark_done(const std::string& job_id, const std::string& finished_utc
           .bind(7, b.penetrations_std_error)
           .run();
     }
-    exec("COMMIT", "commit");
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
-  }
-  return true;
+    return true;
+  });
 }
 
 bool Store::mark_failed(const std::string& job_id, const std::string& finished_utc,
@@ -406,14 +402,10 @@ bool Store::mark_failed(const std::string& job_id, const std::string& finished_u
 
 std::optional<JobState> Store::cancel(const std::string& job_id, const std::string& finished_utc) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  exec("BEGIN IMMEDIATE", "begin");
-  try {
+  return transaction([&]() -> std::optional<JobState> {
     Statement q(db_, "SELECT state FROM jobs WHERE job_id = ?1", "job state");
     q.bind(1, job_id);
-    if (!q.step()) {
-      exec("COMMIT", "commit");
-      return std::nullopt;
-    }
+    if (!q.step()) return std::nullopt;
     const JobState before = parse_job_state(q.text(0)).value_or(JobState::kFailed);
     if (!is_final(before)) {
       Statement s(db_,
@@ -421,12 +413,8 @@ std::optional<JobState> Store::cancel(const std::string& job_id, const std::stri
                   "cancel job");
       s.bind(1, job_id).bind(2, finished_utc).run();
     }
-    exec("COMMIT", "commit");
     return before;
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
-  }
+  });
 }
 
 void Store::requeue(const std::string& job_id) {
@@ -440,9 +428,7 @@ void Store::requeue(const std::string& job_id) {
 
 std::vector<std::string> Store::recover_interrupted(int max_crashes, const std::string& now_utc) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  exec("BEGIN IMMEDIATE", "begin");
-  std::vector<std::string> requeued;
-  try {
+  return transaction([&] {
     Statement mark(db_, "UPDATE jobs SET crashes = crashes + 1 WHERE state = 'running'",
                    "count crash");
     mark.run();
@@ -452,6 +438,7 @@ std::vector<std::string> Store::recover_interrupted(int max_crashes, const std::
                    "' times while running this job' WHERE state = 'running' AND crashes >= ?1",
                    "fail crashed jobs");
     fail.bind(1, max_crashes).bind(2, now_utc).run();
+    std::vector<std::string> requeued;
     Statement list(db_, "SELECT job_id FROM jobs WHERE state = 'running' ORDER BY seq",
                    "interrupted jobs");
     while (list.step()) requeued.push_back(list.text(0));
@@ -460,12 +447,8 @@ std::vector<std::string> Store::recover_interrupted(int max_crashes, const std::
                    "WHERE state = 'running'",
                    "requeue interrupted");
     back.run();
-    exec("COMMIT", "commit");
-  } catch (...) {
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw;
-  }
-  return requeued;
+    return requeued;
+  });
 }
 
 std::optional<std::string> Store::summary_json(const std::string& job_id) {

@@ -113,6 +113,9 @@ class Store {
  private:
   class Statement;
   void exec(const char* sql, const char* what);
+  // Runs `body` in one write transaction; rolled back if it throws. Defined in store.cpp.
+  template <class F>
+  auto transaction(F&& body);
   JobRow read_job(Statement& s);
 
   std::mutex mutex_;

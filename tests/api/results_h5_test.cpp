@@ -49,15 +49,7 @@ class ResultsH5 : public ::testing::Test {
     r.hfd_lower_m = 140.0;
     r.hfd_upper_m = 160.0;
     r.hfd_by_sector_m[7] = 150.0;
-    run::BuildingResult b;
-    b.id = "B1";
-    b.impacts = {12.5, 0.25};
-    b.penetrations = {3.0, 0.5};
-    b.impacts_by_surface[1] = {10.0, 0.2};
-    b.impacts_by_surface[2] = {2.5, 0.1};
-    b.penetrations_by_surface[2] = {3.0, 0.5};
-    b.residual_ke_j = {4000.0, 300.0};
-    r.buildings.push_back(b);
+    r.buildings.push_back(testing::example_building());
     r.outcome_histories = {48, 10, 0, 1942, 0, 0, 0};
     r.outcome_fragments[0] = {24.0, 3.5};
     r.outcome_fragments[1] = {5.0, 1.5};

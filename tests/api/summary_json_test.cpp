@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "fragsim/version.h"
+#include "test_support.h"
 
 namespace fragsim::api {
 namespace {
@@ -27,15 +28,7 @@ run::RunResult synthetic_result() {
   r.hfd_upper_m = 273.25;
   for (std::size_t k = 0; k < r.hfd_by_sector_m.size(); ++k)
     r.hfd_by_sector_m[k] = 10.0 * static_cast<double>(k);
-  run::BuildingResult b;
-  b.id = "B1";
-  b.impacts = {12.5, 0.25};
-  b.penetrations = {3.0, 0.5};
-  b.impacts_by_surface[1] = {10.0, 0.2};
-  b.impacts_by_surface[2] = {2.5, 0.1};
-  b.penetrations_by_surface[2] = {3.0, 0.5};
-  b.residual_ke_j = {4000.0, 300.0};
-  r.buildings.push_back(b);
+  r.buildings.push_back(testing::example_building());
   run::BuildingResult far;
   far.id = "far_store";
   r.buildings.push_back(far);

@@ -11,6 +11,7 @@
 
 #include "api/scenario_json.h"
 #include "core/common/error.h"
+#include "core/run/result.h"
 
 namespace fragsim::api::testing {
 
@@ -39,6 +40,19 @@ inline std::filesystem::path fresh_test_dir(const std::string& prefix) {
 
 inline std::filesystem::path source_path(const std::string& relative) {
   return std::filesystem::path(FRAGSIM_SOURCE_DIR) / relative;
+}
+
+// A building result with figures on two surfaces (wall, roof) and a residual energy.
+inline run::BuildingResult example_building() {
+  run::BuildingResult b;
+  b.id = "B1";
+  b.impacts = {12.5, 0.25};
+  b.penetrations = {3.0, 0.5};
+  b.impacts_by_surface[1] = {10.0, 0.2};
+  b.impacts_by_surface[2] = {2.5, 0.1};
+  b.penetrations_by_surface[2] = {3.0, 0.5};
+  b.residual_ke_j = {4000.0, 300.0};
+  return b;
 }
 
 inline Json minimal_example() {
