@@ -2,6 +2,12 @@
 // Loopback test support: the daemon process (daemon_process.h) plus the requests the tests repeat.
 #include <gtest/gtest.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
 #include <nlohmann/json.hpp>
 
 #include "tests/api/test_support.h"
@@ -65,6 +71,30 @@ inline Json wait_final(httplib::Client& c, const std::string& id, int seconds = 
   }
   ADD_FAILURE() << "job " << id << " did not finish; last status " << s.dump();
   return s;
+}
+
+// Sends `request` (raw HTTP bytes) to 127.0.0.1:port in one write, then reads until the server
+// closes or 10 s pass; returns what was read. One write matters for a request the server answers
+// before reading its body: a client library writing headers and body separately may find the
+// connection closed between the two (EPIPE) before it reads the answer.
+inline std::string raw_exchange(int port, const std::string& request) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return "";
+  timeval timeout{10, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  std::string answer;
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0 &&
+      ::send(fd, request.data(), request.size(), MSG_NOSIGNAL) ==
+          static_cast<ssize_t>(request.size())) {
+    char buf[4096];
+    for (ssize_t n; (n = ::recv(fd, buf, sizeof buf, 0)) > 0;) answer.append(buf, n);
+  }
+  ::close(fd);
+  return answer;
 }
 
 }  // namespace fragsim::server::testing

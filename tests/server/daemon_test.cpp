@@ -264,14 +264,30 @@ TEST(Daemon, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
     auto health = c->Get("/v1/health");
     ASSERT_TRUE(health && health->status == 200) << "the daemon stopped serving";
   }
-  // A chunked body is refused before it is read (the size limit needs a Content-Length). A small
-  // body is wholly sent before the answer comes; with a large one the client may instead see its
-  // write fail when the daemon closes the connection. Either way the daemon keeps serving.
-  for (const std::size_t size : {std::size_t{2}, std::size_t{3000000}}) {
-    SCOPED_TRACE("chunked body of " + std::to_string(size) + " bytes");
+  // A chunked body is refused before it is read (the size limit needs a Content-Length). The small
+  // one goes out in a single write, so the whole request is in before the answer and the 411 is
+  // read every time. The large one goes through the client library, which writes it in pieces: it
+  // may see the 411 or, when the daemon has closed the connection, a write error. Either way the
+  // daemon keeps serving.
+  {
+    SCOPED_TRACE("chunked body of 2 bytes");
+    const std::string answer = raw_exchange(
+        d.port(), "POST /v1/sites HTTP/1.1\r\nHost: 127.0.0.1\r\nAuthorization: Bearer " +
+                      std::string(kToken) +
+                      "\r\nContent-Type: application/json\r\nTransfer-Encoding: chunked\r\n"
+                      "Connection: close\r\n\r\n2\r\n{}\r\n0\r\n\r\n");
+    ASSERT_EQ(answer.rfind("HTTP/1.1 411 ", 0), 0u) << answer;
+    const std::size_t body_at = answer.find("\r\n\r\n");
+    ASSERT_NE(body_at, std::string::npos) << answer;
+    EXPECT_EQ(Json::parse(answer.substr(body_at + 4)).value("code", ""), "length_required");
+    auto health = c->Get("/v1/health");
+    ASSERT_TRUE(health && health->status == 200) << "the daemon stopped serving";
+  }
+  {
+    SCOPED_TRACE("chunked body of 3 MB");
     httplib::Client raw("127.0.0.1", d.port());
     raw.set_bearer_token_auth(kToken);
-    const std::string body = size == 2 ? std::string("{}") : std::string(size, ' ');
+    const std::string body(3000000, ' ');
     auto r = raw.Post(
         "/v1/sites",
         [&](std::size_t offset, httplib::DataSink& sink) {
@@ -283,8 +299,7 @@ TEST(Daemon, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
           return true;
         },
         "application/json");
-    if (size == 2 || r) {
-      ASSERT_TRUE(r) << httplib::to_string(r.error());
+    if (r) {
       EXPECT_EQ(r->status, 411) << r->body;
       EXPECT_EQ(Json::parse(r->body).value("code", ""), "length_required");
     } else {
