@@ -243,6 +243,15 @@ std::string outcome_names() {
   return names;
 }
 
+std::string trajectory_event_names() {
+  std::string names;
+  for (int k = 0; k < run::kTrajectoryEventCount; ++k) {
+    if (k) names += ",";
+    names += run::trajectory_event_name(static_cast<run::TrajectoryEvent>(k));
+  }
+  return names;
+}
+
 void write_terrain(Writer& w, const scene::Site& site) {
   w.group("/terrain");
   std::vector<Vec3> vertices;
@@ -360,6 +369,8 @@ void write_fragments(Writer& w, const std::vector<run::FragmentRecord>& records)
   column("penetrated", [](const R& r) { return static_cast<std::uint8_t>(r.penetrated ? 1 : 0); });
   column("residual_ke_j", [](const R& r) { return r.residual_ke_j; });
   column("bounces", [](const R& r) { return r.bounces; });
+  column("ground_impacts", [](const R& r) { return r.ground_impacts; });
+  column("takeoffs", [](const R& r) { return r.takeoffs; });
   column("ground_path_m", [](const R& r) { return r.ground_path_m; });
   w.dataset_attribute("/fragments/outcome", "names", outcome_names());
   w.dataset_attribute("/fragments/surface", "values", "-1 none, 1 wall, 2 roof, 3 window");
@@ -370,15 +381,21 @@ void write_trajectories(Writer& w, const std::vector<run::TrajectoryRecord>& tra
   std::vector<std::uint32_t> group;
   std::vector<std::uint64_t> history, offsets{0};
   std::vector<double> t_s;
-  std::vector<Vec3> points;
+  std::vector<Vec3> points, velocities;
+  std::vector<std::uint8_t> events;
   for (const auto& tr : trajectories) {
-    if (tr.t_s.size() != tr.position_m.size())
-      throw std::logic_error("results.h5: trajectory with " + std::to_string(tr.t_s.size()) +
-                             " times and " + std::to_string(tr.position_m.size()) + " points");
+    const std::size_t n = tr.t_s.size();
+    if (tr.position_m.size() != n || tr.velocity_mps.size() != n || tr.event.size() != n)
+      throw std::logic_error("results.h5: trajectory with " + std::to_string(n) + " times, " +
+                             std::to_string(tr.position_m.size()) + " points, " +
+                             std::to_string(tr.velocity_mps.size()) + " velocities and " +
+                             std::to_string(tr.event.size()) + " events");
     group.push_back(tr.group);
     history.push_back(tr.history);
     t_s.insert(t_s.end(), tr.t_s.begin(), tr.t_s.end());
     points.insert(points.end(), tr.position_m.begin(), tr.position_m.end());
+    velocities.insert(velocities.end(), tr.velocity_mps.begin(), tr.velocity_mps.end());
+    for (const auto e : tr.event) events.push_back(static_cast<std::uint8_t>(e));
     offsets.push_back(t_s.size());
   }
   w.dataset("/trajectories/group", group);
@@ -387,6 +404,10 @@ void write_trajectories(Writer& w, const std::vector<run::TrajectoryRecord>& tra
   w.dataset("/trajectories/t_s", t_s);
   const auto xyz = flatten(points);
   w.dataset("/trajectories/position_m", xyz.data(), points.size(), 3);
+  const auto vxyz = flatten(velocities);
+  w.dataset("/trajectories/velocity_mps", vxyz.data(), velocities.size(), 3);
+  w.dataset("/trajectories/event", events);
+  w.dataset_attribute("/trajectories/event", "names", trajectory_event_names());
 }
 
 }  // namespace

@@ -157,6 +157,8 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
                   {"ptn_triangle_tests", s.ptn_triangle_tests},
                   {"bounces", s.bounces},
                   {"ground_steps", s.ground_steps},
+                  {"ground_impacts", s.ground_impacts},
+                  {"takeoffs", s.takeoffs},
                   {"ground_step_caps", s.ground_step_caps}};
 
   Json prov = {{"version", provenance.version}, {"git_sha", provenance.git_sha}};

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/common/roots.h"
 #include "core/common/types.h"
 #include "core/scene/site.h"
 
@@ -31,34 +32,18 @@ inline int chord_count(double length_m, double kappa_max, double sagitta_m, int 
 }
 
 // Time in [t_lo, t_hi] at which the arc P(t) crosses the plane through q with normal n, found by
-// the Illinois variant of regula falsi on g(t) = n.(P(t) - q). Requires g(t_lo) and g(t_hi) of
+// the Illinois regula falsi (common/roots.h) on g(t) = n.(P(t) - q). Requires g(t_lo) and g(t_hi) of
 // opposite signs (or one of them 0); returns NaN otherwise.
 template <class PositionFn>
 double refine_plane_crossing(const PositionFn& position, const Vec3& n, const Vec3& q, double t_lo,
                              double t_hi) {
-  double glo = n.dot(position(t_lo) - q);
-  double ghi = n.dot(position(t_hi) - q);
+  const double glo = n.dot(position(t_lo) - q);
+  const double ghi = n.dot(position(t_hi) - q);
   if (glo == 0.0) return t_lo;
   if (ghi == 0.0) return t_hi;
   if ((glo > 0.0) == (ghi > 0.0)) return std::numeric_limits<double>::quiet_NaN();
-  int side = 0;
-  for (int it = 0; it < 100; ++it) {
-    const double t = (t_lo * ghi - t_hi * glo) / (ghi - glo);
-    const double g = n.dot(position(t) - q);
-    if (g == 0.0 || (t_hi - t_lo) <= 1e-14 * std::max(1.0, std::abs(t))) return t;
-    if ((g > 0.0) == (glo > 0.0)) {
-      t_lo = t;
-      glo = g;
-      if (side == -1) ghi *= 0.5;
-      side = -1;
-    } else {
-      t_hi = t;
-      ghi = g;
-      if (side == 1) glo *= 0.5;
-      side = 1;
-    }
-  }
-  return 0.5 * (t_lo + t_hi);
+  const auto g = [&](double t) { return n.dot(position(t) - q); };
+  return illinois(g, t_lo, t_hi, glo, ghi, 1e-14).last;
 }
 
 // Impact angle between the velocity and the surface, degrees: 0 grazing, 90 head-on.

@@ -64,15 +64,32 @@ struct FragmentRecord {
   std::int32_t surface = -1;      // SurfaceType of the building hit
   bool penetrated = false;
   double residual_ke_j = 0.0;
-  std::uint32_t bounces = 0;
-  double ground_path_m = 0.0;
+  std::uint32_t bounces = 0;        // terrain impacts from flight (impulse model)
+  std::uint32_t ground_impacts = 0;  // impulses at terrain edges while on the ground
+  std::uint32_t takeoffs = 0;       // times it left the ground again (crests, edge rebounds)
+  double ground_path_m = 0.0;       // distance travelled on the ground (all ground phases)
 };
+
+// What a recorded trajectory point is.
+enum class TrajectoryEvent : std::uint8_t {
+  kLaunch = 0,
+  kFlight = 1,         // end of a flight integrator step
+  kTerrainImpact = 2,  // an impulse with the terrain (a landing, or at an edge on the ground)
+  kTakeOff = 3,        // left the ground (a crest, an edge impact's rebound, lifted by the air)
+  kGround = 4,         // end of a slide/roll piece
+  kBuildingHit = 5,
+  kEnd = 6,            // the history's last point (rest, harmless, ...)
+};
+inline constexpr int kTrajectoryEventCount = 7;
+const char* trajectory_event_name(TrajectoryEvent e);
 
 struct TrajectoryRecord {
   std::uint32_t group = 0;
   std::uint64_t history = 0;
   std::vector<double> t_s;
   std::vector<Vec3> position_m;  // input coordinates
+  std::vector<Vec3> velocity_mps;
+  std::vector<TrajectoryEvent> event;
 };
 
 struct Timing {
@@ -95,7 +112,9 @@ struct RunStats {
   std::int64_t chords_skipped = 0;      // chords above everything: no query needed
   std::int64_t ptn_triangle_tests = 0;
   std::int64_t bounces = 0;        // terrain impacts resolved by the impulse model
-  std::int64_t ground_steps = 0;   // slide/roll steps
+  std::int64_t ground_steps = 0;   // ground-phase integrator steps and events
+  std::int64_t ground_impacts = 0;  // impulses at terrain edges on the ground
+  std::int64_t takeoffs = 0;        // ground -> flight
   std::int64_t ground_step_caps = 0;  // histories stopped by max_ground_steps (expected 0)
 };
 

@@ -25,6 +25,19 @@ const char* outcome_name(Outcome o) {
   return "unknown";
 }
 
+const char* trajectory_event_name(TrajectoryEvent e) {
+  switch (e) {
+    case TrajectoryEvent::kLaunch: return "launch";
+    case TrajectoryEvent::kFlight: return "flight";
+    case TrajectoryEvent::kTerrainImpact: return "terrain_impact";
+    case TrajectoryEvent::kTakeOff: return "take_off";
+    case TrajectoryEvent::kGround: return "ground";
+    case TrajectoryEvent::kBuildingHit: return "building_hit";
+    case TrajectoryEvent::kEnd: return "end";
+  }
+  return "unknown";
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -91,6 +104,8 @@ class Reducer {
     stats_.ptn_triangle_tests += c.stats.ptn_triangle_tests;
     stats_.bounces += c.stats.bounces;
     stats_.ground_steps += c.stats.ground_steps;
+    stats_.ground_impacts += c.stats.ground_impacts;
+    stats_.takeoffs += c.stats.takeoffs;
     stats_.ground_step_caps += c.stats.ground_step_caps;
     integration_s_ += c.integration_s;
     geometry_s_ += c.geometry_s;

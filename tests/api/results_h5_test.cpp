@@ -74,6 +74,8 @@ class ResultsH5 : public ::testing::Test {
       f.penetrated = h == 1;
       f.residual_ke_j = h == 1 ? 400 : 0;
       f.bounces = h;
+      f.ground_impacts = 3 * h;
+      f.takeoffs = h + 1;
       f.ground_path_m = 2.0 * h;
       r.fragments.push_back(f);
     }
@@ -82,11 +84,16 @@ class ResultsH5 : public ::testing::Test {
     a.history = 0;
     a.t_s = {0, 0.5, 1.0};
     a.position_m = {Vec3(0, 0, 1), Vec3(10, 0, 3), Vec3(20, 0, 2)};
+    a.velocity_mps = {Vec3(20, 0, 4), Vec3(20, 0, 0), Vec3(20, 0, -2)};
+    a.event = {run::TrajectoryEvent::kLaunch, run::TrajectoryEvent::kFlight,
+               run::TrajectoryEvent::kTerrainImpact};
     run::TrajectoryRecord c;
     c.group = 0;
     c.history = 5;
     c.t_s = {0, 0.25};
     c.position_m = {Vec3(0, 0, 1), Vec3(-5, 1, 2)};
+    c.velocity_mps = {Vec3(-20, 4, 4), Vec3(0, 0, 0)};
+    c.event = {run::TrajectoryEvent::kLaunch, run::TrajectoryEvent::kEnd};
     r.trajectories = {a, c};
     r.timing.wall_s = 1.25;
     r.timing.threads = 2;
@@ -224,6 +231,8 @@ TEST_F(ResultsH5, FragmentAndTrajectoryRecords) {
   EXPECT_EQ(read_dataset_int64(f, "/fragments/surface"), (std::vector<std::int64_t>{-1, 1, -1}));
   EXPECT_EQ(read_dataset_int64(f, "/fragments/penetrated"), (std::vector<std::int64_t>{0, 1, 0}));
   EXPECT_EQ(read_dataset_int64(f, "/fragments/bounces"), (std::vector<std::int64_t>{0, 1, 2}));
+  EXPECT_EQ(read_dataset_int64(f, "/fragments/ground_impacts"), (std::vector<std::int64_t>{0, 3, 6}));
+  EXPECT_EQ(read_dataset_int64(f, "/fragments/takeoffs"), (std::vector<std::int64_t>{1, 2, 3}));
   EXPECT_EQ(read_dataset_double(f, "/fragments/residual_ke_j"), (std::vector<double>{0, 400, 0}));
   EXPECT_EQ(read_dataset_double(f, "/fragments/ground_path_m"), (std::vector<double>{0, 2, 4}));
   EXPECT_EQ(read_dataset_double(f, "/fragments/end_time_s"), (std::vector<double>{0, 1.5, 3.0}));
@@ -236,6 +245,15 @@ TEST_F(ResultsH5, FragmentAndTrajectoryRecords) {
             (std::vector<double>{0, 0.5, 1.0, 0, 0.25}));
   EXPECT_EQ(dataset_shape(f, "/trajectories/position_m"), (std::vector<std::uint64_t>{5, 3}));
   EXPECT_EQ(read_dataset_double(f, "/trajectories/position_m")[12], -5.0);
+  EXPECT_EQ(dataset_shape(f, "/trajectories/velocity_mps"), (std::vector<std::uint64_t>{5, 3}));
+  EXPECT_EQ(read_dataset_double(f, "/trajectories/velocity_mps")[8], -2.0);
+  EXPECT_EQ(read_dataset_int64(f, "/trajectories/event"), (std::vector<std::int64_t>{0, 1, 2, 0, 6}));
+  EXPECT_EQ(read_attribute_string(f, "/trajectories/event", "names"),
+            "launch,flight,terrain_impact,take_off,ground,building_hit,end");
+  // A record whose columns disagree in length is a logic error, not a half-written file.
+  run::RunResult bad = result_;
+  bad.trajectories[0].event.pop_back();
+  EXPECT_THROW(write("bad.h5", bad), std::logic_error);
 }
 
 TEST_F(ResultsH5, RecordsAreAbsentUnlessRequested) {

@@ -133,9 +133,16 @@ TEST(BounceHistory, TumblingBlocksSometimesReboundAboveTheirDropHeight) {
   blocks.direction.azimuth_min_deg = blocks.direction.azimuth_max_deg = 0.0;
   sc.groups = {blocks};
   const run::RunResult r = run::run(sc);
-  // Recorded trajectories run forward in time across bounces (no point past a contact).
+  // Recorded trajectories run forward in time across bounces (no point past a contact); two
+  // points share a time only as events (an impact and the take-off it starts).
   for (const auto& tr : r.trajectories) {
-    for (std::size_t i = 1; i < tr.t_s.size(); ++i) ASSERT_GT(tr.t_s[i], tr.t_s[i - 1]);
+    for (std::size_t i = 1; i < tr.t_s.size(); ++i) {
+      ASSERT_GE(tr.t_s[i], tr.t_s[i - 1]);
+      if (tr.t_s[i] == tr.t_s[i - 1]) {
+        EXPECT_NE(tr.event[i], run::TrajectoryEvent::kFlight);
+        EXPECT_NE(tr.event[i], run::TrajectoryEvent::kGround);
+      }
+    }
   }
   // The centre starts at drop_m; a block's centre above that after its first impact rebounded
   // higher than it was dropped from.
@@ -218,12 +225,12 @@ TEST(BounceHistory, ResultsDoNotDependOnTerrainVertexOrder) {
   }
 }
 
-// The harmless cut-off with buildings on the site (a slide stopped once its energy can neither
-// make it hazardous nor carry it to a building's box) never changes a tally: the PTN field and
-// every building figure are bit-identical with and without it; only outcomes (and cost) change.
-// Sliding blocks and rolling spheres, on a slope (energy from the drop counts), in every
-// direction, with walls near and far.
-TEST(BounceHistory, HarmlessCutOffWithBuildingsChangesNoTally) {
+// The harmless cut-off (a history stopped once its energy can never make it hazardous again)
+// never changes a tally: the PTN field is bit-identical with and without it; only outcomes (and
+// cost) change. Sliding blocks and rolling spheres, on a slope (energy from the drop counts), in
+// every direction, with drag. With buildings on the site it never applies in the ground phase:
+// after take-offs from crests no rigorous bound on a body's reach is known (physics.md).
+TEST(BounceHistory, HarmlessCutOffChangesNoTally) {
   for (const auto shape : {fragments::ShapeType::kCuboid, fragments::ShapeType::kSphere}) {
     run::Scenario sc = bounce_scenario(300.0, 0.3, 0.5);
     scene::GridTerrainSpec grid;
@@ -235,12 +242,6 @@ TEST(BounceHistory, HarmlessCutOffWithBuildingsChangesNoTally) {
         grid.elevation_m.push_back(-0.03 * (10.0 * i - 300.0) + std::sin(0.3 * i) * std::cos(0.2 * j));
     sc.site.terrain.geometry = grid;
     sc.site.materials["soil"].rolling_resistance = 0.2;
-    sc.site.materials["wall"] = scene::MaterialSpec{};
-    sc.site.materials["roof"] = scene::MaterialSpec{};
-    sc.site.buildings = {box_building("near", 60.0, -20.0, 70.0, 20.0, 6.0),
-                         box_building("far", -10.0, 180.0, 30.0, 200.0, 8.0)};
-    sc.site.buildings[0].base_elevation_m.reset();
-    sc.site.buildings[1].base_elevation_m.reset();
     auto grp = sphere_group(Vec3(0, 0, 1.5), 0.05, 70.0, 400.0, 400);
     grp.shape.type = shape;
     if (shape == fragments::ShapeType::kCuboid) grp.shape.aspect = {1.0, 0.6, 0.2};
@@ -257,21 +258,18 @@ TEST(BounceHistory, HarmlessCutOffWithBuildingsChangesNoTally) {
     const run::RunResult on = run::run(sc);
     EXPECT_EQ(on.ptn_density_per_m2, off.ptn_density_per_m2);
     EXPECT_EQ(on.ptn_std_error_per_m2, off.ptn_std_error_per_m2);
-    ASSERT_EQ(on.buildings.size(), off.buildings.size());
-    for (std::size_t b = 0; b < on.buildings.size(); ++b) {
-      EXPECT_EQ(on.buildings[b].impacts.mean, off.buildings[b].impacts.mean);
-      EXPECT_EQ(on.buildings[b].impacts.std_error, off.buildings[b].impacts.std_error);
-      EXPECT_EQ(on.buildings[b].penetrations.mean, off.buildings[b].penetrations.mean);
-      EXPECT_EQ(on.buildings[b].residual_ke_j.mean, off.buildings[b].residual_ke_j.mean);
-    }
     const auto count = [](const run::RunResult& r, run::Outcome o) {
       return r.outcome_histories[static_cast<std::size_t>(o)];
     };
-    EXPECT_EQ(count(on, run::Outcome::kBuilding), count(off, run::Outcome::kBuilding));
-    EXPECT_GT(count(on, run::Outcome::kBuilding), 0);
-    EXPECT_GT(count(on, run::Outcome::kHarmless), 20) << static_cast<int>(shape);  // the rule stops slides
+    EXPECT_GT(count(on, run::Outcome::kHarmless), 20) << static_cast<int>(shape);
     EXPECT_EQ(count(off, run::Outcome::kHarmless), 0);
     EXPECT_LT(on.stats.ground_steps, off.stats.ground_steps);
+    // The same with a building: every history is followed to its end.
+    sc.site.materials["wall"] = scene::MaterialSpec{};
+    sc.site.materials["roof"] = scene::MaterialSpec{};
+    sc.site.buildings = {box_building("near", 60.0, -20.0, 70.0, 20.0, 6.0)};
+    sc.site.buildings[0].base_elevation_m.reset();
+    EXPECT_EQ(count(run::run(sc), run::Outcome::kHarmless), 0);
   }
 }
 

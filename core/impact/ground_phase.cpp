@@ -1,0 +1,872 @@
+// The ground phase (ground_phase.h; equations G1-G12 in docs/physics.md, "Ground phase").
+#include "core/impact/ground_phase.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/common/roots.h"
+#include "core/flight/dopri5.h"
+#include "core/impact/bounce.h"
+
+namespace fragsim::impact {
+
+double ground_clearance(const GroundBody& body, const Vec3& n) {
+  return fragments::support_extent(body.shape, body.attitude, -n);
+}
+
+namespace {
+
+using GVec = Eigen::Matrix<double, 9, 1>;  // displacement (3), velocity (3), w = R omega (3)
+
+// Where the body touches the terrain.
+struct Contact {
+  bool crease = false;
+  std::uint32_t tri = 0;    // face: the triangle; crease: the reference side (tallies)
+  std::uint32_t other = 0;  // crease: the triangle across the edge
+  Vec3 n{0, 0, 1};          // face: its unit normal; crease: the unit bisector of n1 and n2
+  Vec3 n1{0, 0, 1}, n2{0, 0, 1};
+  Vec3 e{1, 0, 0};          // crease: unit edge direction, from `from_v` to `to_v`
+  Vec3 from_v{0, 0, 0}, to_v{0, 0, 0};  // crease: the edge's end points (local)
+  std::uint32_t from_id = 0, to_id = 0;  // their vertex indices
+};
+
+// How the body resists motion on the current contact.
+struct Resistance {
+  bool round = false;
+  bool slipping = false;  // round: the contact point slides (G4), else it rolls (G5)
+  double mu = 0.0;        // Coulomb friction of the terrain
+  double mu_r = 0.0;      // rolling resistance of the terrain
+  double ratio = 0.4;     // round: I / (m R^2)
+  Vec3 slip_dir0{0, 0, 0};  // round: slip direction while the slip speed is exactly 0
+  // round, slipping: a skid (rolling could not be held, G6), in which the rolling resistance
+  // torque brakes the spin as in rolling; a slip after an impact is Coulomb friction alone.
+  bool skid = false;
+};
+
+// Normal load per mass and the tangential part of the external acceleration on a plane (G1).
+struct PlaneLoad {
+  Vec3 at;    // a_ext - (a_ext . n) n
+  double nl;  // -(a_ext . n) if pressing, else 0
+  double an;  // a_ext . n (> 0: the air lifts the body off)
+};
+PlaneLoad plane_load(const Vec3& a_ext, const Vec3& n) {
+  const double an = a_ext.dot(n);
+  return {a_ext - an * n, std::max(0.0, -an), an};
+}
+
+// Coulomb friction per mass of magnitude `cap` against the velocity (G2). At zero velocity it is
+// static: it holds the body against `drive` if it can (|drive| <= cap), else it resists it with
+// `cap` (the body starts moving along drive).
+Vec3 friction_acceleration(const Vec3& v, const Vec3& drive, double cap) {
+  const double s = v.norm();
+  if (s > 0.0) return -(cap / s) * v;
+  const double d = drive.norm();
+  if (d <= cap || !(d > 0.0)) return -drive;
+  return -(cap / d) * drive;
+}
+
+// Normal loads per mass (N1, N2) of the two planes of a crease against the external acceleration
+// across the edge (G8): N1 n1 + N2 n2 = -(a_ext - (a_ext . e) e).
+Vec2 crease_loads(const Contact& c, const Vec3& a_ext) {
+  const Vec3 a_perp = a_ext - a_ext.dot(c.e) * c.e;
+  const Vec3 b2 = c.e.cross(c.n1);  // unit: e is perpendicular to n1
+  const double x2 = c.n2.dot(b2);
+  if (std::abs(x2) < 1e-12) return Vec2(-a_perp.dot(c.n1), 0.0);  // planes (nearly) parallel
+  const double n2_load = -a_perp.dot(b2) / x2;
+  return Vec2(-a_perp.dot(c.n1) - n2_load * c.n2.dot(c.n1), n2_load);
+}
+
+// Acceleration of the centre and rate of w = R omega on the current contact (G2-G9).
+struct GroundRhs {
+  const flight::FlightModel* air = nullptr;
+  const Contact* contact = nullptr;
+  const Resistance* res = nullptr;
+  const Vec3* origin = nullptr;  // position = *origin + displacement
+
+  GVec operator()(double /*t*/, const GVec& y) const {
+    const Vec3 v = y.segment<3>(3), w = y.segment<3>(6);
+    const Vec3 a_ext = air->acceleration(*origin + y.head<3>(), v);
+    Vec3 a, dw = Vec3::Zero();
+    if (contact->crease) {
+      a = crease_acceleration(a_ext, v);
+      if (res->round) dw = contact->n.cross(a);
+    } else {
+      face_acceleration(a_ext, v, w, a, dw);
+    }
+    GVec dy;
+    dy << v, a, dw;
+    return dy;
+  }
+
+  void face_acceleration(const Vec3& a_ext, const Vec3& v, const Vec3& w, Vec3& a,
+                         Vec3& dw) const {
+    const Vec3& n = contact->n;
+    const PlaneLoad load = plane_load(a_ext, n);
+    if (!res->round) {  // G2: sliding
+      a = load.at + friction_acceleration(v, load.at, res->mu * load.nl);
+      return;
+    }
+    if (!res->slipping) {  // G5: rolling, k = 1 / (1 + I / (m R^2))
+      const double k = 1.0 / (1.0 + res->ratio);
+      a = k * (load.at + friction_acceleration(v, load.at, res->mu_r * load.nl));
+      dw = n.cross(a);
+      return;
+    }
+    // G4: slipping; the friction acts at the contact point, against its velocity u = v - w x n.
+    // In a skid also the rolling resistance torque mu_r N R against the rolling part of the spin
+    // (static while that part is zero: the friction torque must exceed it to turn the ball).
+    const Vec3 u = v - w.cross(n);
+    const double us = u.norm();
+    const Vec3 uh = us > 0.0 ? Vec3(u / us) : res->slip_dir0;
+    const Vec3 fr = -res->mu * load.nl * uh;
+    a = load.at + fr;
+    dw = -(1.0 / res->ratio) * n.cross(fr);
+    if (res->skid) {
+      const Vec3 w_rolling = w - w.dot(n) * n;
+      dw += friction_acceleration(w_rolling, dw, res->mu_r * load.nl / res->ratio);
+    }
+  }
+
+  // G9: along the crease line, friction from both planes' loads.
+  Vec3 crease_acceleration(const Vec3& a_ext, const Vec3& v) const {
+    const Contact& c = *contact;
+    const Vec2 loads = crease_loads(c, a_ext);
+    const double nl = std::max(0.0, loads.x()) + std::max(0.0, loads.y());
+    const double cap = (res->round ? res->mu_r : res->mu) * nl;
+    const double ae = a_ext.dot(c.e), s = v.dot(c.e);
+    double fr;
+    if (s != 0.0) {
+      fr = s > 0.0 ? -cap : cap;
+    } else {
+      fr = std::abs(ae) <= cap ? -ae : (ae > 0.0 ? -cap : cap);
+    }
+    const double k = res->round ? 1.0 / (1.0 + res->ratio) : 1.0;
+    return (k * (ae + fr)) * c.e;
+  }
+};
+
+// The three edges of a triangle's xy-projection: outward unit normals, offsets (phi_k(p) =
+// N_k . p_xy - c_k, in metres, <= 0 inside), the triangle across each edge when known from the
+// lattice (-1: off the terrain; -2: look it up) and each edge's vertex indices.
+struct TriangleEdges {
+  Vec2 normal[3];
+  double offset[3];
+  std::int64_t across[3];
+  std::uint32_t from[3], to[3];
+
+  double phi_k(int k, const Vec3& p) const {
+    return normal[k].x() * p.x() + normal[k].y() * p.y() - offset[k];
+  }
+  // d phi_k / dt for a velocity v.
+  double rate_k(int k, const Vec3& v) const { return normal[k].x() * v.x() + normal[k].y() * v.y(); }
+};
+
+void set_edge(TriangleEdges& te, int k, const Vec2& u, const Vec2& w, std::uint32_t iu,
+              std::uint32_t iw, std::int64_t across) {
+  const Vec2 d = w - u;
+  const Vec2 nrm = Vec2(d.y(), -d.x()) / d.norm();  // outward for a counter-clockwise triangle
+  te.normal[k] = nrm;
+  te.offset[k] = nrm.dot(u);
+  te.across[k] = across;
+  te.from[k] = iu;
+  te.to[k] = iw;
+}
+
+// Lattice (plane or grid terrain): from the cell arithmetic, no vertex loads (the builder's
+// layout, terrain_builder.cpp: cell (i, j) holds (v00, v10, v11) and (v00, v11, v01)).
+TriangleEdges lattice_edges(const scene::TerrainIndex2D& g, std::uint32_t tri) {
+  const std::int64_t cell = tri / 2, nx = g.nx, ny = g.ny;
+  const std::int64_t i = cell % nx, j = cell / nx;
+  const double x0 = g.origin.x() + static_cast<double>(i) * g.cell.x();
+  const double y0 = g.origin.y() + static_cast<double>(j) * g.cell.y();
+  const Vec2 p00(x0, y0), p10(x0 + g.cell.x(), y0), p01(x0, y0 + g.cell.y()),
+      p11(x0 + g.cell.x(), y0 + g.cell.y());
+  const auto vid = [&](std::int64_t ii, std::int64_t jj) {
+    return static_cast<std::uint32_t>(jj * (nx + 1) + ii);
+  };
+  TriangleEdges te;
+  if (tri % 2 == 0) {  // (v00, v10, v11)
+    set_edge(te, 0, p00, p10, vid(i, j), vid(i + 1, j), j > 0 ? 2 * (cell - nx) + 1 : -1);
+    set_edge(te, 1, p10, p11, vid(i + 1, j), vid(i + 1, j + 1), i + 1 < nx ? 2 * (cell + 1) + 1 : -1);
+    set_edge(te, 2, p11, p00, vid(i + 1, j + 1), vid(i, j), 2 * cell + 1);
+  } else {  // (v00, v11, v01)
+    set_edge(te, 0, p00, p11, vid(i, j), vid(i + 1, j + 1), 2 * cell);
+    set_edge(te, 1, p11, p01, vid(i + 1, j + 1), vid(i, j + 1), j + 1 < ny ? 2 * (cell + nx) : -1);
+    set_edge(te, 2, p01, p00, vid(i, j + 1), vid(i, j), i > 0 ? 2 * (cell - 1) : -1);
+  }
+  return te;
+}
+
+TriangleEdges mesh_edges(const scene::Site& site, std::uint32_t tri) {
+  const auto& ids = site.terrain_triangles()[tri];
+  const auto& vs = site.terrain_vertices();
+  std::uint32_t a = ids[0], b = ids[1], c = ids[2];
+  const auto xy = [&](std::uint32_t v) { return Vec2(vs[v].x(), vs[v].y()); };
+  const double orient = (xy(b) - xy(a)).x() * (xy(c) - xy(a)).y() - (xy(b) - xy(a)).y() * (xy(c) - xy(a)).x();
+  if (orient < 0.0) std::swap(b, c);  // counter-clockwise seen from above
+  TriangleEdges te;
+  set_edge(te, 0, xy(a), xy(b), a, b, -2);
+  set_edge(te, 1, xy(b), xy(c), b, c, -2);
+  set_edge(te, 2, xy(c), xy(a), c, a, -2);
+  return te;
+}
+
+enum class Next { kContinue, kDone, kNoChange };
+
+// A slip slower than this fraction of the speed has ended: the sticking impulse that removes it
+// changes the velocity by 2/7 of it (G7).
+constexpr double kSlipEnd_rel = 1e-6;
+
+class GroundMotion {
+ public:
+  GroundMotion(const scene::Site& site, const flight::FlightModel& air, const GroundBody& body,
+               const GroundSettings& settings, GroundObserver& observer)
+      : site_(site),
+        air_(air),
+        body_(body),
+        set_(settings),
+        obs_(observer),
+        material_(site.materials()[site.terrain_material()]),
+        ode_(GroundRhs{&air_, &contact_, &res_, &origin_},
+             flight::Dopri5Options{settings.rtol, settings.rtol}) {
+    res_.round = body.round();
+    res_.mu = material_.friction;
+    res_.mu_r = material_.rolling_resistance;
+    radius_m_ = res_.round ? body.shape.half_m.x() : 0.0;
+    if (res_.round) res_.ratio = body.shape.inertia_kg_m2.x() / (body.mass_kg * radius_m_ * radius_m_);
+    const auto& cell = site.terrain_index().cell;
+    nudge_m_ = 1e-7 * std::max(1e-3, std::min(cell.x(), cell.y()));
+    g_ = air.gravity_mps2;
+  }
+
+  GroundResult run(const GroundState& start);
+
+ private:
+  // Entering a contact.
+  Next enter_face(std::uint32_t tri, const Vec3& p, const Vec3& v, const Vec3& omega);
+  Next enter_crease(std::uint32_t tri, std::uint32_t other, std::uint32_t from_id,
+                    std::uint32_t to_id, const Vec3& p, const Vec3& v, const Vec3& w);
+  void restart_integrator(const Vec3& p, const Vec3& v, const Vec3& w);
+  void settle_rolling_or_slipping();
+  // One integrator step and the events within it.
+  Next step();
+  struct Exit {
+    double t;
+    int edge;  // -1: none
+  };
+  Exit find_exit(double ta, double tb) const;
+  Next walk_face_step();
+  Next walk_crease_step();
+  Next after_step();
+  Next after_slip_step(const GVec& y0);
+  bool slipping() const { return res_.round && res_.slipping && !contact_.crease; }
+  double step_end_time() const;
+  // Events.
+  Next cross_edge(std::uint32_t next, std::uint32_t from_id, std::uint32_t to_id);
+  Next edge_impact(std::uint32_t next, const Vec3& v_in, bool concave, std::uint32_t from_id,
+                   std::uint32_t to_id);
+  Next arrive_at_vertex(std::uint32_t vertex);
+  Next stop_or_restart(double residual_dt = 0.0);
+  Next settle_in_contact_set();
+  Next finish(GroundEnd end);
+  Next take_off(std::uint32_t tri, const Vec3& v, const Vec3& omega);
+  bool captured_in_crease(std::uint32_t next, std::uint32_t from_id, std::uint32_t to_id,
+                          const Vec3& v2) const;
+  bool vertex_is_local_min(std::uint32_t vertex) const;
+  // State along the current step.
+  Vec3 pos(double t) const { return origin_ + ode_.dense(t).head<3>(); }
+  Vec3 vel(double t) const { return ode_.dense(t).segment<3>(3); }
+  Vec3 w_at(double t) const { return ode_.dense(t).segment<3>(6); }
+  Vec3 omega_of(const Vec3& w) const { return res_.round ? Vec3(w / radius_m_) : Vec3::Zero(); }
+  void set_state(double t, const Vec3& p, const Vec3& v, const Vec3& w) {
+    t_ = t;
+    p_ = p;
+    v_ = v;
+    w_ = w;
+  }
+  bool emit(double ta, const Vec3& pa, const Vec3& va, double tb, const Vec3& pb, const Vec3& vb,
+            const Vec3& wb);
+  Vec3 place_on_plane(const Vec3& p, std::uint32_t tri, const Vec3& n) const;
+  void pay_for_lift(const Vec3& p_old, const Vec3& p_new);
+  TriangleEdges edges_of(std::uint32_t tri) const {
+    return site_.terrain_is_lattice() ? lattice_edges(site_.terrain_index(), tri)
+                                      : mesh_edges(site_, tri);
+  }
+  std::int64_t triangle_beyond(const Vec3& p, const Vec3& dir) const;
+  double kinetic_per_mass(const Vec3& v, const Vec3& w) const {
+    return 0.5 * v.squaredNorm() + (res_.round ? 0.5 * res_.ratio * w.squaredNorm() : 0.0);
+  }
+
+  // Private Members
+  const scene::Site& site_;
+  flight::FlightModel air_;
+  const GroundBody& body_;
+  GroundSettings set_;
+  GroundObserver& obs_;
+  const scene::Material& material_;
+  Contact contact_;
+  Resistance res_;
+  Vec3 origin_{0, 0, 0};  // position at the last integrator reset
+  flight::Dopri5<9, GroundRhs> ode_;
+  TriangleEdges edges_{};
+  double radius_m_ = 0.0, nudge_m_ = 1e-7, g_ = kStandardGravity_mps2;
+  double h_next_ = 0.0;  // step size carried across resets
+  // Current state (valid between steps and at events).
+  double t_ = 0.0;
+  Vec3 p_{0, 0, 0}, v_{0, 0, 0}, w_{0, 0, 0};
+  GroundResult r_;
+};
+
+GroundResult GroundMotion::run(const GroundState& start) {
+  r_ = GroundResult{};
+  t_ = start.t_s;
+  Next next = enter_face(start.triangle, start.position_m, start.velocity_mps, start.omega_radps);
+  while (next == Next::kContinue) {
+    if (r_.steps >= set_.max_steps) {
+      finish(GroundEnd::kStepCap);
+      break;
+    }
+    next = step();
+  }
+  return r_;
+}
+
+Next GroundMotion::finish(GroundEnd end) {
+  r_.end = end;
+  r_.state.t_s = t_;
+  r_.state.position_m = p_;
+  r_.state.velocity_mps = end == GroundEnd::kRest ? Vec3::Zero() : v_;
+  r_.state.omega_radps = end == GroundEnd::kRest ? Vec3::Zero() : omega_of(w_);
+  r_.state.triangle = contact_.tri;
+  return Next::kDone;
+}
+
+Next GroundMotion::take_off(std::uint32_t tri, const Vec3& v, const Vec3& omega) {
+  r_.end = GroundEnd::kTakeOff;
+  r_.state = {t_, p_, v, omega, tri};
+  return Next::kDone;
+}
+
+// ---- entering a contact ----
+
+// The centre put at the body's clearance above triangle tri's plane (normal n), moved
+// vertically: its xy stays on the triangle it was found over (on the edge it crossed).
+Vec3 GroundMotion::place_on_plane(const Vec3& p, std::uint32_t tri, const Vec3& n) const {
+  const double clearance = ground_clearance(body_, n);
+  return Vec3(p.x(), p.y(), site_.terrain_plane_height(tri, p.x(), p.y()) + clearance / n.z());
+}
+
+// Raising the centre costs kinetic energy (G11): energy is never gained by a change of contact.
+void GroundMotion::pay_for_lift(const Vec3& p_old, const Vec3& p_new) {
+  const double dz = p_new.z() - p_old.z();
+  if (!(dz > 0.0)) return;
+  const double ke = kinetic_per_mass(v_, w_);
+  const double scale = ke > 0.0 ? std::sqrt(std::max(0.0, 1.0 - g_ * dz / ke)) : 0.0;
+  v_ *= scale;
+  w_ *= scale;
+}
+
+Next GroundMotion::enter_face(std::uint32_t tri, const Vec3& p, const Vec3& v, const Vec3& omega) {
+  contact_ = Contact{};
+  contact_.tri = tri;
+  contact_.n = site_.terrain_triangle_normal(tri);
+  const Vec3& n = contact_.n;
+  v_ = v - v.dot(n) * n;
+  w_ = res_.round ? Vec3(radius_m_ * omega) : Vec3::Zero();
+  const Vec3 p_on = place_on_plane(p, tri, n);
+  pay_for_lift(p, p_on);
+  p_ = p_on;
+  edges_ = edges_of(tri);
+  if (res_.round) settle_rolling_or_slipping();
+  if (v_.squaredNorm() == 0.0 && !(res_.round && res_.slipping)) return stop_or_restart();
+  if (v_.squaredNorm() < 2.0 * g_ * kCaptureHeight_m) {  // slow: held where several planes meet?
+    const Next held = settle_in_contact_set();
+    if (held != Next::kNoChange) return held;
+  }
+  restart_integrator(p_, v_, w_);
+  return Next::kContinue;
+}
+
+// Round bodies: rolling if the contact point is (to rounding) at rest and rolling can be
+// sustained (G6: the friction rolling needs is within mu N), else slipping.
+void GroundMotion::settle_rolling_or_slipping() {
+  const Vec3& n = contact_.n;
+  const Vec3 u = v_ - w_.cross(n);
+  const double scale = v_.norm() + w_.norm();
+  res_.slipping = u.norm() > 1e-9 * scale;
+  res_.skid = false;
+  if (res_.slipping) return;
+  // Stick exactly: a tangential impulse at the contact that zeroes u (G7; dissipative).
+  const Vec3 u_t = u - u.dot(n) * n;
+  v_ -= (res_.ratio / (1.0 + res_.ratio)) * u_t;
+  w_ += (1.0 / (1.0 + res_.ratio)) * n.cross(u_t);
+  // Can rolling be held? Required friction per mass: -ratio a - mu_r nl v_hat (G6).
+  const PlaneLoad load = plane_load(air_.acceleration(p_, v_), n);
+  const double k = 1.0 / (1.0 + res_.ratio);
+  const Vec3 rr = friction_acceleration(v_, load.at, res_.mu_r * load.nl);
+  const Vec3 a = k * (load.at + rr);
+  const Vec3 f_req = -res_.ratio * a + rr;
+  if (f_req.norm() > res_.mu * load.nl) {
+    res_.slipping = true;
+    res_.skid = true;
+    const double fn = f_req.norm();
+    res_.slip_dir0 = fn > 0.0 ? Vec3(-f_req / fn) : Vec3::Zero();
+  }
+}
+
+void GroundMotion::restart_integrator(const Vec3& p, const Vec3& v, const Vec3& w) {
+  origin_ = p;
+  GVec y;
+  y << Vec3::Zero(), v, w;
+  ode_.reset(t_, y, h_next_);
+}
+
+Next GroundMotion::enter_crease(std::uint32_t tri, std::uint32_t other, std::uint32_t from_id,
+                                std::uint32_t to_id, const Vec3& p, const Vec3& v,
+                                const Vec3& w) {
+  const auto& vs = site_.terrain_vertices();
+  Contact c;
+  c.crease = true;
+  c.tri = tri;
+  c.other = other;
+  c.n1 = site_.terrain_triangle_normal(tri);
+  c.n2 = site_.terrain_triangle_normal(other);
+  c.n = (c.n1 + c.n2).normalized();
+  c.from_id = from_id;
+  c.to_id = to_id;
+  c.from_v = vs[from_id];
+  c.to_v = vs[to_id];
+  c.e = (c.to_v - c.from_v).normalized();
+  if (v.dot(c.e) < 0.0) {  // e along the motion
+    std::swap(c.from_v, c.to_v);
+    std::swap(c.from_id, c.to_id);
+    c.e = -c.e;
+  }
+  contact_ = c;
+  // Centre at both clearances, its position along the edge kept (G8).
+  const double c1 = ground_clearance(body_, c.n1), c2 = ground_clearance(body_, c.n2);
+  const Vec3 b2 = c.e.cross(c.n1);
+  const double beta = (c2 - c1 * c.n1.dot(c.n2)) / c.n2.dot(b2);
+  const Vec3 p_on = c.from_v + (p - c.from_v).dot(c.e) * c.e + c1 * c.n1 + beta * b2;
+  // Velocity along the crease; a round body rolls along it with no gain of kinetic energy.
+  const double ke_before = kinetic_per_mass(v, w);
+  v_ = v.dot(c.e) * c.e;
+  w_ = res_.round ? Vec3(c.n.cross(v_)) : Vec3::Zero();
+  res_.slipping = false;
+  const double ke_after = kinetic_per_mass(v_, w_);
+  if (ke_after > ke_before && ke_after > 0.0) {
+    const double s = std::sqrt(ke_before / ke_after);
+    v_ *= s;
+    w_ *= s;
+  }
+  pay_for_lift(p, p_on);
+  p_ = p_on;
+  if (v_.squaredNorm() == 0.0 && !(res_.round && res_.slipping)) return stop_or_restart();
+  restart_integrator(p_, v_, w_);
+  return Next::kContinue;
+}
+
+// ---- stepping ----
+
+// The step may not pass the time limit, the stop of the centre (the friction direction flips
+// there: G10) nor, slipping, the end of the slip (the law changes there).
+double GroundMotion::step_end_time() const {
+  // A hair short of the time x reaches zero at its present rate of decrease (inf if growing).
+  const auto before_zero = [](const Vec3& x, const Vec3& dx) {
+    const double s = x.norm();
+    const double dec = s > 0.0 ? -dx.dot(x) / s : 0.0;
+    return dec > 0.0 ? (1.0 - 1e-3) * s / dec : std::numeric_limits<double>::infinity();
+  };
+  const GVec& dy = ode_.dy();
+  const Vec3 a = dy.segment<3>(3), dw = dy.segment<3>(6);
+  if (!slipping()) return std::min(set_.t_max_s, t_ + before_zero(v_, a));
+  const Vec3& n = contact_.n;
+  const double t_slip = before_zero(v_ - w_.cross(n), a - dw.cross(n));
+  const double t_spin = before_zero(w_ - w_.dot(n) * n, dw - dw.dot(n) * n);
+  return std::min(set_.t_max_s, t_ + std::min(t_slip, t_spin));
+}
+
+Next GroundMotion::step() {
+  const double t_end = step_end_time();
+  if (!(t_end > t_)) return finish(GroundEnd::kMaxTime);
+  ++r_.steps;
+  if (!ode_.step(t_end)) return finish(t_ >= set_.t_max_s ? GroundEnd::kMaxTime : GroundEnd::kStepCap);
+  h_next_ = ode_.next_step_size();
+  const Next n = contact_.crease ? walk_crease_step() : walk_face_step();
+  if (n == Next::kDone) return n;
+  return after_step();
+}
+
+bool GroundMotion::emit(double ta, const Vec3& pa, const Vec3& va, double tb, const Vec3& pb,
+                        const Vec3& vb, const Vec3& wb) {
+  const std::uint32_t tri = contact_.tri;
+  GroundSegment s;
+  s.a = pa;
+  s.b = pb;
+  s.ta = ta;
+  s.tb = tb;
+  s.va = va;
+  s.vb = vb;
+  s.omega_b = omega_of(wb);
+  s.triangle = tri;
+  s.ha = pa.z() - site_.terrain_plane_height(tri, pa.x(), pa.y());
+  s.hb = pb.z() - site_.terrain_plane_height(tri, pb.x(), pb.y());
+  r_.path_m += (pb - pa).norm();
+  return obs_.on_segment(s);
+}
+
+// Where the path leaves the current triangle within (ta, tb] (edge_of = -1: it stays). Edge by
+// edge: a sign change of phi_k (at the end, or halfway for a path that left and came back) is
+// located with the Illinois method; an edge the path starts on (phi_k(ta) >= 0, up to rounding)
+// is the one it came in by when it moves inward, an exit at once when it moves outward (a corner).
+GroundMotion::Exit GroundMotion::find_exit(double ta, double tb) const {
+  Exit best{tb, -1};
+  const Vec3 pa = pos(ta), pb = pos(tb), pm = pos(0.5 * (ta + tb));
+  const Vec3 va = vel(ta);
+  for (int k = 0; k < 3; ++k) {
+    const auto phi = [&](double t) { return edges_.phi_k(k, pos(t)); };
+    const double fa = edges_.phi_k(k, pa), fb = edges_.phi_k(k, pb), fm = edges_.phi_k(k, pm);
+    double lo = ta, f_lo = fa, hi, f_hi;
+    if (fa >= 0.0) {
+      if (edges_.rate_k(k, va) > 0.0) return {ta, k};  // leaving through it right away
+      if (!(fm < 0.0 && fb > 0.0)) continue;  // the way in; it does not come back to it
+      lo = 0.5 * (ta + tb);
+      f_lo = fm;
+      hi = tb;
+      f_hi = fb;
+    } else if (fm > 0.0) {
+      hi = 0.5 * (ta + tb);
+      f_hi = fm;
+    } else if (fb > 0.0) {
+      hi = tb;
+      f_hi = fb;
+    } else {
+      continue;
+    }
+    if (!(lo < best.t)) continue;
+    const double t_x = illinois(phi, lo, hi, f_lo, f_hi, 1e-13).hi;
+    if (t_x < best.t || best.edge < 0) best = {t_x, k};
+  }
+  return best;
+}
+
+// The accepted step, walked triangle by triangle: a step may cross edges between coplanar
+// triangles (a plane terrain) without a restart; at the first edge to a plane of another slope it
+// is cut (on the dense output) and the edge event handled.
+Next GroundMotion::walk_face_step() {
+  double ta = ode_.t_prev();
+  const double tb = ode_.t();
+  Vec3 pa = p_, va = v_;
+  for (;;) {
+    Exit ex = find_exit(ta, tb);
+    if (ex.edge < 0) {
+      const Vec3 pb = pos(tb), vb = vel(tb), wb = w_at(tb);
+      set_state(tb, pb, vb, wb);
+      return emit(ta, pa, va, tb, pb, vb, wb) ? finish(GroundEnd::kStoppedByObserver)
+                                              : Next::kContinue;
+    }
+    // At least a nudge of progress past an edge (rounding can leave an edge point a hair
+    // inside its triangle).
+    const double speed = va.norm();
+    if (speed > 0.0) ex.t = std::min(tb, std::max(ex.t, ta + nudge_m_ / speed));
+    const int k = ex.edge;
+    const Vec3 px = pos(ex.t), vx = vel(ex.t), wx = w_at(ex.t);
+    set_state(ex.t, px, vx, wx);
+    if (emit(ta, pa, va, ex.t, px, vx, wx)) return finish(GroundEnd::kStoppedByObserver);
+    std::int64_t next = edges_.across[k];
+    if (next == -2) next = triangle_beyond(px, vx);
+    if (next < 0) return finish(GroundEnd::kLeftSite);
+    const auto t2 = static_cast<std::uint32_t>(next);
+    obs_.prefetch(t2);
+    site_.prefetch_terrain_triangle(t2);
+    const Vec3& n2 = site_.terrain_triangle_normal(t2);
+    if ((n2 - contact_.n).squaredNorm() > 1e-24) return cross_edge(t2, edges_.from[k], edges_.to[k]);
+    // Coplanar: the same law continues; walk on with the same step.
+    contact_.tri = t2;
+    edges_ = edges_of(t2);
+    ta = ex.t;
+    pa = px;
+    va = vx;
+    if (!(ta < tb)) return Next::kContinue;
+  }
+}
+
+// Crease mode: the centre moves along the edge line; the event is reaching its end.
+Next GroundMotion::walk_crease_step() {
+  const double ta = ode_.t_prev(), tb = ode_.t();
+  const Vec3 pa = p_, va = v_;
+  const Contact& c = contact_;
+  // Moving toward to_v (e oriented with the motion at entry) or back toward from_v.
+  const bool forward = (va.norm() > 0.0 ? va.dot(c.e) : vel(tb).dot(c.e)) >= 0.0;
+  const Vec3 end = forward ? c.to_v : c.from_v;
+  const double sign = forward ? 1.0 : -1.0;
+  const auto psi = [&](double t) { return sign * (pos(t) - end).dot(c.e); };
+  const double f_b = psi(tb);
+  if (!(f_b > 0.0)) {
+    const Vec3 pb = pos(tb), vb = vel(tb), wb = w_at(tb);
+    set_state(tb, pb, vb, wb);
+    return emit(ta, pa, va, tb, pb, vb, wb) ? finish(GroundEnd::kStoppedByObserver)
+                                            : Next::kContinue;
+  }
+  const double f_a = std::min(0.0, psi(ta));
+  const double t_x = f_a == 0.0 ? ta : illinois(psi, ta, tb, f_a, f_b, 1e-13).hi;
+  const Vec3 px = pos(t_x), vx = vel(t_x), wx = w_at(t_x);
+  set_state(t_x, px, vx, wx);
+  if (emit(ta, pa, va, t_x, px, vx, wx)) return finish(GroundEnd::kStoppedByObserver);
+  return arrive_at_vertex(forward ? c.to_id : c.from_id);
+}
+
+// After a step that stayed on its contact: the air lifting the body off, a contact point that
+// stopped slipping, the centre stopping, the time limit.
+Next GroundMotion::after_step() {
+  const Vec3 a_ext = air_.acceleration(p_, v_);
+  if (!contact_.crease) {
+    if (a_ext.dot(contact_.n) > 0.0) return take_off(contact_.tri, v_, omega_of(w_));
+  } else {
+    const Vec2 loads = crease_loads(contact_, a_ext);
+    if (loads.x() < 0.0 || loads.y() < 0.0) {  // one plane lets go: on the other alone
+      const std::uint32_t keep = loads.x() < 0.0 ? contact_.other : contact_.tri;
+      if (loads.x() < 0.0 && loads.y() < 0.0) return take_off(contact_.tri, v_, omega_of(w_));
+      return enter_face(keep, p_, v_, omega_of(w_));
+    }
+  }
+  if (t_ >= set_.t_max_s) return finish(GroundEnd::kMaxTime);
+  const GVec& y0 = ode_.y_prev();
+  if (slipping()) return after_slip_step(y0);
+  // G10: the friction direction flips where the centre stops: near it (or past it, reversed),
+  // stop, then rest or restart.
+  const Vec3 v0 = y0.segment<3>(3);
+  const double s0 = v0.norm(), s1 = v_.norm();
+  if (!(s0 > 0.0)) return Next::kContinue;
+  const double dec1 = s1 > 0.0 ? -ode_.dy().segment<3>(3).dot(v_) / s1 : 0.0;
+  if (v_.dot(v0) <= 0.0 && s1 <= 0.1 * s0) return stop_or_restart(0.0);  // just past the stop
+  const bool near_stop = s1 <= 1e-3 * s0 || (dec1 > 0.0 && s1 * s1 < 2.0 * dec1 * kRestTravel_m);
+  // The last hair of the way at the present deceleration, in closed form.
+  if (near_stop) return stop_or_restart(dec1 > 0.0 ? s1 / dec1 : 0.0);
+  return Next::kContinue;
+}
+
+// Has x reached zero over the last step (x0 -> x1): past it, or near it (a straight approach: the
+// step was capped at the predicted zero; a curved one: the integrator closes in geometrically, so
+// also once x is negligible against `scale`)?
+bool reached_zero(const Vec3& x0, const Vec3& x1, double scale) {
+  const double s1 = x1.norm();
+  const double s0 = x0.norm();
+  // Reversed and small: past a zero (reversed but still large: the step turned it round).
+  if (x1.dot(x0) <= 0.0 && s1 <= 0.1 * s0) return true;
+  return s1 <= 1e-3 * s0 || s1 <= kSlipEnd_rel * scale + 1e-12;
+}
+
+// A slipping ball (G4) has two kinks: the slip reaching zero (it sticks, G7: then it rolls, or
+// slips on if rolling cannot be held) and its rolling spin reaching zero while it skids (the
+// rolling resistance then holds the spin at zero, statically).
+Next GroundMotion::after_slip_step(const GVec& y0) {
+  const Vec3& n = contact_.n;
+  const Vec3 v0 = y0.segment<3>(3), w0 = y0.segment<3>(6);
+  const Vec3 u0 = v0 - w0.cross(n), u1 = v_ - w_.cross(n);
+  const Vec3 r0 = w0 - w0.dot(n) * n, r1 = w_ - w_.dot(n) * n;
+  if (r0.squaredNorm() > 0.0 && reached_zero(r0, r1, v_.norm())) {
+    w_ -= r1;  // the ball stops turning (dissipative)
+    restart_integrator(p_, v_, w_);
+  } else if (reached_zero(u0, u1, v_.norm() + w_.norm())) {
+    settle_rolling_or_slipping();  // sticks exactly (dissipative), then rolls or slips on
+    restart_integrator(p_, v_, w_);
+  }
+  return Next::kContinue;
+}
+
+// The centre has stopped (G10), `residual_dt` after the current state at its present
+// deceleration: rest where static friction holds it, else start again from rest along the pull.
+Next GroundMotion::stop_or_restart(double residual_dt) {
+  t_ += residual_dt;
+  p_ += 0.5 * residual_dt * v_;
+  v_.setZero();
+  if (res_.round) w_ = contact_.crease ? Vec3::Zero() : Vec3(w_.dot(contact_.n) * contact_.n);
+  const Vec3 a_ext = air_.acceleration(p_, v_);
+  double drive, cap;
+  if (contact_.crease) {
+    const Vec2 loads = crease_loads(contact_, a_ext);
+    drive = std::abs(a_ext.dot(contact_.e));
+    cap = (res_.round ? res_.mu_r : res_.mu) * (std::max(0.0, loads.x()) + std::max(0.0, loads.y()));
+  } else {
+    const PlaneLoad load = plane_load(a_ext, contact_.n);
+    drive = load.at.norm();
+    cap = (res_.round ? res_.mu_r : res_.mu) * load.nl;
+  }
+  if (drive <= cap) return finish(GroundEnd::kRest);
+  if (!contact_.crease) {
+    const Next n = settle_in_contact_set();
+    if (n != Next::kNoChange) return n;
+    if (res_.round) settle_rolling_or_slipping();
+  }
+  restart_integrator(p_, v_, w_);
+  return Next::kContinue;
+}
+
+// A slow body on a face whose bounding sphere reaches over a pit vertex or a concave edge of its
+// triangle touches those planes as well: its contact set is more than one plane (G10). At a
+// local minimum of the terrain it rests (gravity lies in the cone of the normals around it); on
+// a crease it rests if friction on both planes holds it along the crease line, else it slides
+// along that line (crease mode). kNoChange: one plane is all it touches.
+Next GroundMotion::settle_in_contact_set() {
+  const double reach = fragments::bounding_radius(body_.shape);
+  const Vec2 p(p_.x(), p_.y());
+  const auto& vs = site_.terrain_vertices();
+  for (int k = 0; k < 3; ++k) {
+    const Vec3& q = vs[edges_.from[k]];
+    if ((Vec2(q.x(), q.y()) - p).norm() <= reach && vertex_is_local_min(edges_.from[k]))
+      return finish(GroundEnd::kRest);
+  }
+  const Vec3 a_ext = air_.acceleration(p_, Vec3::Zero());
+  for (int k = 0; k < 3; ++k) {
+    if (-edges_.phi_k(k, p_) > reach) continue;  // the edge's line is out of reach
+    const Vec3 &a = vs[edges_.from[k]], &b = vs[edges_.to[k]];
+    const Vec2 mid(0.5 * (a.x() + b.x()), 0.5 * (a.y() + b.y()));
+    std::int64_t other = edges_.across[k];
+    if (other == -2) {
+      const Vec2 out = mid + nudge_m_ * edges_.normal[k];
+      other = site_.terrain_triangle_at(out.x(), out.y());
+    }
+    if (other < 0) continue;
+    const auto t2 = static_cast<std::uint32_t>(other);
+    const Vec3& n2 = site_.terrain_triangle_normal(t2);
+    const Vec3 m(edges_.normal[k].x(), edges_.normal[k].y(), 0.0);  // across the edge, outward
+    if (!(-n2.dot(m) / n2.z() > -contact_.n.dot(m) / contact_.n.z())) continue;  // not a valley
+    Contact c;
+    c.crease = true;
+    c.n1 = contact_.n;
+    c.n2 = n2;
+    c.e = (b - a).normalized();
+    const Vec2 loads = crease_loads(c, a_ext);
+    if (!(loads.x() > 0.0 && loads.y() > 0.0)) continue;  // pressed into one plane only
+    const double cap = (res_.round ? res_.mu_r : res_.mu) * (loads.x() + loads.y());
+    if (std::abs(a_ext.dot(c.e)) <= cap) return finish(GroundEnd::kRest);
+    return enter_crease(contact_.tri, t2, edges_.from[k], edges_.to[k], p_, v_, w_);
+  }
+  return Next::kNoChange;
+}
+
+// ---- events at edges and vertices ----
+
+// The triangle just beyond p along the horizontal direction of dir (-1: off the terrain).
+std::int64_t GroundMotion::triangle_beyond(const Vec3& p, const Vec3& dir) const {
+  Vec2 d(dir.x(), dir.y());
+  const double dn = d.norm();
+  if (!(dn > 0.0)) return site_.terrain_triangle_at(p.x(), p.y());
+  d *= nudge_m_ / dn;
+  return site_.terrain_triangle_at(p.x() + d.x(), p.y() + d.y());
+}
+
+// The centre reached the edge from_id-to_id into triangle `next` (of another slope), moving
+// with v_ along the current plane (G11).
+Next GroundMotion::cross_edge(std::uint32_t next, std::uint32_t from_id, std::uint32_t to_id) {
+  const Vec3& n2 = site_.terrain_triangle_normal(next);
+  const double vn = v_.dot(n2);
+  const Vec3 omega = omega_of(w_);
+  if (vn > 0.0) {  // convex: the next plane falls away
+    if (vn >= set_.takeoff_speed_mps) return take_off(next, v_, omega);
+    // A hop too short to fly: contracted into its landing, whose normal speed it mirrors.
+    return edge_impact(next, v_ - 2.0 * vn * n2, false, from_id, to_id);
+  }
+  if (vn < 0.0) return edge_impact(next, v_, true, from_id, to_id);
+  return enter_face(next, p_, v_, omega);
+}
+
+// An impulse on the plane of `next` at the current point (G12; bounce.h), then on.
+Next GroundMotion::edge_impact(std::uint32_t next, const Vec3& v_in, bool concave,
+                               std::uint32_t from_id, std::uint32_t to_id) {
+  const Vec3& n2 = site_.terrain_triangle_normal(next);
+  const Vec3 omega_in = omega_of(w_);
+  const TerrainBounce b = bounce_on_terrain(body_.shape, body_.mass_kg, body_.attitude, v_in,
+                                            omega_in, n2, material_, body_.flat_tol_m);
+  const Vec3 v_out = b.collision.impact ? b.collision.velocity_mps : v_in;
+  const Vec3 w_out = b.collision.impact ? b.collision.omega_radps : omega_in;
+  ++r_.impacts;
+  obs_.on_impact({t_, p_, v_in, v_out, omega_in, w_out, next});
+  if (v_out.dot(n2) >= set_.takeoff_speed_mps) return take_off(next, v_out, w_out);
+  const Vec3 v2 = v_out - v_out.dot(n2) * n2;
+  const Vec3 w2 = res_.round ? w_out : Vec3::Zero();
+  if (concave && captured_in_crease(next, from_id, to_id, v2))
+    return enter_crease(contact_.tri, next, from_id, to_id, p_, v2, radius_m_ * w2);
+  return enter_face(next, p_, v2, w2);
+}
+
+// After an impact on the far side of a concave edge: would the body climb the new plane by less
+// than kCaptureHeight_m before gravity brings it back (or is it heading back already)? Then it
+// is held in the crease (G8) instead of chattering across it.
+bool GroundMotion::captured_in_crease(std::uint32_t next, std::uint32_t from_id,
+                                      std::uint32_t to_id, const Vec3& v2) const {
+  const auto& vs = site_.terrain_vertices();
+  const Vec3& n2 = site_.terrain_triangle_normal(next);
+  const Vec3 e = (vs[to_id] - vs[from_id]).normalized();
+  Vec3 m = n2.cross(e);  // in the next plane, across the edge
+  const auto& ids = site_.terrain_triangles()[next];
+  const Vec3 centroid = (vs[ids[0]] + vs[ids[1]] + vs[ids[2]]) / 3.0;
+  if (m.dot(centroid - vs[from_id]) < 0.0) m = -m;  // away from the edge, into `next`
+  const double v_away = v2.dot(m);
+  if (v_away <= 0.0) return true;
+  // Pulled back toward the edge on the new plane (it rises away from a concave edge), and slow.
+  const PlaneLoad load = plane_load(air_.acceleration(p_, v2), n2);
+  return load.at.dot(m) < 0.0 && v_away * v_away < 2.0 * g_ * kCaptureHeight_m;
+}
+
+// The centre reached the end of its crease edge (G9).
+Next GroundMotion::arrive_at_vertex(std::uint32_t vertex) {
+  const double s2 = v_.squaredNorm();
+  if (s2 < 2.0 * g_ * kCaptureHeight_m && vertex_is_local_min(vertex)) {
+    return finish(GroundEnd::kRest);  // a pit: every way out climbs more than it can
+  }
+  const std::int64_t next = triangle_beyond(p_, v_);
+  if (next < 0) return finish(GroundEnd::kLeftSite);
+  const auto t3 = static_cast<std::uint32_t>(next);
+  const Vec3& n3 = site_.terrain_triangle_normal(t3);
+  const double vn = v_.dot(n3);
+  const Vec3 omega = omega_of(w_);
+  if (vn >= set_.takeoff_speed_mps) return take_off(t3, v_, omega);
+  if (vn != 0.0) {
+    // Onto the next plane through an impulse (a contracted hop when it falls away).
+    const Vec3 v_in = vn > 0.0 ? Vec3(v_ - 2.0 * vn * n3) : v_;
+    const TerrainBounce b = bounce_on_terrain(body_.shape, body_.mass_kg, body_.attitude, v_in,
+                                              omega, n3, material_, body_.flat_tol_m);
+    const Vec3 v_out = b.collision.impact ? b.collision.velocity_mps : v_in;
+    const Vec3 w_out = b.collision.impact ? b.collision.omega_radps : omega;
+    ++r_.impacts;
+    obs_.on_impact({t_, p_, v_in, v_out, omega, w_out, t3});
+    if (v_out.dot(n3) >= set_.takeoff_speed_mps) return take_off(t3, v_out, w_out);
+    return enter_face(t3, p_, v_out - v_out.dot(n3) * n3, res_.round ? w_out : Vec3::Zero());
+  }
+  return enter_face(t3, p_, v_, omega);
+}
+
+// Is terrain vertex `vertex` a local minimum (no neighbour lower)? Then gravity lies in the cone
+// of the normals around it and the body rests there without friction.
+bool GroundMotion::vertex_is_local_min(std::uint32_t vertex) const {
+  const auto& vs = site_.terrain_vertices();
+  const double z = vs[vertex].z();
+  bool lower = false;
+  const auto check = [&](std::uint32_t tri) {
+    const auto& ids = site_.terrain_triangles()[tri];
+    if (ids[0] != vertex && ids[1] != vertex && ids[2] != vertex) return;
+    for (const auto id : ids)
+      if (vs[id].z() < z) lower = true;
+  };
+  // Every triangle touching the vertex is in a bucket that contains a point just around it.
+  const double d = 4.0 * nudge_m_;
+  const Vec3& p = vs[vertex];
+  for (int sx = -1; sx <= 1; sx += 2)
+    for (int sy = -1; sy <= 1; sy += 2)
+      site_.terrain_index().for_each_candidate_at(Vec2(p.x() + sx * d, p.y() + sy * d), check);
+  return !lower;
+}
+
+}  // namespace
+
+GroundResult move_on_ground(const scene::Site& site, const flight::FlightModel& air,
+                            const GroundBody& body, const GroundSettings& settings,
+                            const GroundState& start, GroundObserver& observer) {
+  GroundMotion m(site, air, body, settings, observer);
+  return m.run(start);
+}
+
+}  // namespace fragsim::impact

@@ -1,0 +1,299 @@
+// The flight phase of a history (history_impl.h): integrator steps, cut into chords; each chord
+// queried against the site (or skipped), a hit refined on the interpolant, the body's own
+// contact with the terrain (bounce mode), the PTN tally along the chord.
+#include <algorithm>
+#include <cmath>
+
+#include "core/common/roots.h"
+#include "core/impact/contacts.h"
+#include "core/run/history_impl.h"
+
+namespace fragsim::run::detail {
+
+FlightEvent History::fly() {
+  flight::TrajectoryIntegrator integ(model_, st_.rtol);
+  integ.reset(state_.t, state_.p, state_.v);
+  scene::BuildingProximity near_buildings(site_);
+  FlightStep s;
+  s.p1 = state_.p;
+  s.v1 = state_.v;
+  s.a1 = model_.acceleration(s.p1, s.v1);
+  FlightEvent ev;
+  for (;;) {
+    if (!flight_step(integ, s, ev)) break;
+    bool done = examine_step(integ, s, near_buildings, ev);
+    if (!done) done = catch_slip_through(integ, s, ev);
+    // Trajectory record: the step's end, or where it was cut short (time stays increasing
+    // across bounces, and no point lies past a contact).
+    record_point(done ? ev.t : s.t1, done ? ev.p : s.p1, done ? ev.v : s.v1, TrajectoryEvent::kFlight);
+    if (done) break;
+    if (!site_.terrain_bounds().contains_xy(s.p1.x(), s.p1.y())) {
+      ev = {FlightEnd::kLeftSite, s.t1, s.p1, s.v1};
+      break;
+    }
+    if (can_never_matter(s.p1, s.v1, segment_rot_ke_j_)) {
+      ev = {FlightEnd::kHarmless, s.t1, s.p1, s.v1};
+      break;
+    }
+  }
+  out_.stats.rhs_evaluations += integ.rhs_evaluations();
+  return ev;
+}
+
+// One accepted integrator step; false (with the event) when the flight cannot go on: the time
+// limit, or a step size underflow.
+bool History::flight_step(flight::TrajectoryIntegrator& integ, FlightStep& s, FlightEvent& ev) {
+  bool ok;
+  {
+    SectionTimer timer(prof_, out_.integration_s);
+    ok = integ.step(st_.max_flight_time_s);
+  }
+  if (!ok) {
+    ev.end = integ.t() >= st_.max_flight_time_s ? FlightEnd::kMaxTime : FlightEnd::kIntegrationFailed;
+    ev.t = integ.t();
+    ev.p = integ.position();
+    ev.v = integ.velocity();
+    return false;
+  }
+  ++out_.stats.integrator_steps;
+  s.t0 = integ.t_prev();
+  s.p0 = s.p1;
+  s.v0 = s.v1;
+  s.a0 = s.a1;
+  s.t1 = integ.t();
+  s.p1 = integ.position();
+  s.v1 = integ.velocity();
+  s.a1 = integ.acceleration();
+  return true;
+}
+
+// The step's chords, each examined in turn until one ends the flight. Under gravity and drag in
+// still or sinking air z(t) has no interior minimum within a step (z'' = -g - k|v_rel| (v_z -
+// w_z) < 0 where v_z = 0 and w_z <= 0), so the step's lowest point is one of its ends and steps
+// above everything are free. An updraft (w_z > 0) can make z'' > 0 at rest: then every step is
+// examined.
+bool History::examine_step(const flight::TrajectoryIntegrator& integ, const FlightStep& s,
+                           scene::BuildingProximity& near_buildings, FlightEvent& ev) {
+  // With a finite body the terrain is met up to one bounding radius before the centre's path
+  // reaches it: steps and chords that low are examined.
+  const double top_z = ctx_.top_z + radius_m_;
+  if (ctx_.step_min_at_ends && std::min(s.p0.z(), s.p1.z()) > top_z) return false;
+  // Curvature at both ends and in the middle (an apex inside the step is where it peaks).
+  const double tm = 0.5 * (s.t0 + s.t1);
+  const Vec3 vm = integ.velocity(tm);
+  const double kappa = std::max({impact::path_curvature(s.v0, s.a0), impact::path_curvature(s.v1, s.a1),
+                                 impact::path_curvature(vm, model_.acceleration(integ.position(tm), vm))});
+  const int n = impact::chord_count((s.p1 - s.p0).norm(), kappa, st_.sagitta_m);
+  // In still air drag only removes mechanical energy, and a chord's lowest point is one of its
+  // ends, so no point of a chord has more kinetic energy than E(t0) - m g z_min: a chord below
+  // the hazardous energy by that bound needs no PTN walk.
+  const double e_step = 0.5 * mass_ * s.v0.squaredNorm() + mass_ * g_ * s.p0.z();
+  out_.stats.chords += n;
+  Vec3 pa = s.p0;
+  double ta = s.t0;
+  for (int k = 1; k <= n; ++k) {
+    const double tb = (k == n) ? s.t1 : s.t0 + (s.t1 - s.t0) * k / n;
+    const Vec3 pb = (k == n) ? s.p1 : integ.position(tb);
+    if (std::min(pa.z(), pb.z()) > top_z) {
+      ++out_.stats.chords_skipped;
+    } else if (examine_chord(integ, s, ta, tb, pa, pb, e_step, near_buildings, ev)) {
+      return true;
+    }
+    pa = pb;
+    ta = tb;
+  }
+  return false;
+}
+
+// One chord [ta, tb]: the scene query for the centre's path, the body's contact with the
+// terrain, whichever comes first ends the flight; the PTN tally up to there.
+bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const FlightStep& s,
+                            double ta, double tb, const Vec3& pa, const Vec3& pb, double e_step,
+                            scene::BuildingProximity& near_buildings, FlightEvent& ev) {
+  const double zlo = std::min(pa.z(), pb.z());
+  const std::optional<scene::SceneHit> hit = query_chord(pa, pb, near_buildings);
+  const double t_hit = hit ? refine_hit(integ, s, *hit, ta, tb, pa, pb) : tb;
+  // A finite body touches the terrain before its centre gets there.
+  std::optional<FlightEvent> touch;
+  if (st_.bounce && radius_m_ > 0.0 && zlo <= ctx_.terrain_max_z + radius_m_) {
+    SectionTimer timer(prof_, out_.geometry_s);
+    touch = body_terrain_contact(integ, ta, t_hit,
+                                 hit && hit->terrain ? static_cast<std::int64_t>(hit->triangle) : -1);
+  }
+  double s_end = 1.0;  // the path for the PTN tally: the chord, up to the contact
+  if (touch) {
+    ev = *touch;
+    s_end = tb > ta ? std::clamp((touch->t - ta) / (tb - ta), 0.0, 1.0) : 0.0;
+  } else if (hit) {
+    ev.t = t_hit;
+    ev.p = integ.position(t_hit);
+    ev.v = integ.velocity(t_hit);
+    ev.normal = hit->normal;
+    ev.triangle = hit->triangle;
+    ev.material = hit->material;
+    ev.end = hit->terrain ? FlightEnd::kTerrain : FlightEnd::kBuilding;
+    ev.building = hit->building;
+    ev.surface = hit->surface;
+    s_end = std::min(hit->t, 1.0);
+  }
+  const bool may_be_hazardous = !ctx_.still_air || !ctx_.step_min_at_ends ||
+                                e_step - mass_ * g_ * zlo >= st_.hazardous_ke_j;
+  if (may_be_hazardous) {
+    add_ptn_segment(pa, pa + s_end * (pb - pa),
+                    [&](double u) { return integ.velocity(ta + u * s_end * (tb - ta)); });
+  }
+  return touch || hit;
+}
+
+// The scene query for the chord's straight segment, with the parts of the scene it can reach.
+// A surface met from behind (moving away from it) is where the path starts on it, e.g. a
+// launch from ground level or a bounce: looked past (at most a few surfaces meet at a point).
+std::optional<scene::SceneHit> History::query_chord(const Vec3& pa, const Vec3& pb,
+                                                    scene::BuildingProximity& near_buildings) {
+  unsigned mask = 0;
+  if (std::min(pa.z(), pb.z()) <= ctx_.terrain_max_z) mask |= scene::kQueryTerrain;
+  if (near_buildings.maybe_near(pa, pb) && site_.segment_near_buildings(pa, pb))
+    mask |= scene::kQueryBuildings;
+  if (mask == 0) return std::nullopt;
+  SectionTimer timer(prof_, out_.geometry_s);
+  ++out_.stats.scene_queries;
+  // tfar slightly beyond 1: a hit exactly at a chord junction is never lost.
+  const Vec3 d = pb - pa;
+  double tnear = 0.0;
+  std::optional<scene::SceneHit> hit = site_.intersect(pa, d, tnear, 1.0 + 1e-7, mask);
+  for (int skip = 0; hit && hit->normal.dot(d) >= 0.0 && skip < 4; ++skip) {
+    tnear = hit->t + 1e-9;
+    hit = site_.intersect(pa, d, tnear, 1.0 + 1e-7, mask);
+  }
+  if (hit && hit->normal.dot(d) >= 0.0) hit.reset();
+  return hit;
+}
+
+// The centre's path meets a surface: the crossing refined on the interpolant against the hit
+// triangle's plane (the chord hit point is on that plane), bracketed within the chord, else the
+// step; an arc that only skims the plane keeps the chord's hit.
+double History::refine_hit(const flight::TrajectoryIntegrator& integ, const FlightStep& s,
+                           const scene::SceneHit& hit, double ta, double tb, const Vec3& pa,
+                           const Vec3& pb) const {
+  const Vec3 q = pa + hit.t * (pb - pa);
+  const auto pos = [&](double t) { return integ.position(t); };
+  double th = impact::refine_plane_crossing(pos, hit.normal, q, ta, tb);
+  if (std::isnan(th)) th = impact::refine_plane_crossing(pos, hit.normal, q, s.t0, s.t1);
+  if (std::isnan(th)) th = ta + hit.t * (tb - ta);
+  return th;
+}
+
+// A path that slipped through the terrain (e.g. exactly through a shared vertex in float
+// precision) is caught at the step's end and its crossing located on the interpolant.
+bool History::catch_slip_through(const flight::TrajectoryIntegrator& integ, const FlightStep& s,
+                                 FlightEvent& ev) const {
+  if (site_.terrain_is_plane() || s.p1.z() > ctx_.terrain_max_z) return false;
+  const double h1 = site_.terrain_height(s.p1.x(), s.p1.y());
+  if (std::isnan(h1) || !(s.p1.z() < h1 - 1e-6)) return false;
+  double lo = s.t0, hi = s.t1;
+  for (int it = 0; it < 60; ++it) {  // bisection: the height function has kinks at edges
+    const double t_mid = 0.5 * (lo + hi);
+    const Vec3 pm = integ.position(t_mid);
+    const double hm = site_.terrain_height(pm.x(), pm.y());
+    if (std::isnan(hm) || pm.z() >= hm) lo = t_mid; else hi = t_mid;
+  }
+  ev.end = FlightEnd::kTerrain;
+  ev.t = hi;
+  ev.p = integ.position(hi);
+  ev.v = integ.velocity(hi);
+  const std::int64_t tri = site_.terrain_triangle_at(ev.p.x(), ev.p.y());
+  ev.triangle = tri < 0 ? 0u : static_cast<std::uint32_t>(tri);
+  ev.normal = tri < 0 ? Vec3::UnitZ() : site_.terrain_triangle_normal(ev.triangle);
+  ev.material = site_.terrain_material();
+  return true;
+}
+
+// ---- the body's contact with the terrain (bounce mode) ----
+
+// Is the body's lowest point on triangle `tri` moving into its plane at time t?
+bool History::contact_approaching(const flight::TrajectoryIntegrator& integ, std::uint32_t tri,
+                                  double t) const {
+  const Vec3& n = site_.terrain_triangle_normal(tri);
+  const flight::RotationState s = rotation(t);
+  const Quat q = s.q.normalized();
+  const Vec3 r = fragments::contact_point(body_, q, n, flat_tol_m_);
+  return (integ.velocity(t) + (q * s.omega_body).cross(r)).dot(n) < 0.0;
+}
+
+// Signed clearance of the body from the plane of terrain triangle `tri` at time t: the centre's
+// height above the plane along its normal minus the body's reach toward it (support function).
+// <= 0: touching or overlapping. Farther than one bounding radius the sign is known without the
+// attitude: the bound (distance - radius, also > 0) is returned instead, which leaves every sign
+// unchanged.
+double History::clearance(const flight::TrajectoryIntegrator& integ, std::uint32_t tri,
+                          double t) const {
+  const Vec3& n = site_.terrain_triangle_normal(tri);
+  const Vec3& v0 = site_.terrain_vertices()[site_.terrain_triangles()[tri][0]];
+  const double d = n.dot(integ.position(t) - v0);
+  if (d > radius_m_) return d - radius_m_;
+  return d - fragments::support_extent(body_, attitude(t), -n);
+}
+
+// The first time in [ta, tb] at which the body touches the plane of `tri` while approaching it
+// (clearance falls from > 0 to <= 0), or NaN. Sampled at a few points, then refined.
+double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint32_t tri,
+                            double ta, double tb) const {
+  constexpr int kSamples = 4;
+  rot_.advance_base(ta);
+  double t_prev = ta;
+  double g_prev = clearance(integ, tri, ta);
+  const auto g = [&](double t) { return clearance(integ, tri, t); };
+  for (int k = 1; k <= kSamples; ++k) {
+    const double t = (k == kSamples) ? tb : ta + (tb - ta) * k / kSamples;
+    const double gk = g(t);
+    if (gk <= 0.0) {
+      // The side that touches (clearance <= 0): the bracket's end on or after the root.
+      if (g_prev > 0.0) return illinois(g, t_prev, t, g_prev, gk, 1e-13, 60).hi;
+      // Already touching at the start of this sample interval. Right after a bounce or a
+      // take-off the body sits on the plane and is leaving it: look further. Otherwise
+      // (touching and approaching) the contact is now.
+      if (k == 1 && t_prev > rot_.start_time() && contact_approaching(integ, tri, t_prev)) return t_prev;
+    }
+    t_prev = t;
+    g_prev = gk;
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+// Body contact with the terrain within [ta, tb]. The contact plane: the terrain triangle under
+// the centre at the chord's end (or the one its path crossed), then the triangle under the
+// contact point if that differs (a contact that moves onto a neighbouring triangle), at most
+// twice.
+std::optional<FlightEvent> History::body_terrain_contact(const flight::TrajectoryIntegrator& integ,
+                                                         double ta, double tb,
+                                                         std::int64_t hint) const {
+  std::int64_t tri = hint;
+  if (tri < 0) {
+    const Vec3 pb = integ.position(tb);
+    tri = site_.terrain_triangle_at(pb.x(), pb.y());
+  }
+  if (tri < 0) return std::nullopt;
+  double tc = first_touch(integ, static_cast<std::uint32_t>(tri), ta, tb);
+  for (int pass = 0; pass < 2 && !std::isnan(tc); ++pass) {
+    const Vec3& n = site_.terrain_triangle_normal(static_cast<std::uint32_t>(tri));
+    const Vec3 c = integ.position(tc) + fragments::contact_point(body_, attitude(tc), n, flat_tol_m_);
+    const std::int64_t under = site_.terrain_triangle_at(c.x(), c.y());
+    if (under < 0 || under == tri) break;
+    const double t2 = first_touch(integ, static_cast<std::uint32_t>(under), ta, tb);
+    if (std::isnan(t2)) break;  // the neighbour's plane is not reached: keep the first
+    tri = under;
+    tc = t2;
+  }
+  if (std::isnan(tc)) return std::nullopt;
+  FlightEvent ev;
+  ev.end = FlightEnd::kTerrain;
+  ev.t = tc;
+  ev.p = integ.position(tc);
+  ev.v = integ.velocity(tc);
+  ev.triangle = static_cast<std::uint32_t>(tri);
+  ev.normal = site_.terrain_triangle_normal(ev.triangle);
+  ev.material = site_.terrain_material();
+  return ev;
+}
+
+}  // namespace fragsim::run::detail

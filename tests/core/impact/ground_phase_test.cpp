@@ -1,0 +1,458 @@
+// The ground phase (core/impact/ground_phase.h) against closed forms: Coulomb sliding with and
+// without drag, slip-then-roll, rest below and sliding above the friction angle, edges (take-off,
+// impacts, creases), pits, and the energy that never rises. Tolerances are stated per test; the
+// integrator runs at rtol 1e-9 here unless the test says otherwise.
+#include "core/impact/ground_phase.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <random>
+#include <vector>
+
+#include "core/fragments/sampling.h"
+
+namespace fragsim::impact {
+namespace {
+
+constexpr double g = kStandardGravity_mps2;
+
+// A grid terrain z = slope * x over [-200, 200]^2 (10 m cells): one plane, many triangles.
+std::shared_ptr<const scene::Site> slope_site(double slope, double friction, double rolling) {
+  scene::SiteSpec spec;
+  scene::GridTerrainSpec grid;
+  grid.origin_m = {-200.0, -200.0};
+  grid.spacing_m = 10.0;
+  grid.nx = grid.ny = 41;
+  for (int j = 0; j < grid.ny; ++j)
+    for (int i = 0; i < grid.nx; ++i) grid.elevation_m.push_back(slope * (-200.0 + 10.0 * i));
+  spec.terrain.geometry = grid;
+  spec.terrain.material = "ground";
+  scene::MaterialSpec m;
+  m.friction = friction;
+  m.rolling_resistance = rolling;
+  spec.materials["ground"] = m;
+  return scene::Site::build(spec);
+}
+
+// A terrain given as a mesh z = f(x, y) sampled on a lattice over [-half, half]^2.
+std::shared_ptr<const scene::Site> mesh_site(double half, double cell,
+                                             const std::function<double(double, double)>& f,
+                                             const scene::MaterialSpec& m) {
+  scene::SiteSpec spec;
+  scene::MeshSpec mesh;
+  const int n = static_cast<int>(std::lround(2.0 * half / cell)) + 1;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const double x = -half + cell * i, y = -half + cell * j;
+      mesh.vertices_m.emplace_back(x, y, f(x, y));
+    }
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i) {
+      const std::int64_t v00 = j * n + i, v10 = v00 + 1, v01 = v00 + n, v11 = v01 + 1;
+      mesh.triangles.push_back({v00, v10, v11});
+      mesh.triangles.push_back({v00, v11, v01});
+    }
+  spec.terrain.geometry = mesh;
+  spec.terrain.material = "ground";
+  spec.materials["ground"] = m;
+  return scene::Site::build(spec);
+}
+
+scene::MaterialSpec material(double mu, double mu_r, double e) {
+  scene::MaterialSpec m;
+  m.friction = mu;
+  m.rolling_resistance = mu_r;
+  m.restitution.constant = e;
+  return m;
+}
+
+// Gravity, and drag with a constant density and Cd when cd > 0 (k = rho Cd A / 2m).
+struct Air {
+  flight::Atmosphere atmosphere;
+  flight::DragCoefficient cd;
+  flight::FlightModel model;
+  Air(double cd_value, double area_m2, double mass_kg)
+      : atmosphere([] {
+          flight::AtmosphereSpec a;
+          a.model = flight::AtmosphereSpec::Model::kConstant;
+          a.density_kg_m3 = 1.225;
+          return a;
+        }()),
+        cd([&] {
+          fragments::CdSpec c;
+          c.constant = cd_value;
+          return c;
+        }()) {
+    model.atmosphere = &atmosphere;
+    model.cd = &cd;
+    model.gravity_mps2 = g;
+    model.area_m2 = cd_value > 0.0 ? area_m2 : 0.0;
+    model.mass_kg = mass_kg;
+  }
+  double k() const { return 1.225 * cd.at_mach(0.0) * model.area_m2 / (2.0 * model.mass_kg); }
+};
+
+// Bodies: a flat steel plate 0.1 x 0.06 x 0.01 m (body axes = site axes: lies on its large
+// face), or a solid steel sphere of 5 cm diameter.
+GroundBody plate(const Quat& q = Quat::Identity()) {
+  fragments::ShapeSpec s;
+  s.type = fragments::ShapeType::kCuboid;
+  s.dims_m = {0.1, 0.06, 0.01};
+  const auto mp = fragments::mass_properties(s, 7850.0 * 0.1 * 0.06 * 0.01, std::nullopt);
+  GroundBody b;
+  b.shape = fragments::contact_body(s.type, mp);
+  b.mass_kg = mp.mass_kg;
+  b.attitude = q;
+  b.flat_tol_m = 1e-6 * fragments::bounding_radius(b.shape);
+  return b;
+}
+GroundBody sphere() {
+  fragments::ShapeSpec s;
+  s.type = fragments::ShapeType::kSphere;
+  s.dims_m = {0.05};
+  const auto mp = fragments::mass_properties(s, 7850.0 * kPi / 6.0 * 0.05 * 0.05 * 0.05, std::nullopt);
+  GroundBody b;
+  b.shape = fragments::contact_body(s.type, mp);
+  b.mass_kg = mp.mass_kg;
+  b.flat_tol_m = 1e-6 * fragments::bounding_radius(b.shape);
+  return b;
+}
+
+GroundSettings settings(double rtol = 1e-9) {
+  GroundSettings s;
+  s.t_max_s = 1000.0;
+  s.rtol = rtol;
+  return s;
+}
+
+// A start on the terrain at (x, y), velocity v (put along the plane by the ground phase).
+GroundState start_at(const scene::Site& site, const GroundBody& body, double x, double y,
+                     const Vec3& v, const Vec3& omega = Vec3::Zero()) {
+  GroundState s;
+  s.triangle = static_cast<std::uint32_t>(site.terrain_triangle_at(x, y));
+  const Vec3& n = site.terrain_triangle_normal(s.triangle);
+  s.position_m = Vec3(x, y, site.terrain_height(x, y) + ground_clearance(body, n) / n.z());
+  s.velocity_mps = v;
+  s.omega_radps = omega;
+  return s;
+}
+
+// Records everything the phase reports.
+class Recorder : public GroundObserver {
+ public:
+  bool on_segment(const GroundSegment& s) override {
+    segments.push_back(s);
+    return stop_after_m > 0.0 && (covered += (s.b - s.a).norm()) > stop_after_m;
+  }
+  void on_impact(const GroundImpact& i) override { impacts.push_back(i); }
+  std::vector<GroundSegment> segments;
+  std::vector<GroundImpact> impacts;
+  double stop_after_m = 0.0, covered = 0.0;
+};
+
+GroundResult run(const scene::Site& site, const Air& air, const GroundBody& body,
+                 const GroundState& s0, Recorder& rec, const GroundSettings& gs = settings()) {
+  return move_on_ground(site, air.model, body, gs, s0, rec);
+}
+
+// ---- level ground ----
+
+// Coulomb sliding without drag: stops after v0^2 / (2 mu g) in time v0 / (mu g) (1e-9).
+TEST(GroundPhase, SlideOnLevelGroundStopsAtTheCoulombDistance) {
+  const auto site = slope_site(0.0, 0.5, 0.1);
+  const GroundBody body = plate();
+  const Air air(0.0, 0.0, body.mass_kg);
+  const double v0 = 12.0, mu = 0.5;
+  const GroundState s0 = start_at(*site, body, 0.3, 0.7, Vec3(v0 * 0.6, v0 * 0.8, 0.0));
+  Recorder rec;
+  const GroundResult r = run(*site, air, body, s0, rec);
+  EXPECT_EQ(r.end, GroundEnd::kRest);
+  const double d = v0 * v0 / (2 * mu * g);
+  EXPECT_NEAR(r.path_m, d, 1e-9 * d);
+  EXPECT_NEAR((r.state.position_m - s0.position_m).norm(), d, 1e-9 * d);
+  EXPECT_NEAR(r.state.t_s, v0 / (mu * g), 1e-9);
+  EXPECT_NEAR(r.state.position_m.z(), s0.position_m.z(), 1e-12);  // at its clearance throughout
+  EXPECT_LT(r.steps, 60);  // a closed-form motion: few steps (edges of 10 m cells included)
+}
+
+// With drag (still air, constant rho and Cd): dv/dt = -mu g - k v^2, so
+//   distance = ln(1 + k v0^2 / (mu g)) / (2k),  time = atan(v0 sqrt(k / (mu g))) / sqrt(mu g k).
+TEST(GroundPhase, SlideWithDragOnLevelGroundFollowsTheClosedForm) {
+  const auto site = slope_site(0.0, 0.9, 0.1);
+  const GroundBody body = plate();
+  const Air air(1.2, 0.004, body.mass_kg);
+  const double k = air.k(), mu = 0.9;
+  for (const double v0 : {5.0, 50.0, 150.0}) {
+    const GroundState s0 = start_at(*site, body, -150.0, 0.35, Vec3(v0, 0.0, 0.0));
+    Recorder rec;
+    const GroundResult r = run(*site, air, body, s0, rec);
+    ASSERT_EQ(r.end, GroundEnd::kRest) << v0;
+    const double d = std::log(1.0 + k * v0 * v0 / (mu * g)) / (2.0 * k);
+    const double t = std::atan(v0 * std::sqrt(k / (mu * g))) / std::sqrt(mu * g * k);
+    // 1e-6 relative, and the rest rule's allowance (the last micrometre in closed form).
+    EXPECT_NEAR(r.path_m, d, 1e-6 * d + kRestTravel_m) << v0;
+    EXPECT_NEAR(r.state.t_s, t, 1e-6 * t) << v0;
+    EXPECT_NEAR(r.state.position_m.y(), 0.35, 1e-9);
+  }
+}
+
+// A sphere sliding without spin on level ground (no drag): Coulomb slip decelerates it at mu g
+// and spins it up at 5/2 mu g / R until v = omega R at t1 = 2 v0 / (7 mu g), v1 = 5/7 v0, after
+// 12 v0^2 / (49 mu g); then it rolls with rolling resistance at 5/7 mu_r g for
+// v1^2 / (2 * 5/7 mu_r g). (Textbook; e.g. Marion & Thornton, ex. 10.)
+TEST(GroundPhase, SphereSlipsThenRolls) {
+  const double mu = 0.4, mu_r = 0.05, v0 = 9.0;
+  const auto site = slope_site(0.0, mu, mu_r);
+  const GroundBody body = sphere();
+  const Air air(0.0, 0.0, body.mass_kg);
+  const GroundState s0 = start_at(*site, body, -100.0, 1.0, Vec3(v0, 0.0, 0.0));
+  Recorder rec;
+  const GroundResult r = run(*site, air, body, s0, rec);
+  ASSERT_EQ(r.end, GroundEnd::kRest);
+  const double slip = 12.0 * v0 * v0 / (49.0 * mu * g);
+  const double v1 = 5.0 / 7.0 * v0;
+  const double roll = v1 * v1 / (2.0 * 5.0 / 7.0 * mu_r * g);
+  EXPECT_NEAR(r.path_m, slip + roll, 1e-7 * (slip + roll));
+  const double t_total = 2.0 * v0 / (7.0 * mu * g) + v1 / (5.0 / 7.0 * mu_r * g);
+  EXPECT_NEAR(r.state.t_s, t_total, 1e-7 * t_total);
+  // The roll speed right after the slip: 5/7 v0 (the piece ending nearest t1).
+  const double t1 = 2.0 * v0 / (7.0 * mu * g);
+  double best = 1e9, v_at = 0.0;
+  for (const auto& sg : rec.segments)
+    if (std::abs(sg.tb - t1) < best) {
+      best = std::abs(sg.tb - t1);
+      v_at = sg.vb.norm();
+    }
+  EXPECT_LT(best, 1e-9);
+  EXPECT_NEAR(v_at, v1, 1e-7 * v1);
+}
+
+// ---- slopes ----
+
+// Above the friction angle (tan theta > mu), from rest: down the fall line with
+// a = g (sin theta - mu cos theta), no sideways drift.
+TEST(GroundPhase, SlidesDownTheFallLineAboveTheFrictionAngle) {
+  const double slope = 0.6, mu = 0.5;
+  const auto site = slope_site(slope, mu, 0.1);
+  const GroundBody body = plate(Quat(Eigen::AngleAxisd(-std::atan(slope), Vec3::UnitY())));
+  const Air air(0.0, 0.0, body.mass_kg);
+  const double th = std::atan(slope);
+  const double a = g * (std::sin(th) - mu * std::cos(th));
+  const GroundState s0 = start_at(*site, body, 150.0, 0.3, Vec3::Zero());
+  GroundSettings gs = settings();
+  const double T = 4.0;
+  gs.t_max_s = T;
+  Recorder rec;
+  const GroundResult r = run(*site, air, body, s0, rec, gs);
+  EXPECT_EQ(r.end, GroundEnd::kMaxTime);
+  EXPECT_NEAR(r.path_m, 0.5 * a * T * T, 1e-9 * 0.5 * a * T * T);
+  EXPECT_NEAR(r.state.position_m.y(), 0.3, 1e-9);  // no drift across the fall line
+  EXPECT_NEAR(r.state.velocity_mps.norm(), a * T, 1e-9 * a * T);
+}
+
+// Below the friction angle a body put down with a small velocity in any direction stops within
+// v^2 / (2 g (mu cos theta - sin theta)) (the least deceleration) and stays: no creep. From
+// 1 cm/s it moves less than 1 mm in the 10 s allowed.
+TEST(GroundPhase, RestsOnASlopeBelowTheFrictionAngle) {
+  const double mu = 0.5;
+  for (const double deg : {20.0, 25.0}) {
+    const double slope = std::tan(deg * kDegToRad);
+    const auto site = slope_site(slope, mu, 0.1);
+    const GroundBody body = plate(Quat(Eigen::AngleAxisd(-deg * kDegToRad, Vec3::UnitY())));
+    const Air air(0.0, 0.0, body.mass_kg);
+    const double th = deg * kDegToRad;
+    const double dec = g * (mu * std::cos(th) - std::sin(th));
+    for (int k = 0; k < 16; ++k) {
+      const double az = k * kPi / 4.0, speed = k < 8 ? 0.01 : 0.05;
+      const Vec3 v = speed * Vec3(std::cos(az) * std::cos(th), std::sin(az), std::cos(az) * std::sin(th));
+      const GroundState s0 = start_at(*site, body, 3.0, 4.0, v);
+      GroundSettings gs = settings();
+      gs.t_max_s = 10.0;
+      Recorder rec;
+      const GroundResult r = run(*site, air, body, s0, rec, gs);
+      EXPECT_EQ(r.end, GroundEnd::kRest) << deg << " deg, az " << az;
+      const double moved = (r.state.position_m - s0.position_m).norm();
+      EXPECT_LE(moved, speed * speed / (2.0 * dec) + 1e-9) << deg << " deg, az " << az;
+      if (speed <= 0.01) EXPECT_LT(moved, 1e-3);
+    }
+  }
+}
+
+// Sliding up the fall line: constant deceleration g (sin + mu cos), at every piece's end the
+// closed form, the stop at v0 / a, and rest there (below the friction angle).
+TEST(GroundPhase, SlidingUphillFollowsTheClosedFormAndStays) {
+  const double slope = 0.2, mu = 0.5;
+  const auto site = slope_site(slope, mu, 0.1);
+  const double th = std::atan(slope);
+  const GroundBody body = plate(Quat(Eigen::AngleAxisd(-th, Vec3::UnitY())));
+  const Air air(0.0, 0.0, body.mass_kg);
+  const double a = g * (std::sin(th) + mu * std::cos(th));
+  const double v0 = 25.0;
+  const GroundState s0 = start_at(*site, body, -150.0, 3.3, v0 * Vec3(std::cos(th), 0.0, std::sin(th)));
+  Recorder rec;
+  const GroundResult r = run(*site, air, body, s0, rec);
+  EXPECT_EQ(r.end, GroundEnd::kRest);
+  double worst_s = 0.0, worst_v = 0.0;
+  for (const auto& sg : rec.segments) {
+    const double t = sg.tb - s0.t_s;
+    worst_s = std::max(worst_s, std::abs((sg.b - s0.position_m).norm() - (v0 * t - 0.5 * a * t * t)));
+    worst_v = std::max(worst_v, std::abs(sg.vb.norm() - std::max(0.0, v0 - a * t)));
+  }
+  EXPECT_LT(worst_s, 1e-8 * v0 * v0 / a);
+  EXPECT_LT(worst_v, 1e-3 * v0);  // the last piece ends a hair before the stop (then snaps)
+  EXPECT_NEAR(r.state.t_s, v0 / a, 1e-6 * v0 / a);
+  EXPECT_NEAR(r.path_m, v0 * v0 / (2 * a), 1e-8 * v0 * v0 / (2 * a));
+  EXPECT_GT(rec.segments.size(), 8u);  // 10 m cells, diagonals: many coplanar pieces
+}
+
+// ---- edges ----
+
+// A plateau ending in a 30 degree downslope along x = 0. Sliding at 40 m/s over the crest the
+// body takes off at the edge (it would need a pulling normal force to follow it).
+TEST(GroundPhase, TakesOffAtAConvexEdge) {
+  const double drop = std::tan(30.0 * kDegToRad);
+  const auto site = mesh_site(100.0, 5.0, [&](double x, double) { return x <= 0.0 ? 0.0 : -drop * x; },
+                              material(0.5, 0.1, 0.2));
+  const GroundBody body = sphere();
+  const Air air(0.0, 0.0, body.mass_kg);
+  const double R = body.shape.half_m.x();
+  const GroundState s0 = start_at(*site, body, -30.0, 1.0, Vec3(40.0, 0.0, 0.0), Vec3(0.0, 40.0 / R, 0.0));
+  Recorder rec;
+  const GroundResult r = run(*site, air, body, s0, rec);
+  ASSERT_EQ(r.end, GroundEnd::kTakeOff);
+  EXPECT_NEAR(r.state.position_m.x(), 0.0, 1e-6);  // at the edge
+  EXPECT_NEAR(r.state.velocity_mps.z(), 0.0, 1e-9);   // still along the plateau
+  EXPECT_GT(r.state.velocity_mps.x(), 39.0);         // rolling resistance over 30 m only
+  EXPECT_TRUE(rec.impacts.empty());
+}
+
+// Slowly over a gentle convex edge (the take-off normal speed below the take-off speed) the
+// hop is contracted into an impact at the edge; into a concave edge it is an impact: in both
+// the kinetic energy does not rise, and the body goes on along the new plane.
+TEST(GroundPhase, SlowEdgesAreImpactsThatNeverAddEnergy) {
+  for (const double sign : {1.0, -1.0}) {  // +1: the ground falls away (convex), -1: rises
+    const double slope = 0.05;
+    const auto site = mesh_site(100.0, 5.0,
+                                [&](double x, double) { return x <= 0.0 ? 0.0 : -sign * slope * x; },
+                                material(0.5, 0.1, 0.3));
+    const GroundBody body = plate();
+    const Air air(0.0, 0.0, body.mass_kg);
+    const GroundState s0 = start_at(*site, body, -3.0, 1.0, Vec3(8.0, 0.0, 0.0));
+    Recorder rec;
+    const GroundResult r = run(*site, air, body, s0, rec);
+    ASSERT_FALSE(rec.impacts.empty()) << sign;
+    const GroundImpact& i = rec.impacts.front();
+    EXPECT_NEAR(i.position_m.x(), 0.0, 1e-6);
+    EXPECT_LE(i.velocity_after_mps.squaredNorm(), i.velocity_before_mps.squaredNorm() * (1 + 1e-12));
+    EXPECT_NE(r.end, GroundEnd::kTakeOff) << sign;
+    EXPECT_GT(r.state.position_m.x(), 0.0);  // on beyond the edge
+  }
+}
+
+// ---- valleys and pits ----
+
+// A V-valley along y = 0 (both sides 35 deg, steeper than the friction angle 26.6 deg), its
+// floor level: a body released on one side slides down, crosses, is caught in the crease and
+// rests on the floor line, well within the step cap. (Restitution 0: the crossing does not
+// bounce it off the ground, which would end the ground phase; tests/validation follows whole
+// histories.)
+TEST(GroundPhase, RestsAtTheBottomOfAVValley) {
+  const double s = std::tan(35.0 * kDegToRad);
+  const auto site = mesh_site(50.0, 2.0, [&](double, double y) { return s * std::abs(y); },
+                              material(0.5, 0.1, 0.0));
+  for (const GroundBody& body : {plate(), sphere()}) {
+    const Air air(0.0, 0.0, body.mass_kg);
+    const GroundState s0 = start_at(*site, body, 0.3, 6.1, Vec3::Zero());
+    Recorder rec;
+    GroundSettings gs = settings();
+    gs.max_steps = 2000;
+    const GroundResult r = run(*site, air, body, s0, rec, gs);
+    EXPECT_EQ(r.end, GroundEnd::kRest) << static_cast<int>(body.shape.type);
+    EXPECT_NEAR(r.state.position_m.y(), 0.0, 0.02) << static_cast<int>(body.shape.type);
+    EXPECT_LT(r.steps, 2000);
+  }
+}
+
+// A pit: an inverted cone, 30 deg walls. Released on a wall the body ends at rest at the bottom.
+TEST(GroundPhase, RestsAtTheBottomOfAPit) {
+  const double s = std::tan(30.0 * kDegToRad);
+  const auto site = mesh_site(40.0, 2.0, [&](double x, double y) { return s * std::hypot(x, y); },
+                              material(0.3, 0.05, 0.0));
+  for (const GroundBody& body : {plate(), sphere()}) {
+    const Air air(0.0, 0.0, body.mass_kg);
+    const GroundState s0 = start_at(*site, body, 7.3, 5.1, Vec3::Zero());
+    Recorder rec;
+    GroundSettings gs = settings();
+    gs.max_steps = 5000;
+    const GroundResult r = run(*site, air, body, s0, rec, gs);
+    EXPECT_EQ(r.end, GroundEnd::kRest) << static_cast<int>(body.shape.type);
+    EXPECT_LT(std::hypot(r.state.position_m.x(), r.state.position_m.y()), 0.05)
+        << static_cast<int>(body.shape.type);
+  }
+}
+
+// ---- energy ----
+
+// Along random ground histories on random bumpy terrain the mechanical energy
+// E = 1/2 m v^2 + 1/2 omega.I omega + m g z never rises: not along a piece, not at an edge, not at
+// an impact, not at a stop (relative slack 1e-9 for rounding and the integrator).
+TEST(GroundPhase, EnergyNeverRises) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  const auto site = mesh_site(100.0, 4.0, [](double x, double y) {
+    return 2.0 * std::sin(0.11 * x) * std::cos(0.07 * y) + 0.8 * std::sin(0.37 * x + 0.5 * y);
+  }, material(0.4, 0.08, 0.3));
+  int histories = 0;
+  for (const bool round : {false, true}) {
+    for (int h = 0; h < 200; ++h) {
+      GroundBody body = round ? sphere() : plate(fragments::uniform_rotation(0.5 * (1 + U(rng)), 0.5 * (1 + U(rng)), 0.5 * (1 + U(rng))));
+      const Air air(1.0, 0.002, body.mass_kg);
+      const Vec3 v(20.0 * U(rng), 20.0 * U(rng), 0.0);
+      const Vec3 omega = round ? Vec3(30.0 * U(rng), 30.0 * U(rng), 30.0 * U(rng)) : Vec3::Zero();
+      const GroundState s0 = start_at(*site, body, 60.0 * U(rng), 60.0 * U(rng), v, omega);
+      const double I = body.shape.inertia_kg_m2.x();  // sphere: isotropic
+      const auto energy = [&](const Vec3& p, const Vec3& vv, const Vec3& w) {
+        return 0.5 * body.mass_kg * vv.squaredNorm() + (round ? 0.5 * I * w.squaredNorm() : 0.0) +
+               body.mass_kg * g * p.z();
+      };
+      Recorder rec;
+      GroundSettings gs = settings(1e-7);
+      gs.max_steps = 20000;
+      const GroundResult r = run(*site, air, body, s0, rec, gs);
+      ASSERT_NE(r.end, GroundEnd::kStepCap);
+      double e_prev = energy(s0.position_m, s0.velocity_mps, s0.omega_radps);
+      const double scale = e_prev - body.mass_kg * g * (-10.0) + 1e-3;
+      for (const auto& sg : rec.segments) {
+        const double e = energy(sg.b, sg.vb, sg.omega_b);
+        ASSERT_LE(e, e_prev + 1e-9 * scale) << "history " << h << " round " << round;
+        e_prev = e;
+        ASSERT_TRUE(sg.b.allFinite() && sg.vb.allFinite());
+      }
+      ++histories;
+    }
+  }
+  EXPECT_EQ(histories, 400);
+}
+
+// ---- termination ----
+
+TEST(GroundPhase, ObserverStopsAndStepCapEnds) {
+  const auto site = slope_site(0.0, 0.5, 0.1);
+  const GroundBody body = plate();
+  const Air air(0.0, 0.0, body.mass_kg);
+  const GroundState s0 = start_at(*site, body, 0.0, 0.0, Vec3(20.0, 0.0, 0.0));
+  Recorder rec;
+  rec.stop_after_m = 15.0;
+  const GroundResult r = run(*site, air, body, s0, rec);
+  EXPECT_EQ(r.end, GroundEnd::kStoppedByObserver);
+  EXPECT_NEAR(r.path_m, rec.covered, 1e-12);
+  Recorder rec2;
+  GroundSettings gs = settings();
+  gs.max_steps = 1;
+  EXPECT_EQ(run(*site, air, body, s0, rec2, gs).end, GroundEnd::kStepCap);
+}
+
+}  // namespace
+}  // namespace fragsim::impact
