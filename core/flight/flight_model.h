@@ -14,10 +14,13 @@ class DragCoefficient {
  public:
   DragCoefficient() = default;
   explicit DragCoefficient(const fragments::CdSpec& spec);
-  double at_mach(double mach) const;
+  double at_mach(double mach) const {
+    return mach_.empty() ? constant_ : from_table(mach);
+  }
   bool is_constant() const { return mach_.empty(); }
 
  private:
+  double from_table(double mach) const;
   double constant_ = 1.0;
   std::vector<double> mach_, cd_;
 };
@@ -32,8 +35,21 @@ struct FlightModel {
   double altitude_offset_m = 0.0;  // altitude = local z + offset
 
   // Acceleration at local position p with velocity v (time-independent: wind is uniform and
-  // steady).
-  Vec3 acceleration(const Vec3& p, const Vec3& v) const;
+  // steady). Inline: it is every right-hand side of flight and of the ground phase.
+  Vec3 acceleration(const Vec3& p, const Vec3& v) const {
+    // paper eqs. 3-5: a = -g e_z - (rho Cd A / 2m) |v_rel| v_rel, v_rel = v - wind.
+    Vec3 a(0.0, 0.0, -gravity_mps2);
+    if (atmosphere == nullptr || cd == nullptr || area_m2 == 0.0) return a;  // vacuum
+    const Vec3 v_rel = v - atmosphere->wind();
+    const double speed = v_rel.norm();
+    const double altitude = p.z() + altitude_offset_m;
+    // Only a Mach table needs the speed of sound (saves a table lookup per evaluation otherwise).
+    const double cd_value =
+        cd->is_constant() ? cd->at_mach(0.0) : cd->at_mach(speed / atmosphere->sound_speed(altitude));
+    const double k = 0.5 * atmosphere->density(altitude) * cd_value * area_m2 / mass_kg;
+    a -= (k * speed) * v_rel;
+    return a;
+  }
 };
 
 }  // namespace fragsim::flight

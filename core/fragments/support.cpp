@@ -32,6 +32,21 @@ ContactBody contact_body(ShapeType type, const MassProperties& mp) {
   return b;
 }
 
+double body_volume(const ContactBody& b) {
+  const Vec3& h = b.half_m;
+  switch (b.type) {
+    case ShapeType::kCuboid:
+      return 8.0 * h.x() * h.y() * h.z();
+    case ShapeType::kCylinder:
+      return kPi * h.x() * h.x() * 2.0 * h.z();
+    case ShapeType::kSphere:
+    case ShapeType::kEllipsoid:
+    case ShapeType::kPoint:
+      break;
+  }
+  return 4.0 / 3.0 * kPi * h.x() * h.y() * h.z();
+}
+
 double bounding_radius(const ContactBody& b) {
   switch (b.type) {
     case ShapeType::kCuboid:

@@ -21,6 +21,9 @@ struct ContactBody {
 
 ContactBody contact_body(ShapeType type, const MassProperties& mp);
 
+// Volume of the body (a point mass: of its sphere).
+double body_volume(const ContactBody& b);
+
 // Largest distance from the centre of mass to any point of the body: no part of the body is
 // farther away than this, whatever the attitude.
 double bounding_radius(const ContactBody& b);

@@ -11,8 +11,8 @@
 
 namespace fragsim::impact {
 
-double ground_clearance(const GroundBody& body, const Vec3& n) {
-  return fragments::support_extent(body.shape, body.attitude, -n);
+double ground_clearance(const GroundBody& body, const Quat& q, const Vec3& n) {
+  return fragments::support_extent(body.shape, q, -n);
 }
 
 namespace {
@@ -25,6 +25,12 @@ struct Contact {
   std::uint32_t tri = 0;    // face: the triangle; crease: the reference side (tallies)
   std::uint32_t other = 0;  // crease: the triangle across the edge
   Vec3 n{0, 0, 1};          // face: its unit normal; crease: the unit bisector of n1 and n2
+  // Face: the motion stays on the straight line along `line_dir` (the pull along the plane is
+  // along it and the air is still: every force is along the line), so only the components along
+  // it are integrated. Off the line, friction at low speed turns the velocity at a rate
+  // mu g / |v|: a stiff mode that rounding alone would excite (G3).
+  bool line = false;
+  Vec3 line_dir{1, 0, 0};
   Vec3 n1{0, 0, 1}, n2{0, 0, 1};
   Vec3 e{1, 0, 0};          // crease: unit edge direction, from `from_v` to `to_v`
   Vec3 from_v{0, 0, 0}, to_v{0, 0, 0};  // crease: the edge's end points (local)
@@ -103,20 +109,28 @@ struct GroundRhs {
                          Vec3& dw) const {
     const Vec3& n = contact->n;
     const PlaneLoad load = plane_load(a_ext, n);
+    // The velocity along the plane (or the line): friction never sees a normal part that
+    // rounding left in v.
+    Vec3 vt = v - v.dot(n) * n, drive = load.at;
+    if (contact->line) {
+      const Vec3& d = contact->line_dir;
+      vt = v.dot(d) * d;
+      drive = load.at.dot(d) * d;
+    }
     if (!res->round) {  // G2: sliding
-      a = load.at + friction_acceleration(v, load.at, res->mu * load.nl);
+      a = drive + friction_acceleration(vt, drive, res->mu * load.nl);
       return;
     }
     if (!res->slipping) {  // G5: rolling, k = 1 / (1 + I / (m R^2))
       const double k = 1.0 / (1.0 + res->ratio);
-      a = k * (load.at + friction_acceleration(v, load.at, res->mu_r * load.nl));
+      a = k * (drive + friction_acceleration(vt, drive, res->mu_r * load.nl));
       dw = n.cross(a);
       return;
     }
     // G4: slipping; the friction acts at the contact point, against its velocity u = v - w x n.
     // In a skid also the rolling resistance torque mu_r N R against the rolling part of the spin
     // (static while that part is zero: the friction torque must exceed it to turn the ball).
-    const Vec3 u = v - w.cross(n);
+    const Vec3 u = vt - w.cross(n);
     const double us = u.norm();
     const Vec3 uh = us > 0.0 ? Vec3(u / us) : res->slip_dir0;
     const Vec3 fr = -res->mu * load.nl * uh;
@@ -238,6 +252,7 @@ class GroundMotion {
     const auto& cell = site.terrain_index().cell;
     nudge_m_ = 1e-7 * std::max(1e-3, std::min(cell.x(), cell.y()));
     g_ = air.gravity_mps2;
+    still_air_ = air.atmosphere == nullptr || air.atmosphere->wind().squaredNorm() == 0.0;
   }
 
   GroundResult run(const GroundState& start);
@@ -248,7 +263,8 @@ class GroundMotion {
   Next enter_crease(std::uint32_t tri, std::uint32_t other, std::uint32_t from_id,
                     std::uint32_t to_id, const Vec3& p, const Vec3& v, const Vec3& w);
   void restart_integrator(const Vec3& p, const Vec3& v, const Vec3& w);
-  void settle_rolling_or_slipping();
+  void choose_line();
+  void settle_rolling_or_slipping(bool stick = false);
   // One integrator step and the events within it.
   Next step();
   struct Exit {
@@ -268,6 +284,7 @@ class GroundMotion {
                    std::uint32_t to_id);
   Next arrive_at_vertex(std::uint32_t vertex);
   Next stop_or_restart(double residual_dt = 0.0);
+  bool advance_closed_form(double dt, const Vec3& a, const Vec3& dw);
   Next settle_in_contact_set();
   Next finish(GroundEnd end);
   Next take_off(std::uint32_t tri, const Vec3& v, const Vec3& omega);
@@ -288,7 +305,8 @@ class GroundMotion {
   bool emit(double ta, const Vec3& pa, const Vec3& va, double tb, const Vec3& pb, const Vec3& vb,
             const Vec3& wb);
   Vec3 place_on_plane(const Vec3& p, std::uint32_t tri, const Vec3& n) const;
-  void pay_for_lift(const Vec3& p_old, const Vec3& p_new);
+  Vec3 lift_to(const Vec3& p_old, const Vec3& p_new);
+  void turn_with_terrain(const Vec3& from, const Vec3& to);
   TriangleEdges edges_of(std::uint32_t tri) const {
     return site_.terrain_is_lattice() ? lattice_edges(site_.terrain_index(), tri)
                                       : mesh_edges(site_, tri);
@@ -308,10 +326,12 @@ class GroundMotion {
   Contact contact_;
   Resistance res_;
   Vec3 origin_{0, 0, 0};  // position at the last integrator reset
+  Quat q_ = Quat::Identity();  // attitude (sliders: turned with the terrain)
   flight::Dopri5<9, GroundRhs> ode_;
   TriangleEdges edges_{};
   double radius_m_ = 0.0, nudge_m_ = 1e-7, g_ = kStandardGravity_mps2;
   double h_next_ = 0.0;  // step size carried across resets
+  bool still_air_ = true;
   // Current state (valid between steps and at events).
   double t_ = 0.0;
   Vec3 p_{0, 0, 0}, v_{0, 0, 0}, w_{0, 0, 0};
@@ -321,6 +341,8 @@ class GroundMotion {
 GroundResult GroundMotion::run(const GroundState& start) {
   r_ = GroundResult{};
   t_ = start.t_s;
+  q_ = body_.attitude;
+  contact_.n = site_.terrain_triangle_normal(start.triangle);  // no turn on the first face
   Next next = enter_face(start.triangle, start.position_m, start.velocity_mps, start.omega_radps);
   while (next == Next::kContinue) {
     if (r_.steps >= set_.max_steps) {
@@ -339,12 +361,13 @@ Next GroundMotion::finish(GroundEnd end) {
   r_.state.velocity_mps = end == GroundEnd::kRest ? Vec3::Zero() : v_;
   r_.state.omega_radps = end == GroundEnd::kRest ? Vec3::Zero() : omega_of(w_);
   r_.state.triangle = contact_.tri;
+  r_.state.attitude = q_;
   return Next::kDone;
 }
 
 Next GroundMotion::take_off(std::uint32_t tri, const Vec3& v, const Vec3& omega) {
   r_.end = GroundEnd::kTakeOff;
-  r_.state = {t_, p_, v, omega, tri};
+  r_.state = {t_, p_, v, omega, tri, q_};
   return Next::kDone;
 }
 
@@ -353,30 +376,40 @@ Next GroundMotion::take_off(std::uint32_t tri, const Vec3& v, const Vec3& omega)
 // The centre put at the body's clearance above triangle tri's plane (normal n), moved
 // vertically: its xy stays on the triangle it was found over (on the edge it crossed).
 Vec3 GroundMotion::place_on_plane(const Vec3& p, std::uint32_t tri, const Vec3& n) const {
-  const double clearance = ground_clearance(body_, n);
+  const double clearance = ground_clearance(body_, q_, n);
   return Vec3(p.x(), p.y(), site_.terrain_plane_height(tri, p.x(), p.y()) + clearance / n.z());
 }
 
 // Raising the centre costs kinetic energy (G11): energy is never gained by a change of contact.
-void GroundMotion::pay_for_lift(const Vec3& p_old, const Vec3& p_new) {
+// A lift the kinetic energy cannot pay is not made in full: the body then sits lower than its
+// clearance (overlapping the plane by the difference, at most its bounding radius). Returns
+// where the centre goes.
+Vec3 GroundMotion::lift_to(const Vec3& p_old, const Vec3& p_new) {
   const double dz = p_new.z() - p_old.z();
-  if (!(dz > 0.0)) return;
+  if (!(dz > 0.0)) return p_new;
   const double ke = kinetic_per_mass(v_, w_);
-  const double scale = ke > 0.0 ? std::sqrt(std::max(0.0, 1.0 - g_ * dz / ke)) : 0.0;
+  const double paid = std::min(dz, ke / g_);
+  const double scale = ke > 0.0 ? std::sqrt(std::max(0.0, 1.0 - g_ * paid / ke)) : 0.0;
   v_ *= scale;
   w_ *= scale;
+  return Vec3(p_new.x(), p_new.y(), p_old.z() + paid);
+}
+
+// A slider turned with the terrain from the plane of normal `from` to that of `to` (G11).
+void GroundMotion::turn_with_terrain(const Vec3& from, const Vec3& to) {
+  if (!res_.round) q_ = (Quat::FromTwoVectors(from, to) * q_).normalized();
 }
 
 Next GroundMotion::enter_face(std::uint32_t tri, const Vec3& p, const Vec3& v, const Vec3& omega) {
+  const Vec3 n_before = contact_.n;
   contact_ = Contact{};
   contact_.tri = tri;
   contact_.n = site_.terrain_triangle_normal(tri);
   const Vec3& n = contact_.n;
+  turn_with_terrain(n_before, n);
   v_ = v - v.dot(n) * n;
   w_ = res_.round ? Vec3(radius_m_ * omega) : Vec3::Zero();
-  const Vec3 p_on = place_on_plane(p, tri, n);
-  pay_for_lift(p, p_on);
-  p_ = p_on;
+  p_ = lift_to(p, place_on_plane(p, tri, n));
   edges_ = edges_of(tri);
   if (res_.round) settle_rolling_or_slipping();
   if (v_.squaredNorm() == 0.0 && !(res_.round && res_.slipping)) return stop_or_restart();
@@ -390,11 +423,11 @@ Next GroundMotion::enter_face(std::uint32_t tri, const Vec3& p, const Vec3& v, c
 
 // Round bodies: rolling if the contact point is (to rounding) at rest and rolling can be
 // sustained (G6: the friction rolling needs is within mu N), else slipping.
-void GroundMotion::settle_rolling_or_slipping() {
+void GroundMotion::settle_rolling_or_slipping(bool stick) {
   const Vec3& n = contact_.n;
   const Vec3 u = v_ - w_.cross(n);
   const double scale = v_.norm() + w_.norm();
-  res_.slipping = u.norm() > 1e-9 * scale;
+  res_.slipping = !stick && u.norm() > 1e-9 * scale;
   res_.skid = false;
   if (res_.slipping) return;
   // Stick exactly: a tangential impulse at the contact that zeroes u (G7; dissipative).
@@ -415,7 +448,31 @@ void GroundMotion::settle_rolling_or_slipping() {
   }
 }
 
+// On a face in still air a body moving along the pull of the plane (gravity along it; or on
+// level ground in any direction), or starting from rest, stays on that straight line: every
+// force is along it. Then only the line is integrated (G3).
+void GroundMotion::choose_line() {
+  contact_.line = false;
+  if (contact_.crease || slipping() || !still_air_) return;
+  const Vec3& n = contact_.n;
+  const Vec3 at = plane_load(air_.acceleration(p_, v_), n).at;
+  const Vec3 vt = v_ - v_.dot(n) * n;
+  const double s = vt.norm(), pull = at.norm();
+  Vec3 d;
+  if (s > 0.0) {
+    d = vt / s;
+    if ((at - at.dot(d) * d).norm() > 1e-12 * std::max(pull, g_)) return;  // turns
+  } else if (pull > 0.0) {
+    d = at / pull;
+  } else {
+    return;
+  }
+  contact_.line = true;
+  contact_.line_dir = d;
+}
+
 void GroundMotion::restart_integrator(const Vec3& p, const Vec3& v, const Vec3& w) {
+  choose_line();
   origin_ = p;
   GVec y;
   y << Vec3::Zero(), v, w;
@@ -443,9 +500,10 @@ Next GroundMotion::enter_crease(std::uint32_t tri, std::uint32_t other, std::uin
     std::swap(c.from_id, c.to_id);
     c.e = -c.e;
   }
+  turn_with_terrain(contact_.n, c.n);
   contact_ = c;
   // Centre at both clearances, its position along the edge kept (G8).
-  const double c1 = ground_clearance(body_, c.n1), c2 = ground_clearance(body_, c.n2);
+  const double c1 = ground_clearance(body_, q_, c.n1), c2 = ground_clearance(body_, q_, c.n2);
   const Vec3 b2 = c.e.cross(c.n1);
   const double beta = (c2 - c1 * c.n1.dot(c.n2)) / c.n2.dot(b2);
   const Vec3 p_on = c.from_v + (p - c.from_v).dot(c.e) * c.e + c1 * c.n1 + beta * b2;
@@ -460,8 +518,7 @@ Next GroundMotion::enter_crease(std::uint32_t tri, std::uint32_t other, std::uin
     v_ *= s;
     w_ *= s;
   }
-  pay_for_lift(p, p_on);
-  p_ = p_on;
+  p_ = lift_to(p, p_on);
   if (v_.squaredNorm() == 0.0 && !(res_.round && res_.slipping)) return stop_or_restart();
   restart_integrator(p_, v_, w_);
   return Next::kContinue;
@@ -470,7 +527,7 @@ Next GroundMotion::enter_crease(std::uint32_t tri, std::uint32_t other, std::uin
 // ---- stepping ----
 
 // The step may not pass the time limit, the stop of the centre (the friction direction flips
-// there: G10) nor, slipping, the end of the slip (the law changes there).
+// there: G10) nor, slipping, the end of the slip or of the spin (the law changes there).
 double GroundMotion::step_end_time() const {
   // A hair short of the time x reaches zero at its present rate of decrease (inf if growing).
   const auto before_zero = [](const Vec3& x, const Vec3& dx) {
@@ -483,13 +540,25 @@ double GroundMotion::step_end_time() const {
   if (!slipping()) return std::min(set_.t_max_s, t_ + before_zero(v_, a));
   const Vec3& n = contact_.n;
   const double t_slip = before_zero(v_ - w_.cross(n), a - dw.cross(n));
-  const double t_spin = before_zero(w_ - w_.dot(n) * n, dw - dw.dot(n) * n);
+  // Only a skid's spin has a kink at zero (the rolling resistance torque flips there).
+  const double t_spin = res_.skid ? before_zero(w_ - w_.dot(n) * n, dw - dw.dot(n) * n)
+                                  : std::numeric_limits<double>::infinity();
   return std::min(set_.t_max_s, t_ + std::min(t_slip, t_spin));
 }
 
 Next GroundMotion::step() {
   const double t_end = step_end_time();
   if (!(t_end > t_)) return finish(GroundEnd::kMaxTime);
+  if (t_end < set_.t_max_s && t_end - t_ <= 1e-12 * std::max(1.0, std::abs(t_))) {
+    // A kink (stop, end of slip) so close that no step fits before it: it is now.
+    ++r_.steps;
+    if (!slipping()) return stop_or_restart();
+    const Vec3& n = contact_.n;
+    if (res_.skid) w_ = w_.dot(n) * n;  // the skidding ball stops turning
+    settle_rolling_or_slipping(/*stick=*/!res_.skid);
+    restart_integrator(p_, v_, w_);
+    return Next::kContinue;
+  }
   ++r_.steps;
   if (!ode_.step(t_end)) return finish(t_ >= set_.t_max_s ? GroundEnd::kMaxTime : GroundEnd::kStepCap);
   h_next_ = ode_.next_step_size();
@@ -666,21 +735,42 @@ Next GroundMotion::after_slip_step(const GVec& y0) {
   const Vec3 v0 = y0.segment<3>(3), w0 = y0.segment<3>(6);
   const Vec3 u0 = v0 - w0.cross(n), u1 = v_ - w_.cross(n);
   const Vec3 r0 = w0 - w0.dot(n) * n, r1 = w_ - w_.dot(n) * n;
-  if (r0.squaredNorm() > 0.0 && reached_zero(r0, r1, v_.norm())) {
+  if (res_.skid && r0.squaredNorm() > 0.0 && reached_zero(r0, r1, v_.norm())) {
     w_ -= r1;  // the ball stops turning (dissipative)
     restart_integrator(p_, v_, w_);
   } else if (reached_zero(u0, u1, v_.norm() + w_.norm())) {
-    settle_rolling_or_slipping();  // sticks exactly (dissipative), then rolls or slips on
+    // The last hair of the slip at the present rates, in closed form (not past its end).
+    const GVec& dy = ode_.dy();
+    const Vec3 a = dy.segment<3>(3), dw = dy.segment<3>(6);
+    const double s1 = u1.norm(), dec = s1 > 0.0 ? -(a - dw.cross(n)).dot(u1) / s1 : 0.0;
+    if (u1.dot(u0) > 0.0 && dec > 0.0 && advance_closed_form(s1 / dec, a, dw))
+      return finish(GroundEnd::kStoppedByObserver);
+    settle_rolling_or_slipping(/*stick=*/true);  // sticks (dissipative), then rolls or slips on
     restart_integrator(p_, v_, w_);
   }
   return Next::kContinue;
 }
 
+// The state moved on by dt at constant rates (a, dw): the last hair before a kink, reported as a
+// piece of the path. True when the observer stops there.
+bool GroundMotion::advance_closed_form(double dt, const Vec3& a, const Vec3& dw) {
+  const double t0 = t_;
+  const Vec3 p0 = p_, v0 = v_;
+  t_ += dt;
+  p_ += dt * (v_ + 0.5 * dt * a);
+  v_ += dt * a;
+  w_ += dt * dw;
+  return emit(t0, p0, v0, t_, p_, v_, w_);
+}
+
 // The centre has stopped (G10), `residual_dt` after the current state at its present
 // deceleration: rest where static friction holds it, else start again from rest along the pull.
 Next GroundMotion::stop_or_restart(double residual_dt) {
-  t_ += residual_dt;
-  p_ += 0.5 * residual_dt * v_;
+  if (residual_dt > 0.0) {
+    const double s = v_.norm();
+    if (advance_closed_form(residual_dt, -(s / residual_dt) * (v_ / s), Vec3::Zero()))
+      return finish(GroundEnd::kStoppedByObserver);
+  }
   v_.setZero();
   if (res_.round) w_ = contact_.crease ? Vec3::Zero() : Vec3(w_.dot(contact_.n) * contact_.n);
   const Vec3 a_ext = air_.acceleration(p_, v_);
@@ -704,11 +794,12 @@ Next GroundMotion::stop_or_restart(double residual_dt) {
   return Next::kContinue;
 }
 
-// A slow body on a face whose bounding sphere reaches over a pit vertex or a concave edge of its
-// triangle touches those planes as well: its contact set is more than one plane (G10). At a
-// local minimum of the terrain it rests (gravity lies in the cone of the normals around it); on
-// a crease it rests if friction on both planes holds it along the crease line, else it slides
-// along that line (crease mode). kNoChange: one plane is all it touches.
+// A slow body on a face may touch more than its own plane: near a pit vertex (within its bounding
+// radius, horizontally) or where it reaches the plane across a concave edge of its triangle. Its
+// contact set is then more than one plane (G10). At a local minimum of the terrain it rests
+// (gravity lies in the cone of the normals around it); on a crease it rests if friction on both
+// planes holds it along the crease line, else it slides along that line (crease mode).
+// kNoChange: one plane is all it touches.
 Next GroundMotion::settle_in_contact_set() {
   const double reach = fragments::bounding_radius(body_.shape);
   const Vec2 p(p_.x(), p_.y());
@@ -733,6 +824,8 @@ Next GroundMotion::settle_in_contact_set() {
     const Vec3& n2 = site_.terrain_triangle_normal(t2);
     const Vec3 m(edges_.normal[k].x(), edges_.normal[k].y(), 0.0);  // across the edge, outward
     if (!(-n2.dot(m) / n2.z() > -contact_.n.dot(m) / contact_.n.z())) continue;  // not a valley
+    // Does the body reach the other plane (its clearance toward it)?
+    if (n2.dot(p_ - a) > ground_clearance(body_, q_, n2) + 1e-6 * reach) continue;
     Contact c;
     c.crease = true;
     c.n1 = contact_.n;
@@ -777,9 +870,10 @@ Next GroundMotion::cross_edge(std::uint32_t next, std::uint32_t from_id, std::ui
 Next GroundMotion::edge_impact(std::uint32_t next, const Vec3& v_in, bool concave,
                                std::uint32_t from_id, std::uint32_t to_id) {
   const Vec3& n2 = site_.terrain_triangle_normal(next);
+  if (material_.embeds(v_in, n2, body_.density_kg_m3)) return finish(GroundEnd::kEmbedded);
   const Vec3 omega_in = omega_of(w_);
-  const TerrainBounce b = bounce_on_terrain(body_.shape, body_.mass_kg, body_.attitude, v_in,
-                                            omega_in, n2, material_, body_.flat_tol_m);
+  const TerrainBounce b = bounce_on_terrain(body_.shape, body_.mass_kg, q_, v_in, omega_in, n2,
+                                            material_, body_.flat_tol_m);
   const Vec3 v_out = b.collision.impact ? b.collision.velocity_mps : v_in;
   const Vec3 w_out = b.collision.impact ? b.collision.omega_radps : omega_in;
   ++r_.impacts;
@@ -827,8 +921,9 @@ Next GroundMotion::arrive_at_vertex(std::uint32_t vertex) {
   if (vn != 0.0) {
     // Onto the next plane through an impulse (a contracted hop when it falls away).
     const Vec3 v_in = vn > 0.0 ? Vec3(v_ - 2.0 * vn * n3) : v_;
-    const TerrainBounce b = bounce_on_terrain(body_.shape, body_.mass_kg, body_.attitude, v_in,
-                                              omega, n3, material_, body_.flat_tol_m);
+    if (material_.embeds(v_in, n3, body_.density_kg_m3)) return finish(GroundEnd::kEmbedded);
+    const TerrainBounce b = bounce_on_terrain(body_.shape, body_.mass_kg, q_, v_in, omega, n3,
+                                              material_, body_.flat_tol_m);
     const Vec3 v_out = b.collision.impact ? b.collision.velocity_mps : v_in;
     const Vec3 w_out = b.collision.impact ? b.collision.omega_radps : omega;
     ++r_.impacts;

@@ -38,8 +38,11 @@ namespace fragsim::impact {
 struct GroundBody {
   fragments::ContactBody shape;      // contact geometry and principal moments of inertia
   double mass_kg = 0.0;
-  Quat attitude = Quat::Identity();  // body -> site; held fixed on the ground (see physics.md)
+  // Body -> site at the start. A slider keeps its attitude relative to the terrain under it: at
+  // an edge it is turned with the terrain (the least rotation taking the old normal to the new).
+  Quat attitude = Quat::Identity();
   double flat_tol_m = 0.0;           // contact_point's tolerance (bounce.h)
+  double density_kg_m3 = 0.0;        // mass / volume (the terrain's embedment test)
   // Spheres (and point masses as spheres) roll; every other shape slides.
   bool round() const { return shape.type == fragments::ShapeType::kSphere; }
 };
@@ -61,6 +64,7 @@ struct GroundState {
   Vec3 velocity_mps{0, 0, 0};
   Vec3 omega_radps{0, 0, 0};  // site axes (0 for sliders)
   std::uint32_t triangle = 0;
+  Quat attitude = Quat::Identity();  // in a result: the body's attitude at the end
 };
 
 enum class GroundEnd {
@@ -70,6 +74,7 @@ enum class GroundEnd {
   kStoppedByObserver,
   kStepCap,
   kTakeOff,  // left the ground: `state` is where and how (the caller flies from it)
+  kEmbedded,  // an edge impact too fast and steep to ricochet (scene::Material::embeds)
 };
 
 struct GroundResult {
@@ -120,8 +125,9 @@ GroundResult move_on_ground(const scene::Site& site, const flight::FlightModel& 
                             const GroundBody& body, const GroundSettings& settings,
                             const GroundState& start, GroundObserver& observer);
 
-// Clearance of the body above a plane with unit normal n: its support extent toward -n.
-double ground_clearance(const GroundBody& body, const Vec3& n);
+// Clearance of a body at attitude q above a plane with unit normal n: its support extent
+// toward -n.
+double ground_clearance(const GroundBody& body, const Quat& q, const Vec3& n);
 
 // Tolerances of the model's rest and capture rules (docs/physics.md, "Ground phase").
 // A stop is taken when the path still to go before the speed reaches zero is below this.

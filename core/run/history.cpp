@@ -54,6 +54,7 @@ History::History(const RunContext& ctx, std::uint32_t group, std::int64_t histor
   model_.altitude_offset_m = site_.altitude_offset_m();
   radius_m_ = st_.bounce ? fragments::bounding_radius(body_) : 0.0;
   flat_tol_m_ = 1e-6 * radius_m_;
+  density_kg_m3_ = mass_ / fragments::body_volume(body_);
 }
 
 // ---- the loop ----
@@ -174,6 +175,11 @@ Phase History::flight_phase() {
 // phase when the rebound is slower than the floor (or the bounce cap is reached).
 Phase History::terrain_impact(const FlightEvent& ev) {
   const scene::Material& mat = site_.materials()[ev.material];
+  if (mat.embeds(ev.v, ev.normal, density_kg_m3_)) {  // too fast and steep to ricochet
+    end_as(Outcome::kEmbedded, ev.t, ev.p, ev.v);
+    record_point(ev.t, ev.p, ev.v, TrajectoryEvent::kTerrainImpact);
+    return Phase::kDone;
+  }
   const impact::TerrainBounce b = impact::bounce_on_terrain(body_, mass_, state_.q, ev.v,
                                                             state_.omega, ev.normal, mat, flat_tol_m_);
   ++bounces_;

@@ -72,12 +72,14 @@ Phase History::ground_phase() {
   body.mass_kg = mass_;
   body.attitude = state_.q;
   body.flat_tol_m = flat_tol_m_;
+  body.density_kg_m3 = density_kg_m3_;
   impact::GroundSettings gs;
   gs.t_max_s = st_.max_flight_time_s;
   gs.max_steps = std::max<long>(0, static_cast<long>(st_.max_ground_steps) - ground_steps_);
   gs.takeoff_speed_mps = st_.min_rebound_speed_mps;
   gs.rtol = st_.rtol;
-  const impact::GroundState start{state_.t, state_.p, state_.v, state_.omega, state_.triangle};
+  const impact::GroundState start{state_.t,     state_.p,        state_.v,
+                                  state_.omega, state_.triangle, state_.q};
   GroundTally tally(*this);
   const impact::GroundResult r = impact::move_on_ground(site_, model_, body, gs, start, tally);
   ground_steps_ += r.steps;
@@ -104,6 +106,9 @@ Phase History::ground_phase() {
     case impact::GroundEnd::kStepCap:
       ++out_.stats.ground_step_caps;  // counted in stats; not expected on a valid site
       return Phase::kDone;
+    case impact::GroundEnd::kEmbedded:
+      end_.outcome = Outcome::kEmbedded;
+      return Phase::kDone;
     case impact::GroundEnd::kTakeOff:
       break;
   }
@@ -115,6 +120,7 @@ Phase History::ground_phase() {
   state_.v = r.state.velocity_mps;
   state_.omega = r.state.omega_radps;
   state_.triangle = r.state.triangle;
+  state_.q = r.state.attitude;
   record_point(state_.t, state_.p, state_.v, TrajectoryEvent::kTakeOff);
   if (can_never_matter(state_.p, state_.v, rotational_ke(state_.q, state_.omega))) {
     end_.outcome = Outcome::kHarmless;

@@ -176,6 +176,7 @@ class History {
   bool prof_;
   fragments::FragmentInit init_;
   double mass_, weight_, g_;
+  double density_kg_m3_ = 0.0;  // mass / volume (embedment in the ground)
   fragments::ContactBody body_;
   flight::FlightModel model_;
   double radius_m_ = 0.0;  // bounding radius with bounce, 0 without (the path is the centre's)

@@ -28,8 +28,9 @@ enum class Outcome : std::uint8_t {
   kStartedInside = 4,    // launched below the terrain or inside a building: not flown
   kHarmless = 5,  // can never become hazardous and nothing else to tally: tracking stopped
   kIntegrationFailed = 6,  // step size underflow (counted, never silently dropped)
+  kEmbedded = 7,  // stopped in the ground at an impact too fast and steep to ricochet (bounce)
 };
-inline constexpr int kOutcomeCount = 7;
+inline constexpr int kOutcomeCount = 8;
 const char* outcome_name(Outcome o);
 
 struct BuildingResult {

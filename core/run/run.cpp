@@ -21,6 +21,7 @@ const char* outcome_name(Outcome o) {
     case Outcome::kStartedInside: return "started_inside";
     case Outcome::kHarmless: return "harmless";
     case Outcome::kIntegrationFailed: return "integration_failed";
+    case Outcome::kEmbedded: return "embedded";
   }
   return "unknown";
 }

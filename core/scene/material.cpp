@@ -36,6 +36,17 @@ double Material::restitution_at(double normal_speed_mps) const {
   return e[k - 1] + w * (e[k] - e[k - 1]);
 }
 
+bool Material::embeds(const Vec3& velocity, const Vec3& n, double density_kg_m3) const {
+  if (!embedment) return false;
+  const double speed = velocity.norm();
+  if (!(speed >= embedment->min_speed_mps) || !(density_kg_m3 > 0.0)) return false;
+  const double sigma = density_kg_m3 / embedment->bulk_density_kg_m3;
+  const double theta_c = embedment->coefficient_deg * kDegToRad / std::sqrt(sigma);
+  // Grazing angle between the velocity and the surface, moving into it.
+  const double into = -velocity.dot(n);
+  return into > 0.0 && into >= speed * std::sin(std::min(theta_c, 0.5 * kPi));
+}
+
 std::optional<MaterialSpec> builtin_ground_material(const std::string& name) {
   // Friction: the paper's values (0.5 hard surface, 0.9 soft ground). Restitution: the paper
   // prints no table (its Fig. 2 is a curve reaching about 0.55 for the hard surface), so these
@@ -95,6 +106,12 @@ void validate_material(const MaterialSpec& m, const std::string& field) {
   if (m.penetration_ke_per_area_j_per_m2)
     detail::require_positive(*m.penetration_ke_per_area_j_per_m2,
                              field + ".penetration.ke_per_area_j_per_m2");
+  if (m.embedment) {
+    const std::string ef = field + ".embedment";
+    detail::require_positive(m.embedment->bulk_density_kg_m3, ef + ".bulk_density_kg_m3");
+    detail::require_positive(m.embedment->coefficient_deg, ef + ".coefficient_deg");
+    detail::require_at_least(m.embedment->min_speed_mps, 0.0, ef + ".min_speed_mps");
+  }
 }
 
 }  // namespace
@@ -116,6 +133,7 @@ MaterialIds SiteBuilder::build_materials(Site& site, const SiteSpec& spec) {
     out.restitution = m.restitution;
     if (m.penetration_ke_per_area_j_per_m2)
       out.penetration_ke_per_area_j_per_m2 = *m.penetration_ke_per_area_j_per_m2;
+    out.embedment = m.embedment;
     ids.emplace(name, static_cast<std::uint16_t>(site.materials_.size()));
     site.materials_.push_back(std::move(out));
   }

@@ -31,8 +31,12 @@ struct Material {
   double rolling_resistance = 0.1;
   RestitutionSpec restitution;
   double penetration_ke_per_area_j_per_m2 = std::numeric_limits<double>::infinity();
+  std::optional<EmbedmentSpec> embedment;
   // e at a given normal impact speed (constant or table, clamped).
   double restitution_at(double normal_speed_mps) const;
+  // Does a fragment of density `density_kg_m3` arriving with `velocity` on a surface of unit
+  // normal n stop in it (EmbedmentSpec)? Never without an embedment model.
+  bool embeds(const Vec3& velocity, const Vec3& n, double density_kg_m3) const;
 };
 
 struct Building {

@@ -23,6 +23,19 @@ struct RestitutionSpec {
   std::vector<double> e;                 // same length, each in [0, 1]
 };
 
+// Embedment of fast fragments in a deformable ground (docs/physics.md, "Fast impacts on soil"):
+// a fragment arriving faster than min_speed_mps at a grazing angle (between its velocity and the
+// surface) of at least theta_c = coefficient_deg / sqrt(sigma), sigma = fragment density / bulk
+// density, does not ricochet: it stops in the ground. Johnson & Reid (1975), "Ricochet of spheres
+// off water", J. Mech. Eng. Sci. 17, 71-81: theta_c = 18 deg / sqrt(sigma); extended to sand by
+// Soliman, Reid & Johnson (1976), Int. J. Mech. Sci. 18, 279-284. Slower or more grazing, the
+// rigid-body impulse applies (a ricochet).
+struct EmbedmentSpec {
+  double bulk_density_kg_m3 = 1700.0;  // of the ground; no default is sourced: set it per site
+  double coefficient_deg = 18.0;       // Johnson & Reid (1975)
+  double min_speed_mps = 20.0;         // below: rigid contact (docs/physics.md)
+};
+
 struct MaterialSpec {
   double friction = 0.5;  // Coulomb coefficient, >= 0
   RestitutionSpec restitution;
@@ -33,6 +46,8 @@ struct MaterialSpec {
   // Penetration threshold: kinetic energy of the normal velocity component per presented area.
   // Absent => the surface is never penetrated.
   std::optional<double> penetration_ke_per_area_j_per_m2;
+  // Absent: every terrain impact is a rigid-body impulse.
+  std::optional<EmbedmentSpec> embedment;
 };
 
 // The ground materials the paper uses (friction 0.5 hard surface, 0.9 soft ground), available to

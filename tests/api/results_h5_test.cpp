@@ -50,7 +50,7 @@ class ResultsH5 : public ::testing::Test {
     r.hfd_upper_m = 160.0;
     r.hfd_by_sector_m[7] = 150.0;
     r.buildings.push_back(testing::example_building());
-    r.outcome_histories = {48, 10, 0, 1942, 0, 0, 0};
+    r.outcome_histories = {48, 10, 0, 1942, 0, 0, 0, 3};
     r.outcome_fragments[0] = {24.0, 3.5};
     r.outcome_fragments[1] = {5.0, 1.5};
     r.outcome_fragments[3] = {971.0, 3.75};
@@ -210,11 +210,12 @@ TEST_F(ResultsH5, PtnHfdBuildingsOutcomes) {
 
   EXPECT_EQ(read_dataset_strings(f, "/outcomes/name"),
             (std::vector<std::string>{"ground", "building", "max_flight_time", "left_site",
-                                      "started_inside", "harmless", "integration_failed"}));
+                                      "started_inside", "harmless", "integration_failed",
+                                      "embedded"}));
   EXPECT_EQ(read_dataset_int64(f, "/outcomes/histories"),
-            (std::vector<std::int64_t>{48, 10, 0, 1942, 0, 0, 0}));
+            (std::vector<std::int64_t>{48, 10, 0, 1942, 0, 0, 0, 3}));
   EXPECT_EQ(read_dataset_double(f, "/outcomes/fragments"),
-            (std::vector<double>{24.0, 5.0, 0, 971.0, 0, 0, 0}));
+            (std::vector<double>{24.0, 5.0, 0, 971.0, 0, 0, 0, 0}));
   EXPECT_EQ(read_dataset_double(f, "/outcomes/fragments_std_error")[3], 3.75);
 }
 
@@ -237,7 +238,8 @@ TEST_F(ResultsH5, FragmentAndTrajectoryRecords) {
   EXPECT_EQ(read_dataset_double(f, "/fragments/ground_path_m"), (std::vector<double>{0, 2, 4}));
   EXPECT_EQ(read_dataset_double(f, "/fragments/end_time_s"), (std::vector<double>{0, 1.5, 3.0}));
   EXPECT_EQ(read_attribute_string(f, "/fragments/outcome", "names"),
-            "ground,building,max_flight_time,left_site,started_inside,harmless,integration_failed");
+            "ground,building,max_flight_time,left_site,started_inside,harmless,integration_failed,"
+            "embedded");
 
   EXPECT_EQ(read_dataset_int64(f, "/trajectories/history"), (std::vector<std::int64_t>{0, 5}));
   EXPECT_EQ(read_dataset_int64(f, "/trajectories/offsets"), (std::vector<std::int64_t>{0, 3, 5}));

@@ -133,7 +133,8 @@ GroundState start_at(const scene::Site& site, const GroundBody& body, double x, 
   GroundState s;
   s.triangle = static_cast<std::uint32_t>(site.terrain_triangle_at(x, y));
   const Vec3& n = site.terrain_triangle_normal(s.triangle);
-  s.position_m = Vec3(x, y, site.terrain_height(x, y) + ground_clearance(body, n) / n.z());
+  s.position_m =
+      Vec3(x, y, site.terrain_height(x, y) + ground_clearance(body, body.attitude, n) / n.z());
   s.velocity_mps = v;
   s.omega_radps = omega;
   return s;
@@ -275,7 +276,9 @@ TEST(GroundPhase, RestsOnASlopeBelowTheFrictionAngle) {
       EXPECT_EQ(r.end, GroundEnd::kRest) << deg << " deg, az " << az;
       const double moved = (r.state.position_m - s0.position_m).norm();
       EXPECT_LE(moved, speed * speed / (2.0 * dec) + 1e-9) << deg << " deg, az " << az;
-      if (speed <= 0.01) EXPECT_LT(moved, 1e-3);
+      if (speed <= 0.01) {
+        EXPECT_LT(moved, 1e-3);
+      }
     }
   }
 }

@@ -202,5 +202,41 @@ TEST(Materials, RestitutionTableAndNames) {
   EXPECT_EQ(site->embree_error(), "");
 }
 
+// Johnson & Reid (1975): theta_c = 18 deg / sqrt(sigma). Steel (7850) on soil of 1700 kg/m^3:
+// sigma = 4.618, theta_c = 8.376 deg. A fragment at least min_speed fast and at least that steep
+// embeds; more grazing or slower it does not; nor does anything without the model.
+TEST(Materials, EmbedmentFollowsTheCriticalGrazingAngle) {
+  SiteSpec spec = plane_site();
+  spec.materials["soil"].embedment = EmbedmentSpec{};
+  const auto site = Site::build(spec);
+  const Material& soil = site->materials()[site->terrain_material()];
+  const double theta_c = 18.0 / std::sqrt(7850.0 / 1700.0);
+  EXPECT_NEAR(theta_c, 8.376, 1e-3);
+  const Vec3 n = Vec3::UnitZ();
+  const auto v = [](double speed, double deg) {
+    return Vec3(speed * std::cos(deg * kDegToRad), 0.0, -speed * std::sin(deg * kDegToRad));
+  };
+  EXPECT_TRUE(soil.embeds(v(300.0, theta_c + 0.01), n, 7850.0));
+  EXPECT_FALSE(soil.embeds(v(300.0, theta_c - 0.01), n, 7850.0));
+  EXPECT_TRUE(soil.embeds(v(20.0, 60.0), n, 7850.0));    // min_speed 20: included
+  EXPECT_FALSE(soil.embeds(v(19.9, 60.0), n, 7850.0));   // slower: a rigid contact
+  EXPECT_FALSE(soil.embeds(-v(300.0, 60.0), n, 7850.0));  // moving away
+  // Lighter fragments have a larger critical angle: aluminium (2700) 15.2 deg.
+  EXPECT_FALSE(soil.embeds(v(300.0, 14.0), n, 2700.0));
+  EXPECT_TRUE(soil.embeds(v(300.0, 16.0), n, 2700.0));
+  // On a tilted surface the angle is taken to that surface.
+  const Vec3 tilted = Vec3(-std::sin(0.2), 0.0, std::cos(0.2));
+  EXPECT_TRUE(soil.embeds(Vec3(300.0, 0.0, 0.0), tilted, 7850.0));  // 11.5 deg into it
+  EXPECT_FALSE(site->materials()[0].embeds(v(300.0, 80.0), n, 7850.0));  // no model: never
+  // Bad values are refused with the field named.
+  spec.materials["soil"].embedment->bulk_density_kg_m3 = 0.0;
+  try {
+    (void)Site::build(spec);
+    FAIL() << "accepted a zero bulk density";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "site.materials.soil.embedment.bulk_density_kg_m3");
+  }
+}
+
 }  // namespace
 }  // namespace fragsim::scene
