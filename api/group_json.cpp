@@ -1,4 +1,5 @@
-// Fragment groups: frame, shape, distributions of mass, speed and spin, direction ranges, Cd.
+// Fragment groups: frame, shape, distributions of mass, speed and spin, direction ranges, Cd,
+// attitude.
 #include "api/group_json.h"
 
 #include <cctype>
@@ -216,6 +217,29 @@ fragments::FrameSpec parse_frame(const Json& j, const std::string& path) {
   return f;
 }
 
+// "random" (the default: uniformly random, Shoemake) or {yaw_deg, pitch_deg, roll_deg}, each
+// optional and, like the frame's angles, any finite number of degrees.
+std::optional<fragments::AttitudeSpec> parse_attitude(const Json& j, const std::string& path) {
+  if (j.is_string()) {
+    if (j.get<std::string>() != "random")
+      fail(path, "must be \"random\" or an object {yaw_deg, pitch_deg, roll_deg} (got \"" +
+                     j.get<std::string>() + "\")");
+    return std::nullopt;
+  }
+  if (!j.is_object()) fail(path, "expected string or object, got " + json_type_name(j));
+  const ObjectReader o(j, path, "attitude");
+  fragments::AttitudeSpec a;
+  a.yaw_deg = o.number_or("yaw_deg", 0.0);
+  a.pitch_deg = o.number_or("pitch_deg", 0.0);
+  a.roll_deg = o.number_or("roll_deg", 0.0);
+  return a;
+}
+
+Json attitude_json(const std::optional<fragments::AttitudeSpec>& a) {
+  if (!a) return "random";
+  return {{"yaw_deg", a->yaw_deg}, {"pitch_deg", a->pitch_deg}, {"roll_deg", a->roll_deg}};
+}
+
 Json vec3_json(const Vec3& v) {
   return Json::array({v.x(), v.y(), v.z()});
 }
@@ -329,6 +353,7 @@ fragments::FragmentGroupSpec parse_fragment_group(const Json& j, const std::stri
   if (const Json* s = o.find("spin_radps"))
     g.spin_radps = parse_distribution(*s, o.at("spin_radps"), fragments::kSpinRange.lo,
                                       fragments::kSpinRange.hi);
+  if (const Json* a = o.find("attitude")) g.attitude = parse_attitude(*a, o.at("attitude"));
   return g;
 }
 
@@ -356,6 +381,7 @@ Json fragment_group_to_json(const fragments::FragmentGroupSpec& g) {
         {"azimuth_deg", {g.direction.azimuth_min_deg, g.direction.azimuth_max_deg}}}},
       {"cd", std::move(cd)},
       {"spin_radps", distribution_to_json(g.spin_radps)},
+      {"attitude", attitude_json(g.attitude)},
   };
   if (g.area_m2) out["area_m2"] = *g.area_m2;
   return out;

@@ -29,8 +29,9 @@ const std::map<std::string, std::vector<std::string>, std::less<>>& scenario_obj
       // Fragment groups
       {"fragment_group",
        {"name", "count", "samples", "frame", "shape", "mass_kg", "speed_mps", "direction", "cd",
-        "area_m2", "spin_radps"}},
+        "area_m2", "spin_radps", "attitude"}},
       {"frame", {"origin_m", "yaw_deg", "pitch_deg", "roll_deg", "velocity_mps"}},
+      {"attitude", {"yaw_deg", "pitch_deg", "roll_deg"}},
       {"shape", {"type", "dims_m", "density_kg_m3", "aspect"}},
       {"direction", {"elevation_deg", "azimuth_deg"}},
       {"cd_table", {"mach", "cd"}},

@@ -34,6 +34,15 @@ struct FrameSpec {
   Vec3 velocity_mps{0, 0, 0};  // frame velocity (site coordinates), added to every fragment
 };
 
+// A fixed attitude of the body axes relative to the group's local frame (oriented debris, a slab
+// lying on a slope). All zero: body axes = local axes, so a cuboid [a, b, c] in a level frame lies
+// on its a x b face.
+struct AttitudeSpec {
+  double yaw_deg = 0.0;  // same convention as FrameSpec: R = Rz(yaw) * Ry(-pitch) * Rx(roll)
+  double pitch_deg = 0.0;
+  double roll_deg = 0.0;
+};
+
 struct DirectionSpec {
   // Uniform on the unit sphere restricted to these ranges, in the local frame
   // (x forward, y left, z up; elevation from the xy-plane, azimuth from +x toward +y).
@@ -59,6 +68,8 @@ struct FragmentGroupSpec {
   CdSpec cd;
   std::optional<double> area_m2;  // presented-area override; required for point
   Distribution spin_radps = Distribution::fixed(0.0);  // initial spin magnitude, random axis
+  // Body axes relative to the group's local frame; nullopt: uniformly random (default).
+  std::optional<AttitudeSpec> attitude;
 };
 
 }  // namespace fragsim::fragments

@@ -19,6 +19,15 @@ Mat3 frame_rotation(const FrameSpec& frame) {
       .toRotationMatrix();
 }
 
+Mat3 attitude_rotation(const AttitudeSpec& attitude) {
+  // The same convention as the frame, so a user states both the same way.
+  FrameSpec f;
+  f.yaw_deg = attitude.yaw_deg;
+  f.pitch_deg = attitude.pitch_deg;
+  f.roll_deg = attitude.roll_deg;
+  return frame_rotation(f);
+}
+
 Vec3 sample_direction(const DirectionSpec& d, double u_elevation, double u_azimuth) {
   // Archimedes' hat-box theorem: the area of a spherical zone is proportional to the difference
   // of sin(elevation) at its edges, so sin(elevation) uniform and azimuth uniform give a uniform
@@ -43,6 +52,21 @@ Quat uniform_rotation(double u1, double u2, double u3) {
   q.normalize();  // unit to rounding already; keep it exactly so for the integrator
   return q;
 }
+
+namespace {
+
+// Attitude relative to the local frame, carried into site axes with the frame: fixed by the group
+// (one matrix product, converted once, so it equals frame * attitude to rounding), or uniformly
+// random from the orientation slots, which a fixed attitude leaves unread.
+Quat body_to_site(const FragmentGroupSpec& group, const Mat3& frame, const RandomStream& rng) {
+  if (group.attitude) return Quat(Mat3(frame * attitude_rotation(*group.attitude))).normalized();
+  const Quat q_local =
+      uniform_rotation(rng.uniform(kSlotOrientation, 0), rng.uniform(kSlotOrientation, 1),
+                       rng.uniform(kSlotOrientation2, 0));
+  return (Quat(frame) * q_local).normalized();
+}
+
+}  // namespace
 
 FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
                              std::uint64_t history, std::uint64_t seed) {
@@ -71,11 +95,7 @@ FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group
   f.launch_direction = rot * dir_local;
   f.velocity_mps = speed * f.launch_direction + group.frame.velocity_mps;
 
-  // Random attitude relative to the local frame, then carried into site axes with the frame.
-  const Quat q_local =
-      uniform_rotation(rng.uniform(kSlotOrientation, 0), rng.uniform(kSlotOrientation, 1),
-                       rng.uniform(kSlotOrientation2, 0));
-  f.orientation = (Quat(rot) * q_local).normalized();
+  f.orientation = body_to_site(group, rot, rng);
 
   // Spin: magnitude from its distribution, axis uniform on the sphere in the body frame
   // (z = cos(polar angle) uniform on [-1, 1], longitude uniform).

@@ -14,7 +14,8 @@ enum Slot : std::uint32_t {
   kSlotMass = 0,
   kSlotSpeed = 1,
   kSlotDirection = 2,    // k=0 elevation, k=1 azimuth
-  kSlotOrientation = 3,  // k=0,1 and kSlotOrientation2 k=0: uniform random rotation
+  kSlotOrientation = 3,  // k=0,1 and kSlotOrientation2 k=0: uniform random rotation (not read
+                         // when the group fixes its attitude)
   kSlotOrientation2 = 4,
   kSlotSpin = 5,         // k=0 magnitude
   kSlotSpinAxis = 6,     // k=0,1 axis on the sphere (body frame)
@@ -49,6 +50,10 @@ double ellipsoid_surface_area(double a, double b, double c);
 
 // Rotation from the group's local frame to site axes: Rz(yaw) * Ry(-pitch) * Rx(roll).
 Mat3 frame_rotation(const FrameSpec& frame);
+
+// Rotation from body axes to the group's local frame for a fixed attitude: frame_rotation's
+// yaw/pitch/roll convention applied to the attitude's angles.
+Mat3 attitude_rotation(const AttitudeSpec& attitude);
 
 // Unit direction in the local frame, uniform on the sphere within the ranges, from u1, u2.
 Vec3 sample_direction(const DirectionSpec& d, double u_elevation, double u_azimuth);

@@ -472,6 +472,49 @@ TEST(ScenarioJson, Shapes) {
   EXPECT_EQ(sc.groups[2].area_m2, 0.001);
 }
 
+TEST(ScenarioJson, Attitude) {
+  const run::Scenario ks = parse_scenario(kitchen_sink());
+  ASSERT_TRUE(ks.groups[0].attitude.has_value());  // {"yaw_deg": 15, "pitch_deg": -20}
+  EXPECT_EQ(ks.groups[0].attitude->yaw_deg, 15.0);
+  EXPECT_EQ(ks.groups[0].attitude->pitch_deg, -20.0);
+  EXPECT_EQ(ks.groups[0].attitude->roll_deg, 0.0);
+  EXPECT_FALSE(ks.groups[1].attitude.has_value());  // "random"
+  EXPECT_FALSE(ks.groups[2].attitude.has_value());  // absent
+  const run::Scenario empty =
+      parse_scenario(with(minimal_example(), "/fragment_groups/0/attitude", Json::object()));
+  ASSERT_TRUE(empty.groups[0].attitude.has_value());
+  EXPECT_EQ(empty.groups[0].attitude->yaw_deg, 0.0);
+}
+
+TEST(ScenarioJson, AttitudeErrorsNameTheField) {
+  const std::string at = "/fragment_groups/0/attitude";
+  EXPECT_EQ(parse_error(with(minimal_example(), at, "fixed")),
+            (FieldMessage{"fragment_groups[0].attitude",
+                          "must be \"random\" or an object {yaw_deg, pitch_deg, roll_deg} (got "
+                          "\"fixed\")"}));
+  EXPECT_EQ(
+      parse_error(with(minimal_example(), at, 30)),
+      (FieldMessage{"fragment_groups[0].attitude", "expected string or object, got integer"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), at, Json::array({0, 0, 0}))),
+            (FieldMessage{"fragment_groups[0].attitude", "expected string or object, got array"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), at, {{"pitch_deg", "up"}})),
+            (FieldMessage{"fragment_groups[0].attitude.pitch_deg", "expected number, got string"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), at,
+                             {{"pitch_deg", std::numeric_limits<double>::quiet_NaN()}})),
+            (FieldMessage{"fragment_groups[0].attitude.pitch_deg", "not finite"}));
+  EXPECT_EQ(
+      parse_error(with(minimal_example(), at, {{"yaw", 10}})),
+      (FieldMessage{"fragment_groups[0].attitude.yaw", "unknown key (did you mean \"yaw_deg\"?)"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), at, {{"origin_m", {0, 0, 0}}})),
+            (FieldMessage{"fragment_groups[0].attitude.origin_m", "unknown key"}));
+  // Infinity only arrives as text (1e999).
+  std::string text = with(minimal_example(), at, {{"roll_deg", 12345}}).dump();
+  ASSERT_NE(text.find("12345"), std::string::npos);
+  text.replace(text.find("12345"), 5, "1e999");
+  EXPECT_EQ(parse_text_error(text),
+            (FieldMessage{"fragment_groups[0].attitude.roll_deg", "not finite"}));
+}
+
 TEST(ScenarioJson, Atmosphere) {
   EXPECT_EQ(parse_error(with(minimal_example(), "/atmosphere/density_kg_m3", 1.0)),
             (FieldMessage{"atmosphere.density_kg_m3", "only used with model \"constant\""}));
@@ -605,6 +648,7 @@ TEST(ScenarioJson, DefaultsFollowTheCoreStructs) {
   EXPECT_EQ(g.spin_radps.kind, fragments::Distribution::Kind::kFixed);
   EXPECT_EQ(g.spin_radps.value, 0.0);
   EXPECT_FALSE(g.area_m2.has_value());
+  EXPECT_FALSE(g.attitude.has_value());
 
   const auto& plane = std::get<scene::PlaneTerrainSpec>(sc.site.terrain.geometry);
   EXPECT_EQ(plane.cell_m, scene::PlaneTerrainSpec{}.cell_m);
@@ -672,6 +716,10 @@ TEST(ScenarioJson, NormalisedJsonFillsDefaultsAndKeepsProvenance) {
   const Json ks = scenario_to_json(parse_scenario_document(kitchen_sink()));
   EXPECT_EQ(ks["site"]["materials"]["wet soil"]["source"], "test value");
   EXPECT_EQ(ks["fragment_groups"][2]["mass_kg"], 0.05);
+  EXPECT_EQ(n["fragment_groups"][0]["attitude"], "random");
+  EXPECT_EQ(ks["fragment_groups"][0]["attitude"],
+            (Json{{"yaw_deg", 15.0}, {"pitch_deg", -20.0}, {"roll_deg", 0.0}}));
+  EXPECT_EQ(ks["fragment_groups"][1]["attitude"], "random");
   EXPECT_EQ(ks["settings"]["hfd_origin_m"], Json::array({0.0, 0.0, 0.0}));
   // Without the document only the scenario is written: no provenance keys.
   const Json bare = scenario_to_json(parse_scenario(minimal_example()));

@@ -1,5 +1,6 @@
 // Launch frame conventions, direction and rotation samplers (chi-square), and sample_fragment:
-// determinism, slot contract, frame velocity, weight, no NaN, no heap allocation.
+// determinism, slot contract, frame velocity, weight, fixed or random attitude, no NaN, no heap
+// allocation.
 #include "core/fragments/sampling.h"
 
 #include <gtest/gtest.h>
@@ -70,6 +71,20 @@ TEST(FrameRotation, Conventions) {
   const Mat3 r = frame_rotation(f);
   EXPECT_LE((r * r.transpose() - Mat3::Identity()).norm(), 1e-15);
   EXPECT_NEAR(r.determinant(), 1.0, 1e-15);
+}
+
+TEST(AttitudeRotation, IsTheFrameConventionOfItsAngles) {
+  // Bit-identical to frame_rotation of the same angles: one convention, one formula.
+  for (const AttitudeSpec a :
+       {AttitudeSpec{}, AttitudeSpec{90.0, 0.0, 0.0}, AttitudeSpec{-30.0, 45.0, 10.0},
+        AttitudeSpec{200.0, -75.0, 135.0}}) {
+    FrameSpec f;
+    f.yaw_deg = a.yaw_deg;
+    f.pitch_deg = a.pitch_deg;
+    f.roll_deg = a.roll_deg;
+    EXPECT_EQ(attitude_rotation(a), frame_rotation(f));
+  }
+  EXPECT_EQ(attitude_rotation(AttitudeSpec{}), Mat3::Identity());
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -241,7 +256,8 @@ FragmentGroupSpec test_group() {
   return g;
 }
 
-void expect_identical(const FragmentInit& a, const FragmentInit& b) {
+// Every field; the orientation too unless `same_orientation` is false.
+void expect_identical(const FragmentInit& a, const FragmentInit& b, bool same_orientation = true) {
   EXPECT_EQ(a.group, b.group);
   EXPECT_EQ(a.history, b.history);
   EXPECT_EQ(a.weight, b.weight);
@@ -253,7 +269,9 @@ void expect_identical(const FragmentInit& a, const FragmentInit& b) {
   EXPECT_EQ(a.body.presented_area_m2, b.body.presented_area_m2);
   EXPECT_EQ(a.position_m, b.position_m);
   EXPECT_EQ(a.velocity_mps, b.velocity_mps);
-  EXPECT_EQ(a.orientation.coeffs(), b.orientation.coeffs());
+  if (same_orientation) {
+    EXPECT_EQ(a.orientation.coeffs(), b.orientation.coeffs());
+  }
   EXPECT_EQ(a.omega_body_radps, b.omega_body_radps);
   EXPECT_EQ(a.launch_speed_mps, b.launch_speed_mps);
   EXPECT_EQ(a.launch_direction, b.launch_direction);
@@ -341,6 +359,75 @@ TEST(SampleFragment, FrameOrientsTheLaunch) {
   g.frame.pitch_deg = g.frame.roll_deg = 0.0;
   const auto f = sample_fragment(g, 0, 0, kSeed);
   expect_vec_near(f.launch_direction, Vec3::UnitY(), 1e-15);
+}
+
+// Largest entry of |a - b|.
+double max_abs_difference(const Mat3& a, const Mat3& b) {
+  return (a - b).cwiseAbs().maxCoeff();
+}
+
+TEST(SampleFragment, DefaultAttitudeIsTheUniformRotationOfTheSlots) {
+  // Without `attitude` the orientation is, bit for bit, the frame times Shoemake's rotation of the
+  // two orientation slots, as before the key existed.
+  const auto g = test_group();
+  ASSERT_FALSE(g.attitude.has_value());
+  for (std::uint32_t gi : {0u, 3u}) {
+    for (std::uint64_t h : {0ull, 1ull, 77ull, 1ull << 40}) {
+      const RandomStream rng(kSeed, gi, h);
+      const Quat q_local =
+          uniform_rotation(rng.uniform(kSlotOrientation, 0), rng.uniform(kSlotOrientation, 1),
+                           rng.uniform(kSlotOrientation2, 0));
+      const Quat want = (Quat(frame_rotation(g.frame)) * q_local).normalized();
+      EXPECT_EQ(sample_fragment(g, gi, h, kSeed).orientation.coeffs(), want.coeffs())
+          << "group " << gi << " history " << h;
+    }
+  }
+}
+
+TEST(SampleFragment, FixedAttitudeIsFrameTimesAttitude) {
+  // Every history gets R_frame * R_attitude (tolerance 1e-15: one matrix-quaternion-matrix round
+  // trip of a product of rotations).
+  auto g = test_group();
+  for (const AttitudeSpec a : {AttitudeSpec{}, AttitudeSpec{20.0, -35.0, 70.0},
+                               AttitudeSpec{-170.0, 89.0, -120.0}, AttitudeSpec{0.0, 90.0, 0.0}}) {
+    g.attitude = a;
+    const Mat3 want = frame_rotation(g.frame) * attitude_rotation(a);
+    double worst = 0.0;
+    for (std::uint64_t h = 0; h < 200; ++h) {
+      const Mat3 got = sample_fragment(g, 1, h, kSeed).orientation.toRotationMatrix();
+      worst = std::max(worst, max_abs_difference(got, want));
+    }
+    std::printf("[ measured ] attitude (%g, %g, %g): worst |R - R_frame R_attitude| %.3g\n",
+                a.yaw_deg, a.pitch_deg, a.roll_deg, worst);
+    EXPECT_LE(worst, 1e-15);
+  }
+}
+
+TEST(SampleFragment, ZeroAttitudeInALevelFrameAlignsBodyWithSite) {
+  // A cuboid [a, b, c] lies on its a x b face: body z = site z, body x = site x.
+  auto g = test_group();
+  g.frame.yaw_deg = g.frame.pitch_deg = g.frame.roll_deg = 0.0;
+  g.attitude = AttitudeSpec{};
+  const Mat3 r = sample_fragment(g, 0, 9, kSeed).orientation.toRotationMatrix();
+  EXPECT_LE(max_abs_difference(r, Mat3::Identity()), 1e-15);
+  // Pitch 90 stands the body's x axis up.
+  g.attitude = AttitudeSpec{0.0, 90.0, 0.0};
+  expect_vec_near(sample_fragment(g, 0, 9, kSeed).orientation * Vec3::UnitX(), Vec3::UnitZ(),
+                  1e-15);
+}
+
+TEST(SampleFragment, FixedAttitudeDoesNotShiftOtherVariables) {
+  // A fixed attitude only skips the orientation slots: mass, size, speed, direction and spin are
+  // bit-identical with and without it.
+  auto g = test_group();
+  auto fixed = g;
+  fixed.attitude = AttitudeSpec{10.0, 20.0, 30.0};
+  for (std::uint64_t h : {0ull, 5ull, 4242ull}) {
+    const auto a = sample_fragment(g, 2, h, kSeed);
+    const auto b = sample_fragment(fixed, 2, h, kSeed);
+    expect_identical(a, b, /*same_orientation=*/false);
+    EXPECT_NE(a.orientation.coeffs(), b.orientation.coeffs());
+  }
 }
 
 TEST(SampleFragment, MassPropertiesFollowTheSampledMass) {
