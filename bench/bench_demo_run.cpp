@@ -8,10 +8,15 @@
 // (common random numbers), so the differences are integration error, not Monte Carlo noise.
 //
 // With --bounce the scenario runs with settings.bounce on (bounce, slide and roll); with
-// --samples-scale X every group's samples are multiplied by X (quick looks).
+// --samples-scale X every group's samples are multiplied by X (quick looks); --rigid-ground
+// removes every material's embedment model (every terrain impact a rigid-body impulse).
+// --bounce-ratio runs bounce off and on in alternation on 1 thread (N rounds) and prints the
+// ratio of the best throughputs: the figure of the ground-phase issue (bounce-on throughput at
+// least half the bounce-off one, measured in the same run).
 //
 //   build/bench/bench_demo_run [scenario.json] [--repeat N] [--rtol-sweep] [--bounce]
-//                              [--samples-scale X] [--one-thread]
+//                              [--samples-scale X] [--one-thread] [--rigid-ground]
+//                              [--bounce-ratio]
 //
 // --one-thread: only the 1-thread runs (no all-threads run, no profiled run).
 #include <algorithm>
@@ -46,6 +51,11 @@ void print_row(const char* label, const run::RunResult& r) {
               static_cast<double>(r.stats.scene_queries) / n,
               static_cast<double>(r.stats.ptn_triangle_tests) / n,
               static_cast<double>(r.stats.bounces) / n, static_cast<double>(r.stats.ground_steps) / n);
+  if (r.stats.bounces > 0)
+    std::printf("%-22s per fragment: %.3f ground impacts, %.3f take-offs; ground step caps %lld\n",
+                "", static_cast<double>(r.stats.ground_impacts) / n,
+                static_cast<double>(r.stats.takeoffs) / n,
+                static_cast<long long>(r.stats.ground_step_caps));
 }
 
 // The figures a change in the physics or its discretisation would move (to compare builds).
@@ -69,6 +79,33 @@ void print_results(const run::RunResult& r) {
       std::printf(" %s %lld", run::outcome_name(static_cast<run::Outcome>(k)),
                   static_cast<long long>(r.outcome_histories[static_cast<std::size_t>(k)]));
   std::printf("\n");
+}
+
+// Bounce off and on in alternation, 1 thread, best of `rounds` each (CPU time: steadier than
+// wall time on a shared machine).
+void bounce_ratio(run::Scenario sc, const std::shared_ptr<const scene::Site>& site, int rounds) {
+  sc.settings.threads = 1;
+  sc.settings.profile = false;
+  double best[2] = {0.0, 0.0};
+  run::RunResult last[2];
+  for (int k = 0; k < rounds; ++k) {
+    for (int on = 0; on < 2; ++on) {
+      sc.settings.bounce = on == 1;
+      const std::clock_t c0 = std::clock();
+      last[on] = run::run(sc, site);
+      const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
+      const double rate = static_cast<double>(last[on].histories_done) / cpu_s;
+      best[on] = std::max(best[on], rate);
+      std::printf("round %d bounce %-3s %.0f fragments per CPU-second\n", k + 1, on ? "on" : "off",
+                  rate);
+    }
+  }
+  print_row("bounce off (last)", last[0]);
+  print_results(last[0]);
+  print_row("bounce on (last)", last[1]);
+  print_results(last[1]);
+  std::printf("best of %d: bounce off %.0f/s, bounce on %.0f/s, ratio on/off %.3f\n", rounds,
+              best[0], best[1], best[1] / best[0]);
 }
 
 double total_impacts(const run::RunResult& r) {
@@ -114,7 +151,7 @@ int main(int argc, char** argv) {
   int repeat = 3;
   bool one_thread = false;
   bool rtol_sweep = false;
-  bool bounce = false;
+  bool bounce = false, rigid_ground = false, ratio = false;
   double samples_scale = 1.0;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
@@ -125,6 +162,10 @@ int main(int argc, char** argv) {
       one_thread = true;
     } else if (std::strcmp(argv[i], "--bounce") == 0) {
       bounce = true;
+    } else if (std::strcmp(argv[i], "--rigid-ground") == 0) {
+      rigid_ground = true;
+    } else if (std::strcmp(argv[i], "--bounce-ratio") == 0) {
+      ratio = true;
     } else if (std::strcmp(argv[i], "--samples-scale") == 0 && i + 1 < argc) {
       samples_scale = std::atof(argv[++i]);
     } else {
@@ -144,10 +185,17 @@ int main(int argc, char** argv) {
   sc.settings.bounce = bounce;
   for (auto& g : sc.groups)
     g.samples = std::max<std::int64_t>(1, std::llround(static_cast<double>(g.samples) * samples_scale));
+  if (rigid_ground)
+    for (auto& [name, m] : sc.site.materials) m.embedment.reset();
   auto site = scene::Site::build(sc.site);
-  std::printf("# %s%s\n# terrain triangles %zu, buildings %zu, hardware threads %u\n", path.c_str(),
-              bounce ? " (bounce on)" : "", site->terrain_triangle_count(),
-              site->buildings().size(), std::thread::hardware_concurrency());
+  std::printf("# %s%s%s\n# terrain triangles %zu, buildings %zu, hardware threads %u\n",
+              path.c_str(), bounce ? " (bounce on)" : "", rigid_ground ? " (rigid ground)" : "",
+              site->terrain_triangle_count(), site->buildings().size(),
+              std::thread::hardware_concurrency());
+  if (ratio) {
+    bounce_ratio(sc, site, repeat);
+    return 0;
+  }
 
   const int all = static_cast<int>(std::thread::hardware_concurrency());
   for (int threads : {1, all}) {

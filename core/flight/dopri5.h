@@ -175,6 +175,17 @@ class Dopri5 {
            h_;
   }
 
+  // The continuous extension's coefficients on the last step, for callers that evaluate a few
+  // linear functionals of y many times (the event functions of the ground phase): for a row
+  // vector c, c.y(theta) = c.y0 + theta (c.r2 + (1-theta) (c.r3 + theta (c.r4 + (1-theta) c.r5))).
+  struct DenseCoefficients {
+    const Vec &y0, &r2, &r3, &r4, &r5;
+    double t0, h;
+  };
+  DenseCoefficients dense_coefficients() const {
+    return {y_prev_, r2_, r3_, r4_, r5_, t_prev_, h_};
+  }
+
   double next_step_size() const { return h_next_; }  // proposal for the next step
   // Counters accumulate over the object's lifetime (reset() does not clear them).
   long rhs_evaluations() const { return rhs_evals_; }
