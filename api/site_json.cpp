@@ -43,6 +43,24 @@ scene::RestitutionSpec parse_restitution(const Json& j, const std::string& path)
   return r;
 }
 
+// Embedment of fast fragments (scene::EmbedmentSpec; docs/physics.md, "Fast impacts on soil").
+// The model is named so that others can be added; the bulk density has no default (no value is
+// right for every ground).
+scene::EmbedmentSpec parse_embedment(const Json& j, const std::string& path) {
+  const ObjectReader o(j, path, "embedment");
+  const std::string model = o.string("model");
+  if (model != "johnson_reid_1975")
+    fail(o.at("model"), "unknown model \"" + model + "\" (known: \"johnson_reid_1975\")");
+  scene::EmbedmentSpec e;
+  e.bulk_density_kg_m3 = o.number("bulk_density_kg_m3");
+  check_gt(e.bulk_density_kg_m3, 0.0, o.at("bulk_density_kg_m3"));
+  e.coefficient_deg = o.number_or("coefficient_deg", e.coefficient_deg);
+  check_gt(e.coefficient_deg, 0.0, o.at("coefficient_deg"));
+  e.min_speed_mps = o.number_or("min_speed_mps", e.min_speed_mps);
+  check_ge(e.min_speed_mps, 0.0, o.at("min_speed_mps"));
+  return e;
+}
+
 scene::MaterialSpec parse_material(const Json& j, const std::string& path, MaterialNotes& notes) {
   const ObjectReader o(j, path, "material");
   scene::MaterialSpec m;
@@ -58,6 +76,7 @@ scene::MaterialSpec parse_material(const Json& j, const std::string& path, Mater
     check_gt(ke, 0.0, pen.at("ke_per_area_j_per_m2"));
     m.penetration_ke_per_area_j_per_m2 = ke;
   }
+  if (const Json* e = o.find("embedment")) m.embedment = parse_embedment(*e, o.at("embedment"));
   notes.illustrative = o.bool_or("illustrative", false);
   notes.source = o.string_or("source", "");
   return m;
@@ -313,6 +332,11 @@ Json site_to_json(const scene::SiteSpec& site, const std::map<std::string, Mater
                {"restitution", restitution_json(m.restitution)}};
     if (m.penetration_ke_per_area_j_per_m2)
       mj["penetration"] = {{"ke_per_area_j_per_m2", *m.penetration_ke_per_area_j_per_m2}};
+    if (m.embedment)
+      mj["embedment"] = {{"model", "johnson_reid_1975"},
+                         {"bulk_density_kg_m3", m.embedment->bulk_density_kg_m3},
+                         {"coefficient_deg", m.embedment->coefficient_deg},
+                         {"min_speed_mps", m.embedment->min_speed_mps}};
     if (notes) {
       if (const auto it = notes->find(name); it != notes->end()) {
         mj["illustrative"] = it->second.illustrative;

@@ -515,6 +515,29 @@ TEST(ScenarioJson, AttitudeErrorsNameTheField) {
             (FieldMessage{"fragment_groups[0].attitude.roll_deg", "not finite"}));
 }
 
+TEST(ScenarioJson, Embedment) {
+  const run::Scenario ks = parse_scenario(kitchen_sink());
+  const auto& soil = ks.site.materials.at("wet soil");
+  ASSERT_TRUE(soil.embedment.has_value());
+  EXPECT_EQ(soil.embedment->bulk_density_kg_m3, 1900.0);
+  EXPECT_EQ(soil.embedment->coefficient_deg, 18.0);  // Johnson & Reid (1975)
+  EXPECT_EQ(soil.embedment->min_speed_mps, 15.0);
+  EXPECT_FALSE(ks.site.materials.at("brick").embedment.has_value());
+  const std::string at = "/site/materials/soil/embedment";
+  EXPECT_EQ(parse_error(with(minimal_example(), at, {{"model", "poncelet"}, {"bulk_density_kg_m3", 1700}})),
+            (FieldMessage{"site.materials.soil.embedment.model",
+                          "unknown model \"poncelet\" (known: \"johnson_reid_1975\")"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), at, {{"model", "johnson_reid_1975"}})),
+            (FieldMessage{"site.materials.soil.embedment.bulk_density_kg_m3", "is required"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), at,
+                             {{"model", "johnson_reid_1975"}, {"bulk_density_kg_m3", -5}})).first,
+            "site.materials.soil.embedment.bulk_density_kg_m3");
+  EXPECT_EQ(parse_error(with(minimal_example(), at,
+                             {{"model", "johnson_reid_1975"}, {"bulk_density_kg_m3", 1700},
+                              {"min_speed_mps", -1}})).first,
+            "site.materials.soil.embedment.min_speed_mps");
+}
+
 TEST(ScenarioJson, Atmosphere) {
   EXPECT_EQ(parse_error(with(minimal_example(), "/atmosphere/density_kg_m3", 1.0)),
             (FieldMessage{"atmosphere.density_kg_m3", "only used with model \"constant\""}));

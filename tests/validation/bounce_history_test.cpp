@@ -273,6 +273,35 @@ TEST(BounceHistory, HarmlessCutOffChangesNoTally) {
   }
 }
 
+// Embedment (Johnson & Reid 1975) on soil of 1700 kg/m^3: steel spheres (theta_c = 8.38 deg)
+// arriving at 100 m/s steeper than that stop where they hit (outcome embedded, the end at the
+// first impact); more grazing they ricochet (a rigid-body bounce), and below min_speed_mps
+// (20 m/s) every impact is rigid. Launched from 2 m in vacuum, so the arrival angle is known.
+TEST(BounceHistory, FastSteepImpactsOnSoilEmbed) {
+  const auto outcome = [](double speed_mps, double down_deg) {
+    run::Scenario sc = bounce_scenario(400.0, 0.3, 0.6);
+    sc.site.materials["soil"].embedment = scene::EmbedmentSpec{};
+    sc.site.materials["soil"].embedment->bulk_density_kg_m3 = 1700.0;
+    sc.settings.hazardous_ke_j = 1e-9;  // follow it whatever its energy
+    auto g = sphere_group(Vec3(0.0, 0.0, 2.0), 0.1, speed_mps, 1.0, 1);
+    g.direction.elevation_min_deg = g.direction.elevation_max_deg = -down_deg;
+    g.direction.azimuth_min_deg = g.direction.azimuth_max_deg = 0.0;
+    sc.groups = {g};
+    const run::RunResult r = run::run(sc);
+    return r.fragments.at(0);
+  };
+  const auto steep = outcome(100.0, 10.0);  // arrives at ~10.1 deg
+  EXPECT_EQ(steep.outcome, run::Outcome::kEmbedded);
+  EXPECT_EQ(steep.bounces, 0u);
+  EXPECT_EQ(steep.end_position_m, steep.first_impact_position_m);
+  const auto grazing = outcome(100.0, 6.0);  // ~6.2 deg < theta_c
+  EXPECT_NE(grazing.outcome, run::Outcome::kEmbedded);
+  EXPECT_GE(grazing.bounces, 1u);
+  const auto slow = outcome(15.0, 40.0);  // steep but below 20 m/s: rigid
+  EXPECT_NE(slow.outcome, run::Outcome::kEmbedded);
+  EXPECT_GE(slow.bounces, 1u);
+}
+
 // Bit-identical results whatever the thread count and chunk size, with bounce, slide and roll.
 TEST(BounceHistory, DeterministicForThreadsAndChunks) {
   run::Scenario sc = bounce_scenario(300.0, 0.3, 0.6);
