@@ -42,15 +42,15 @@ void print_row(const char* label, const run::RunResult& r) {
   std::printf("%-22s threads %d  histories %lld  wall %.3f s  %.0f fragments/s  %.0f per thread\n",
               label, r.timing.threads, static_cast<long long>(r.histories_done), r.timing.wall_s,
               r.timing.fragments_per_s, r.timing.fragments_per_s_per_thread);
-  std::printf("%-22s per fragment: %.1f rhs evals, %.1f steps, %.2f chords (%.2f skipped), "
-              "%.2f scene queries, %.1f PTN triangle tests, %.2f bounces, %.1f ground steps\n",
-              "", static_cast<double>(r.stats.rhs_evaluations) / n,
-              static_cast<double>(r.stats.integrator_steps) / n,
-              static_cast<double>(r.stats.chords) / n,
-              static_cast<double>(r.stats.chords_skipped) / n,
-              static_cast<double>(r.stats.scene_queries) / n,
-              static_cast<double>(r.stats.ptn_triangle_tests) / n,
-              static_cast<double>(r.stats.bounces) / n, static_cast<double>(r.stats.ground_steps) / n);
+  std::printf(
+      "%-22s per fragment: %.1f rhs evals, %.1f steps, %.2f chords (%.2f skipped), "
+      "%.2f scene queries, %.1f PTN triangle tests, %.2f bounces, %.1f ground steps\n",
+      "", static_cast<double>(r.stats.rhs_evaluations) / n,
+      static_cast<double>(r.stats.integrator_steps) / n, static_cast<double>(r.stats.chords) / n,
+      static_cast<double>(r.stats.chords_skipped) / n,
+      static_cast<double>(r.stats.scene_queries) / n,
+      static_cast<double>(r.stats.ptn_triangle_tests) / n, static_cast<double>(r.stats.bounces) / n,
+      static_cast<double>(r.stats.ground_steps) / n);
   if (r.stats.bounces > 0)
     std::printf("%-22s per fragment: %.3f ground impacts, %.3f take-offs; ground step caps %lld\n",
                 "", static_cast<double>(r.stats.ground_impacts) / n,
@@ -184,7 +184,8 @@ int main(int argc, char** argv) {
   sc.settings.record_trajectories = false;
   sc.settings.bounce = bounce;
   for (auto& g : sc.groups)
-    g.samples = std::max<std::int64_t>(1, std::llround(static_cast<double>(g.samples) * samples_scale));
+    g.samples =
+        std::max<std::int64_t>(1, std::llround(static_cast<double>(g.samples) * samples_scale));
   if (rigid_ground)
     for (auto& [name, m] : sc.site.materials) m.embedment.reset();
   auto site = scene::Site::build(sc.site);
@@ -222,11 +223,12 @@ int main(int argc, char** argv) {
   sc.settings.profile = true;
   const run::RunResult p = run::run(sc, site);
   const double split = p.timing.integration_s + p.timing.geometry_s + p.timing.tally_s;
-  std::printf("profile (1 thread)     wall %.3f s: integration %.3f s (%.0f%%), geometry %.3f s "
-              "(%.0f%%), tally %.3f s (%.0f%%), rest (sampling, bookkeeping, timers) %.3f s\n",
-              p.timing.wall_s, p.timing.integration_s, 100 * p.timing.integration_s / p.timing.wall_s,
-              p.timing.geometry_s, 100 * p.timing.geometry_s / p.timing.wall_s, p.timing.tally_s,
-              100 * p.timing.tally_s / p.timing.wall_s, p.timing.wall_s - split);
+  std::printf(
+      "profile (1 thread)     wall %.3f s: integration %.3f s (%.0f%%), geometry %.3f s "
+      "(%.0f%%), tally %.3f s (%.0f%%), rest (sampling, bookkeeping, timers) %.3f s\n",
+      p.timing.wall_s, p.timing.integration_s, 100 * p.timing.integration_s / p.timing.wall_s,
+      p.timing.geometry_s, 100 * p.timing.geometry_s / p.timing.wall_s, p.timing.tally_s,
+      100 * p.timing.tally_s / p.timing.wall_s, p.timing.wall_s - split);
   if (rtol_sweep) sweep_rtol(sc, site);
   return 0;
 }

@@ -30,7 +30,10 @@ RootBracket illinois(const F& f, double lo, double hi, double f_lo, double f_hi,
     const double t = (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
     const double ft = f(t);
     if (ft == 0.0 || (hi - lo) <= tol_t * std::max(1.0, std::abs(t))) {
-      if (ft == 0.0 || (ft > 0.0) != before_positive) hi = t; else lo = t;
+      if (ft == 0.0 || (ft > 0.0) != before_positive)
+        hi = t;
+      else
+        lo = t;
       return {lo, hi, t, true};
     }
     if ((ft > 0.0) == before_positive) {

@@ -8,13 +8,14 @@ namespace fragsim::flight {
 
 namespace {
 
-// ISA constants (ICAO Doc 7488, ISO 2533; physics notes). Altitudes are geopotential metres.
+// ISA constants (ICAO Doc 7488, ISO 2533; docs/physics.md, "Reference formulas"). Altitudes are
+// geopotential metres.
 constexpr double kT0_K = 288.15;        // sea-level temperature
 constexpr double kP0_Pa = 101325.0;     // sea-level pressure
 constexpr double kLapse_K_m = -0.0065;  // troposphere temperature gradient
 constexpr double kTropopause_m = 11000.0;
 constexpr double kT11_K = 216.65;     // isothermal layer temperature
-constexpr double kP11_Pa = 22632.0;   // pressure at 11 km (physics notes)
+constexpr double kP11_Pa = 22632.0;   // pressure at 11 km (docs/physics.md, "Reference formulas")
 constexpr double kR_J_kgK = 287.053;  // specific gas constant of dry air
 constexpr double kGamma = 1.4;
 constexpr double kExponent = 5.25588;  // g0 / (R |L|), as printed in the standard

@@ -15,9 +15,10 @@ struct AtmosphereSpec {
 };
 
 // ISA (ICAO Doc 7488 / ISO 2533) troposphere to 11 km, isothermal stratosphere above
-// (physics notes). The ISA model is tabulated once at construction (cubic Hermite, 10 m nodes,
-// -1 km .. 30 km; relative error < 1e-9 against the closed form) because pow() per right-hand-side
-// evaluation would dominate flight cost. Outside the table the closed form is used.
+// (docs/physics.md, "Reference formulas"). The ISA model is tabulated once at construction (cubic
+// Hermite, 10 m nodes, -1 km .. 30 km; relative error < 1e-9 against the closed form) because pow()
+// per right-hand-side evaluation would dominate flight cost. Outside the table the closed form is
+// used.
 class Atmosphere {
  public:
   explicit Atmosphere(const AtmosphereSpec& spec);

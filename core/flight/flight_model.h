@@ -44,8 +44,9 @@ struct FlightModel {
     const double speed = v_rel.norm();
     const double altitude = p.z() + altitude_offset_m;
     // Only a Mach table needs the speed of sound (saves a table lookup per evaluation otherwise).
-    const double cd_value =
-        cd->is_constant() ? cd->at_mach(0.0) : cd->at_mach(speed / atmosphere->sound_speed(altitude));
+    const double cd_value = cd->is_constant()
+                                ? cd->at_mach(0.0)
+                                : cd->at_mach(speed / atmosphere->sound_speed(altitude));
     const double k = 0.5 * atmosphere->density(altitude) * cd_value * area_m2 / mass_kg;
     a -= (k * speed) * v_rel;
     return a;

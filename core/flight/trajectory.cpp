@@ -45,12 +45,12 @@ bool TrajectoryIntegrator::step(double t_end) {
   return true;
 }
 
-// The kink of -k|v_rel| v_rel at v_rel = 0 (physics notes, "Caution"): with no horizontal
-// relative speed, v_z' = -g - k|v_z|v_z has a v_z''' that jumps by 4 k g^2 at the apex, so a
-// Runge-Kutta step across it drops to low order and its error estimate is unreliable. If the
-// accepted step [t_prev, t] has v_z,rel changing sign while the horizontal relative speed is
-// small (kApexHorizontalRatio), locate v_z,rel = 0 on the dense output and retake the step to
-// end there; the next step then starts at the apex and sees a smooth solution.
+// The kink of -k|v_rel| v_rel at v_rel = 0 (docs/physics.md, "Reference formulas": the v = 0 kink):
+// with no horizontal relative speed, v_z' = -g - k|v_z|v_z has a v_z''' that jumps by 4 k g^2 at
+// the apex, so a Runge-Kutta step across it drops to low order and its error estimate is
+// unreliable. If the accepted step [t_prev, t] has v_z,rel changing sign while the horizontal
+// relative speed is small (kApexHorizontalRatio), locate v_z,rel = 0 on the dense output and retake
+// the step to end there; the next step then starts at the apex and sees a smooth solution.
 void TrajectoryIntegrator::cut_at_apex_if_needed() {
   const double t0 = ode_.t_prev(), t1 = ode_.t();
   if (t0 == last_cut_t_) return;  // this step starts at the apex just cut: v_z,rel(t0) ~ 0

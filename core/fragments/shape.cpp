@@ -161,7 +161,7 @@ MassProperties mass_properties(const ShapeSpec& shape, double mass_kg,
   }
 
   // Cauchy's surface-area formula: averaged over uniformly random orientations, the projected
-  // area of a convex body is a quarter of its surface (physics notes, "Free flight").
+  // area of a convex body is a quarter of its surface (docs/physics.md, "Reference formulas").
   mp.presented_area_m2 = area_override ? *area_override : 0.25 * mp.surface_m2;
   return mp;
 }

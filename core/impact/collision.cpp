@@ -1,5 +1,5 @@
-// Impulse-based rigid-body collision (paper eqs. 6-36; Mirtich 1996, ch. 4; physics notes,
-// "Impact: impulse-based bounce").
+// Impulse-based rigid-body collision (paper eqs. 6-36; Mirtich 1996, ch. 4; docs/physics.md,
+// "Bounce").
 //
 // Variables. The normal impulse s = p_z grows monotonically through the whole impact. In the
 // contact frame u = u0 + K_hat p (eq. 21); while sliding dp = zeta ds (eqs. 29-30) and the work

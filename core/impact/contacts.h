@@ -20,7 +20,8 @@ inline double path_curvature(const Vec3& v, const Vec3& a) {
   return s > 0.0 ? v.cross(a).norm() / (s * s * s) : std::numeric_limits<double>::infinity();
 }
 
-// Number of chords so that the sagitta of each stays <= sagitta_m (physics notes):
+// Number of chords so that the sagitta of each stays <= sagitta_m (docs/physics.md, "Reference
+// formulas"):
 //   n = ceil(L sqrt(kappa / (8 delta)))
 // with kappa the largest curvature on the step (the caller samples both ends and the middle: the
 // curvature peaks at an apex, which may lie inside a step).
@@ -32,8 +33,8 @@ inline int chord_count(double length_m, double kappa_max, double sagitta_m, int 
 }
 
 // Time in [t_lo, t_hi] at which the arc P(t) crosses the plane through q with normal n, found by
-// the Illinois regula falsi (common/roots.h) on g(t) = n.(P(t) - q). Requires g(t_lo) and g(t_hi) of
-// opposite signs (or one of them 0); returns NaN otherwise.
+// the Illinois regula falsi (common/roots.h) on g(t) = n.(P(t) - q). Requires g(t_lo) and g(t_hi)
+// of opposite signs (or one of them 0); returns NaN otherwise.
 template <class PositionFn>
 double refine_plane_crossing(const PositionFn& position, const Vec3& n, const Vec3& q, double t_lo,
                              double t_hi) {

@@ -32,18 +32,18 @@ struct Contact {
   bool line = false;
   Vec3 line_dir{1, 0, 0};
   Vec3 n1{0, 0, 1}, n2{0, 0, 1};
-  Vec3 e{1, 0, 0};          // crease: unit edge direction, from `from_v` to `to_v`
-  Vec3 from_v{0, 0, 0}, to_v{0, 0, 0};  // crease: the edge's end points (local)
+  Vec3 e{1, 0, 0};                       // crease: unit edge direction, from `from_v` to `to_v`
+  Vec3 from_v{0, 0, 0}, to_v{0, 0, 0};   // crease: the edge's end points (local)
   std::uint32_t from_id = 0, to_id = 0;  // their vertex indices
 };
 
 // How the body resists motion on the current contact.
 struct Resistance {
   bool round = false;
-  bool slipping = false;  // round: the contact point slides (G4), else it rolls (G5)
-  double mu = 0.0;        // Coulomb friction of the terrain
-  double mu_r = 0.0;      // rolling resistance of the terrain
-  double ratio = 0.4;     // round: I / (m R^2)
+  bool slipping = false;    // round: the contact point slides (G4), else it rolls (G5)
+  double mu = 0.0;          // Coulomb friction of the terrain
+  double mu_r = 0.0;        // rolling resistance of the terrain
+  double ratio = 0.4;       // round: I / (m R^2)
   Vec3 slip_dir0{0, 0, 0};  // round: slip direction while the slip speed is exactly 0
   // round, slipping: a skid (rolling could not be held, G6), in which the rolling resistance
   // torque brakes the spin as in rolling; a slip after an impact is Coulomb friction alone.
@@ -105,8 +105,7 @@ struct GroundRhs {
     return dy;
   }
 
-  void face_acceleration(const Vec3& a_ext, const Vec3& v, const Vec3& w, Vec3& a,
-                         Vec3& dw) const {
+  void face_acceleration(const Vec3& a_ext, const Vec3& v, const Vec3& w, Vec3& a, Vec3& dw) const {
     const Vec3& n = contact->n;
     const PlaneLoad load = plane_load(a_ext, n);
     // The velocity along the plane (or the line): friction never sees a normal part that
@@ -173,7 +172,9 @@ struct TriangleEdges {
     return normal[k].x() * p.x() + normal[k].y() * p.y() - offset[k];
   }
   // d phi_k / dt for a velocity v.
-  double rate_k(int k, const Vec3& v) const { return normal[k].x() * v.x() + normal[k].y() * v.y(); }
+  double rate_k(int k, const Vec3& v) const {
+    return normal[k].x() * v.x() + normal[k].y() * v.y();
+  }
 };
 
 void set_edge(TriangleEdges& te, int k, const Vec2& u, const Vec2& w, std::uint32_t iu,
@@ -202,7 +203,8 @@ TriangleEdges lattice_edges(const scene::TerrainIndex2D& g, std::uint32_t tri) {
   TriangleEdges te;
   if (tri % 2 == 0) {  // (v00, v10, v11)
     set_edge(te, 0, p00, p10, vid(i, j), vid(i + 1, j), j > 0 ? 2 * (cell - nx) + 1 : -1);
-    set_edge(te, 1, p10, p11, vid(i + 1, j), vid(i + 1, j + 1), i + 1 < nx ? 2 * (cell + 1) + 1 : -1);
+    set_edge(te, 1, p10, p11, vid(i + 1, j), vid(i + 1, j + 1),
+             i + 1 < nx ? 2 * (cell + 1) + 1 : -1);
     set_edge(te, 2, p11, p00, vid(i + 1, j + 1), vid(i, j), 2 * cell + 1);
   } else {  // (v00, v11, v01)
     set_edge(te, 0, p00, p11, vid(i, j), vid(i + 1, j + 1), 2 * cell);
@@ -217,7 +219,8 @@ TriangleEdges mesh_edges(const scene::Site& site, std::uint32_t tri) {
   const auto& vs = site.terrain_vertices();
   std::uint32_t a = ids[0], b = ids[1], c = ids[2];
   const auto xy = [&](std::uint32_t v) { return Vec2(vs[v].x(), vs[v].y()); };
-  const double orient = (xy(b) - xy(a)).x() * (xy(c) - xy(a)).y() - (xy(b) - xy(a)).y() * (xy(c) - xy(a)).x();
+  const double orient =
+      (xy(b) - xy(a)).x() * (xy(c) - xy(a)).y() - (xy(b) - xy(a)).y() * (xy(c) - xy(a)).x();
   if (orient < 0.0) std::swap(b, c);  // counter-clockwise seen from above
   TriangleEdges te;
   set_edge(te, 0, xy(a), xy(b), a, b, -2);
@@ -248,7 +251,8 @@ class GroundMotion {
     res_.mu = material_.friction;
     res_.mu_r = material_.rolling_resistance;
     radius_m_ = res_.round ? body.shape.half_m.x() : 0.0;
-    if (res_.round) res_.ratio = body.shape.inertia_kg_m2.x() / (body.mass_kg * radius_m_ * radius_m_);
+    if (res_.round)
+      res_.ratio = body.shape.inertia_kg_m2.x() / (body.mass_kg * radius_m_ * radius_m_);
     const auto& cell = site.terrain_index().cell;
     nudge_m_ = 1e-7 * std::max(1e-3, std::min(cell.x(), cell.y()));
     g_ = air.gravity_mps2;
@@ -325,7 +329,7 @@ class GroundMotion {
   const scene::Material& material_;
   Contact contact_;
   Resistance res_;
-  Vec3 origin_{0, 0, 0};  // position at the last integrator reset
+  Vec3 origin_{0, 0, 0};       // position at the last integrator reset
   Quat q_ = Quat::Identity();  // attitude (sliders: turned with the terrain)
   flight::Dopri5<9, GroundRhs> ode_;
   TriangleEdges edges_{};
@@ -480,8 +484,7 @@ void GroundMotion::restart_integrator(const Vec3& p, const Vec3& v, const Vec3& 
 }
 
 Next GroundMotion::enter_crease(std::uint32_t tri, std::uint32_t other, std::uint32_t from_id,
-                                std::uint32_t to_id, const Vec3& p, const Vec3& v,
-                                const Vec3& w) {
+                                std::uint32_t to_id, const Vec3& p, const Vec3& v, const Vec3& w) {
   const auto& vs = site_.terrain_vertices();
   Contact c;
   c.crease = true;
@@ -560,7 +563,8 @@ Next GroundMotion::step() {
     return Next::kContinue;
   }
   ++r_.steps;
-  if (!ode_.step(t_end)) return finish(t_ >= set_.t_max_s ? GroundEnd::kMaxTime : GroundEnd::kStepCap);
+  if (!ode_.step(t_end))
+    return finish(t_ >= set_.t_max_s ? GroundEnd::kMaxTime : GroundEnd::kStepCap);
   h_next_ = ode_.next_step_size();
   const Next n = contact_.crease ? walk_crease_step() : walk_face_step();
   if (n == Next::kDone) return n;
@@ -609,7 +613,7 @@ GroundMotion::Exit GroundMotion::find_exit(double ta, double tb) const {
     double lo = ta, f_lo = fa, hi, f_hi;
     if (fa >= 0.0) {
       if (edges_.rate_k(k, va) > 0.0) return {ta, k};  // leaving through it right away
-      if (!(fm < 0.0 && fb > 0.0)) continue;  // the way in; it does not come back to it
+      if (!(fm < 0.0 && fb > 0.0)) continue;           // the way in; it does not come back to it
       lo = 0.5 * (ta + tb);
       f_lo = fm;
       hi = tb;
@@ -660,7 +664,8 @@ Next GroundMotion::walk_face_step() {
     obs_.prefetch(t2);
     site_.prefetch_terrain_triangle(t2);
     const Vec3& n2 = site_.terrain_triangle_normal(t2);
-    if ((n2 - contact_.n).squaredNorm() > 1e-24) return cross_edge(t2, edges_.from[k], edges_.to[k]);
+    if ((n2 - contact_.n).squaredNorm() > 1e-24)
+      return cross_edge(t2, edges_.from[k], edges_.to[k]);
     // Coplanar: the same law continues; walk on with the same step.
     contact_.tri = t2;
     edges_ = edges_of(t2);
@@ -788,7 +793,8 @@ Next GroundMotion::stop_or_restart(double residual_dt) {
   if (contact_.crease) {
     const Vec2 loads = crease_loads(contact_, a_ext);
     drive = std::abs(a_ext.dot(contact_.e));
-    cap = (res_.round ? res_.mu_r : res_.mu) * (std::max(0.0, loads.x()) + std::max(0.0, loads.y()));
+    cap =
+        (res_.round ? res_.mu_r : res_.mu) * (std::max(0.0, loads.x()) + std::max(0.0, loads.y()));
   } else {
     const PlaneLoad load = plane_load(a_ext, contact_.n);
     drive = load.at.norm();

@@ -36,13 +36,13 @@ namespace fragsim::impact {
 
 // The fragment as the ground phase sees it.
 struct GroundBody {
-  fragments::ContactBody shape;      // contact geometry and principal moments of inertia
+  fragments::ContactBody shape;  // contact geometry and principal moments of inertia
   double mass_kg = 0.0;
   // Body -> site at the start. A slider keeps its attitude relative to the terrain under it: at
   // an edge it is turned with the terrain (the least rotation taking the old normal to the new).
   Quat attitude = Quat::Identity();
-  double flat_tol_m = 0.0;           // contact_point's tolerance (bounce.h)
-  double density_kg_m3 = 0.0;        // mass / volume (the terrain's embedment test)
+  double flat_tol_m = 0.0;     // contact_point's tolerance (bounce.h)
+  double density_kg_m3 = 0.0;  // mass / volume (the terrain's embedment test)
   // Spheres (and point masses as spheres) roll; every other shape slides.
   bool round() const { return shape.type == fragments::ShapeType::kSphere; }
 };
@@ -73,7 +73,7 @@ enum class GroundEnd {
   kMaxTime,
   kStoppedByObserver,
   kStepCap,
-  kTakeOff,  // left the ground: `state` is where and how (the caller flies from it)
+  kTakeOff,   // left the ground: `state` is where and how (the caller flies from it)
   kEmbedded,  // an edge impact too fast and steep to ricochet (scene::Material::embeds)
 };
 

@@ -39,8 +39,8 @@ History::History(const RunContext& ctx, std::uint32_t group, std::int64_t histor
       scratch_(scratch),
       out_(out),
       prof_(st_.profile),
-      init_(fragments::sample_fragment(sc_.groups[group], group, static_cast<std::uint64_t>(history),
-                                       st_.seed)),
+      init_(fragments::sample_fragment(sc_.groups[group], group,
+                                       static_cast<std::uint64_t>(history), st_.seed)),
       mass_(init_.body.mass_kg),
       weight_(init_.weight),
       g_(sc_.gravity_mps2),
@@ -120,7 +120,8 @@ Phase History::start_on_ground() {
   const auto t = static_cast<std::uint32_t>(tri);
   const Vec3& n = site_.terrain_triangle_normal(t);
   const double reach = fragments::support_extent(body_, state_.q, -n);
-  const double height = (state_.p.z() - site_.terrain_plane_height(t, state_.p.x(), state_.p.y())) * n.z();
+  const double height =
+      (state_.p.z() - site_.terrain_plane_height(t, state_.p.x(), state_.p.y())) * n.z();
   if (height - reach > kLaunchContact_m) return Phase::kFlight;
   state_.p += (reach - height) * n;
   state_.triangle = t;
@@ -180,8 +181,8 @@ Phase History::terrain_impact(const FlightEvent& ev) {
     record_point(ev.t, ev.p, ev.v, TrajectoryEvent::kTerrainImpact);
     return Phase::kDone;
   }
-  const impact::TerrainBounce b = impact::bounce_on_terrain(body_, mass_, state_.q, ev.v,
-                                                            state_.omega, ev.normal, mat, flat_tol_m_);
+  const impact::TerrainBounce b = impact::bounce_on_terrain(
+      body_, mass_, state_.q, ev.v, state_.omega, ev.normal, mat, flat_tol_m_);
   ++bounces_;
   ++out_.stats.bounces;
   record_point(ev.t, ev.p, ev.v, TrajectoryEvent::kTerrainImpact);
@@ -342,10 +343,7 @@ void History::finish() {
 }  // namespace detail
 
 RunContext::RunContext(const Scenario& sc, const scene::Site& s)
-    : scenario(&sc),
-      site(&s),
-      atmosphere(sc.atmosphere),
-      prisms(s, sc.settings.person_height_m) {
+    : scenario(&sc), site(&s), atmosphere(sc.atmosphere), prisms(s, sc.settings.person_height_m) {
   cd.reserve(sc.groups.size());
   for (const auto& g : sc.groups) cd.emplace_back(g.cd);
   terrain_min_z = detail::lowest_terrain_z(s);

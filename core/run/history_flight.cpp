@@ -25,7 +25,8 @@ FlightEvent History::fly() {
     if (!done) done = catch_slip_through(integ, s, ev);
     // Trajectory record: the step's end, or where it was cut short (time stays increasing
     // across bounces, and no point lies past a contact).
-    record_point(done ? ev.t : s.t1, done ? ev.p : s.p1, done ? ev.v : s.v1, TrajectoryEvent::kFlight);
+    record_point(done ? ev.t : s.t1, done ? ev.p : s.p1, done ? ev.v : s.v1,
+                 TrajectoryEvent::kFlight);
     if (done) break;
     if (!site_.terrain_bounds().contains_xy(s.p1.x(), s.p1.y())) {
       ev = {FlightEnd::kLeftSite, s.t1, s.p1, s.v1};
@@ -49,7 +50,8 @@ bool History::flight_step(flight::TrajectoryIntegrator& integ, FlightStep& s, Fl
     ok = integ.step(st_.max_flight_time_s);
   }
   if (!ok) {
-    ev.end = integ.t() >= st_.max_flight_time_s ? FlightEnd::kMaxTime : FlightEnd::kIntegrationFailed;
+    ev.end =
+        integ.t() >= st_.max_flight_time_s ? FlightEnd::kMaxTime : FlightEnd::kIntegrationFailed;
     ev.t = integ.t();
     ev.p = integ.position();
     ev.v = integ.velocity();
@@ -81,8 +83,9 @@ bool History::examine_step(const flight::TrajectoryIntegrator& integ, const Flig
   // Curvature at both ends and in the middle (an apex inside the step is where it peaks).
   const double tm = 0.5 * (s.t0 + s.t1);
   const Vec3 vm = integ.velocity(tm);
-  const double kappa = std::max({impact::path_curvature(s.v0, s.a0), impact::path_curvature(s.v1, s.a1),
-                                 impact::path_curvature(vm, model_.acceleration(integ.position(tm), vm))});
+  const double kappa =
+      std::max({impact::path_curvature(s.v0, s.a0), impact::path_curvature(s.v1, s.a1),
+                impact::path_curvature(vm, model_.acceleration(integ.position(tm), vm))});
   const int n = impact::chord_count((s.p1 - s.p0).norm(), kappa, st_.sagitta_m);
   // In still air drag only removes mechanical energy, and a chord's lowest point is one of its
   // ends, so no point of a chord has more kinetic energy than E(t0) - m g z_min: a chord below
@@ -117,8 +120,8 @@ bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const Fli
   std::optional<FlightEvent> touch;
   if (st_.bounce && radius_m_ > 0.0 && zlo <= ctx_.terrain_max_z + radius_m_) {
     SectionTimer timer(prof_, out_.geometry_s);
-    touch = body_terrain_contact(integ, ta, t_hit,
-                                 hit && hit->terrain ? static_cast<std::int64_t>(hit->triangle) : -1);
+    touch = body_terrain_contact(
+        integ, ta, t_hit, hit && hit->terrain ? static_cast<std::int64_t>(hit->triangle) : -1);
   }
   double s_end = 1.0;  // the path for the PTN tally: the chord, up to the contact
   if (touch) {
@@ -136,8 +139,8 @@ bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const Fli
     ev.surface = hit->surface;
     s_end = std::min(hit->t, 1.0);
   }
-  const bool may_be_hazardous = !ctx_.still_air || !ctx_.step_min_at_ends ||
-                                e_step - mass_ * g_ * zlo >= st_.hazardous_ke_j;
+  const bool may_be_hazardous =
+      !ctx_.still_air || !ctx_.step_min_at_ends || e_step - mass_ * g_ * zlo >= st_.hazardous_ke_j;
   if (may_be_hazardous) {
     add_ptn_segment(pa, pa + s_end * (pb - pa),
                     [&](double u) { return integ.velocity(ta + u * s_end * (tb - ta)); });
@@ -195,7 +198,10 @@ bool History::catch_slip_through(const flight::TrajectoryIntegrator& integ, cons
     const double t_mid = 0.5 * (lo + hi);
     const Vec3 pm = integ.position(t_mid);
     const double hm = site_.terrain_height(pm.x(), pm.y());
-    if (std::isnan(hm) || pm.z() >= hm) lo = t_mid; else hi = t_mid;
+    if (std::isnan(hm) || pm.z() >= hm)
+      lo = t_mid;
+    else
+      hi = t_mid;
   }
   ev.end = FlightEnd::kTerrain;
   ev.t = hi;
@@ -236,8 +242,8 @@ double History::clearance(const flight::TrajectoryIntegrator& integ, std::uint32
 
 // The first time in [ta, tb] at which the body touches the plane of `tri` while approaching it
 // (clearance falls from > 0 to <= 0), or NaN. Sampled at a few points, then refined.
-double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint32_t tri,
-                            double ta, double tb) const {
+double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint32_t tri, double ta,
+                            double tb) const {
   constexpr int kSamples = 4;
   rot_.advance_base(ta);
   double t_prev = ta;
@@ -252,7 +258,8 @@ double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint
       // Already touching at the start of this sample interval. Right after a bounce or a
       // take-off the body sits on the plane and is leaving it: look further. Otherwise
       // (touching and approaching) the contact is now.
-      if (k == 1 && t_prev > rot_.start_time() && contact_approaching(integ, tri, t_prev)) return t_prev;
+      if (k == 1 && t_prev > rot_.start_time() && contact_approaching(integ, tri, t_prev))
+        return t_prev;
     }
     t_prev = t;
     g_prev = gk;
@@ -276,7 +283,8 @@ std::optional<FlightEvent> History::body_terrain_contact(const flight::Trajector
   double tc = first_touch(integ, static_cast<std::uint32_t>(tri), ta, tb);
   for (int pass = 0; pass < 2 && !std::isnan(tc); ++pass) {
     const Vec3& n = site_.terrain_triangle_normal(static_cast<std::uint32_t>(tri));
-    const Vec3 c = integ.position(tc) + fragments::contact_point(body_, attitude(tc), n, flat_tol_m_);
+    const Vec3 c =
+        integ.position(tc) + fragments::contact_point(body_, attitude(tc), n, flat_tol_m_);
     const std::int64_t under = site_.terrain_triangle_at(c.x(), c.y());
     if (under < 0 || under == tri) break;
     const double t2 = first_touch(integ, static_cast<std::uint32_t>(under), ta, tb);

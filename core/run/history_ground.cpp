@@ -87,7 +87,8 @@ Phase History::ground_phase() {
   ground_path_m_ += r.path_m;
   end_as(Outcome::kGround, r.state.t_s, r.state.position_m, r.state.velocity_mps);
   if (tally.building) {
-    note_first_impact(tally.building->t, tally.building->p, tally.building->v, tally.building->normal);
+    note_first_impact(tally.building->t, tally.building->p, tally.building->v,
+                      tally.building->normal);
     building_hit(*tally.building);
     return Phase::kDone;
   }

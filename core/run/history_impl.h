@@ -75,8 +75,8 @@ struct BodyState {
 
 // What ended one flight segment.
 enum class FlightEnd {
-  kTerrain,    // terrain contact at (t, p, v) on `triangle`
-  kBuilding,   // building hit
+  kTerrain,   // terrain contact at (t, p, v) on `triangle`
+  kBuilding,  // building hit
   kLeftSite,
   kMaxTime,
   kHarmless,
@@ -181,9 +181,9 @@ class History {
   flight::FlightModel model_;
   double radius_m_ = 0.0;  // bounding radius with bounce, 0 without (the path is the centre's)
   double flat_tol_m_ = 0.0;
-  flight::SegmentRotation rot_;  // attitude along the current flight segment
+  flight::SegmentRotation rot_;    // attitude along the current flight segment
   double segment_rot_ke_j_ = 0.0;  // rotational energy of the current flight segment (constant)
-  BodyState state_;  // where the next phase starts
+  BodyState state_;                // where the next phase starts
   EndState end_;
   FirstImpact first_;
   std::uint32_t bounces_ = 0, ground_impacts_ = 0, takeoffs_ = 0;

@@ -58,8 +58,8 @@ RTCSceneTy* new_scene(RTCDeviceTy* device) {
   RTCScene scene = rtcNewScene(device);
   if (!scene) throw_last(device, "rtcNewScene");
   // ROBUST: watertight triangle test, so a ray through a shared edge or vertex cannot slip
-  // between triangles (physics notes, Numerics). HIGH: SAH BVH with spatial splits; the scene is
-  // built once and queried millions of times.
+  // between triangles (docs/physics.md, "Reference formulas", numerics). HIGH: SAH BVH with spatial
+  // splits; the scene is built once and queried millions of times.
   rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
   return scene;

@@ -232,7 +232,8 @@ TEST_F(ResultsH5, FragmentAndTrajectoryRecords) {
   EXPECT_EQ(read_dataset_int64(f, "/fragments/surface"), (std::vector<std::int64_t>{-1, 1, -1}));
   EXPECT_EQ(read_dataset_int64(f, "/fragments/penetrated"), (std::vector<std::int64_t>{0, 1, 0}));
   EXPECT_EQ(read_dataset_int64(f, "/fragments/bounces"), (std::vector<std::int64_t>{0, 1, 2}));
-  EXPECT_EQ(read_dataset_int64(f, "/fragments/ground_impacts"), (std::vector<std::int64_t>{0, 3, 6}));
+  EXPECT_EQ(read_dataset_int64(f, "/fragments/ground_impacts"),
+            (std::vector<std::int64_t>{0, 3, 6}));
   EXPECT_EQ(read_dataset_int64(f, "/fragments/takeoffs"), (std::vector<std::int64_t>{1, 2, 3}));
   EXPECT_EQ(read_dataset_double(f, "/fragments/residual_ke_j"), (std::vector<double>{0, 400, 0}));
   EXPECT_EQ(read_dataset_double(f, "/fragments/ground_path_m"), (std::vector<double>{0, 2, 4}));
@@ -249,7 +250,8 @@ TEST_F(ResultsH5, FragmentAndTrajectoryRecords) {
   EXPECT_EQ(read_dataset_double(f, "/trajectories/position_m")[12], -5.0);
   EXPECT_EQ(dataset_shape(f, "/trajectories/velocity_mps"), (std::vector<std::uint64_t>{5, 3}));
   EXPECT_EQ(read_dataset_double(f, "/trajectories/velocity_mps")[8], -2.0);
-  EXPECT_EQ(read_dataset_int64(f, "/trajectories/event"), (std::vector<std::int64_t>{0, 1, 2, 0, 6}));
+  EXPECT_EQ(read_dataset_int64(f, "/trajectories/event"),
+            (std::vector<std::int64_t>{0, 1, 2, 0, 6}));
   EXPECT_EQ(read_attribute_string(f, "/trajectories/event", "names"),
             "launch,flight,terrain_impact,take_off,ground,building_hit,end");
   // A record whose columns disagree in length is a logic error, not a half-written file.

@@ -524,7 +524,8 @@ TEST(ScenarioJson, Embedment) {
   EXPECT_EQ(soil.embedment->min_speed_mps, 15.0);
   EXPECT_FALSE(ks.site.materials.at("brick").embedment.has_value());
   const std::string at = "/site/materials/soil/embedment";
-  EXPECT_EQ(parse_error(with(minimal_example(), at, {{"model", "poncelet"}, {"bulk_density_kg_m3", 1700}})),
+  EXPECT_EQ(parse_error(
+                with(minimal_example(), at, {{"model", "poncelet"}, {"bulk_density_kg_m3", 1700}})),
             (FieldMessage{"site.materials.soil.embedment.model",
                           "unknown model \"poncelet\" (known: \"johnson_reid_1975\")"}));
   EXPECT_EQ(parse_error(with(minimal_example(), at, {{"model", "johnson_reid_1975"}})),

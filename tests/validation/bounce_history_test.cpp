@@ -23,8 +23,9 @@ run::Scenario bounce_scenario(double half_m, double e, double mu) {
 }
 
 // A ball dropped from rest with constant e comes to rest after the geometric series of bounce
-// times sqrt(2h/g) (1 + e) / (1 - e) (physics notes, "Ends"). Vacuum (cd 0); the rebound floor is
-// set low so that the untracked tail (< 2 v_floor / (g (1 - e))) is negligible.
+// times sqrt(2h/g) (1 + e) / (1 - e) (docs/physics.md, "Reference formulas", impact checks). Vacuum
+// (cd 0); the rebound floor is set low so that the untracked tail (< 2 v_floor / (g (1 - e))) is
+// negligible.
 TEST(BounceHistory, DroppedBallRestsAfterTheGeometricSeriesTime) {
   const double e = 0.5, h = 1.0, g = kStandardGravity_mps2;
   run::Scenario sc = bounce_scenario(20.0, e, 0.5);
@@ -221,7 +222,8 @@ TEST(BounceHistory, ResultsDoNotDependOnTerrainVertexOrder) {
   }
   for (std::size_t k = 1; k < ends.size(); ++k) {
     for (std::size_t i = 0; i < ends[0].size(); ++i)
-      EXPECT_NEAR((ends[k][i] - ends[0][i]).norm(), 0.0, 1e-9) << "ordering " << k << " block " << i;
+      EXPECT_NEAR((ends[k][i] - ends[0][i]).norm(), 0.0, 1e-9)
+          << "ordering " << k << " block " << i;
   }
 }
 

@@ -1,4 +1,4 @@
-// Flight physics against closed forms (physics notes, "Closed forms for tests"): vacuum, 1-D
+// Flight physics against closed forms (docs/physics.md, "Reference formulas"): vacuum, 1-D
 // vertical quadratic drag (including the v = 0 kink at the apex), 2-D quadratic drag against the
 // hodograph quadrature (hodograph_reference.h), wind, and torque-free rotation.
 #include <gtest/gtest.h>

@@ -74,7 +74,9 @@ fragments::FragmentGroupSpec ball_group(const Vec3& centre, double mass_kg, cons
   return grp;
 }
 
-double ball_radius(double mass_kg) { return std::cbrt(3.0 * mass_kg / (4.0 * kPi * kSteel)); }
+double ball_radius(double mass_kg) {
+  return std::cbrt(3.0 * mass_kg / (4.0 * kPi * kSteel));
+}
 
 // R = Rz(yaw) Ry(-pitch) Rx(roll) (degrees), the frame's and the attitude's convention, written
 // out here independently of the library.
@@ -155,8 +157,8 @@ TEST(GroundPhaseHistory, BlockSlidesOnLevelGroundToTheCoulombDragDistance) {
   for (const double cd : {1.0, 0.0}) {
     for (const double v0 : {20.0, 80.0, 150.0}) {
       const double k = kRho * cd * area / (2.0 * m);
-      const double d = cd > 0.0 ? std::log(1.0 + k * v0 * v0 / (mu * g)) / (2.0 * k)
-                                : v0 * v0 / (2.0 * mu * g);
+      const double d =
+          cd > 0.0 ? std::log(1.0 + k * v0 * v0 / (mu * g)) / (2.0 * k) : v0 * v0 / (2.0 * mu * g);
       const double t = cd > 0.0 ? std::atan(v0 * std::sqrt(k / (mu * g))) / std::sqrt(mu * g * k)
                                 : v0 / (mu * g);
       run::Scenario sc = ground_scenario(1500.0, 25.0, mu, 0.1, 0.3);
@@ -179,7 +181,8 @@ TEST(GroundPhaseHistory, BlockSlidesOnLevelGroundToTheCoulombDragDistance) {
         EXPECT_NEAR(along, d, 0.01 * d) << tag;
         EXPECT_NEAR(f.ground_path_m, d, 0.01 * d) << tag;
         EXPECT_NEAR(f.end_time_s, t, 0.01 * t) << tag;
-        EXPECT_LT(std::abs(moved.x() * dir.y() - moved.y() * dir.x()), 1e-6 * d) << tag;  // straight
+        EXPECT_LT(std::abs(moved.x() * dir.y() - moved.y() * dir.x()), 1e-6 * d)
+            << tag;                                                     // straight
         EXPECT_NEAR(f.end_position_m.z(), 0.5 * dims[2], 1e-6) << tag;  // on its face throughout
         worst_d = std::max(worst_d, std::abs(along - d) / d);
         worst_t = std::max(worst_t, std::abs(f.end_time_s - t) / t);
@@ -351,7 +354,8 @@ scene::GridTerrainSpec slope_grid(double theta) {
   grid.spacing_m = 10.0;
   grid.nx = grid.ny = 21;
   for (int j = 0; j < grid.ny; ++j)
-    for (int i = 0; i < grid.nx; ++i) grid.elevation_m.push_back(std::tan(theta) * (-100.0 + 10.0 * i));
+    for (int i = 0; i < grid.nx; ++i)
+      grid.elevation_m.push_back(std::tan(theta) * (-100.0 + 10.0 * i));
   return grid;
 }
 
@@ -456,7 +460,8 @@ TEST(GroundPhaseHistory, BlockSlidesFromRestJustAboveTheFrictionAngle) {
     const Vec3 n(-std::sin(th), 0.0, std::cos(th));
     const Vec3 down_slope(-std::cos(th), 0.0, -std::sin(th));
     const Vec3 centre = Vec3(43.3, -2.7, std::tan(th) * 43.3) + 0.5 * dims[2] * n;
-    fragments::FragmentGroupSpec grp = block_group(centre, dims, Vec3::Zero(), {0.0, th / kDegToRad, 0.0});
+    fragments::FragmentGroupSpec grp =
+        block_group(centre, dims, Vec3::Zero(), {0.0, th / kDegToRad, 0.0});
     grp.cd.constant = 0.0;
     sc.groups = {grp};
     const run::RunResult r = run::run(sc);
@@ -468,8 +473,10 @@ TEST(GroundPhaseHistory, BlockSlidesFromRestJustAboveTheFrictionAngle) {
     EXPECT_EQ(f.outcome, run::Outcome::kMaxFlightTime) << tag << ": ended at t = " << f.end_time_s;
     const double got = (f.end_position_m - centre).dot(down_slope);
     EXPECT_NEAR(got, expected, 0.01 * expected) << tag << ", ground steps " << r.stats.ground_steps;
-    measured("near-critical slope " + tag + ": distance rel. error", std::abs(got - expected) / expected);
-    measured("near-critical slope " + tag + ": ground steps (2 histories)", static_cast<double>(r.stats.ground_steps));
+    measured("near-critical slope " + tag + ": distance rel. error",
+             std::abs(got - expected) / expected);
+    measured("near-critical slope " + tag + ": ground steps (2 histories)",
+             static_cast<double>(r.stats.ground_steps));
   }
 }
 
@@ -492,13 +499,14 @@ TEST(GroundPhaseHistory, TakesOffAtAConvexEdgeAndLandsOnTheBallisticPoint) {
   const std::array<double, 3> dims{0.1, 0.06, 0.02};
   for (const bool round : {true, false}) {
     run::Scenario sc = ground_scenario(100.0, 10.0, 0.3, 0.05, 0.2);
-    sc.site.terrain.geometry =
-        lattice_mesh(-50.0, 300.0, -20.0, 20.0, 5.0, [&](double x, double) { return x <= 0.0 ? 0.0 : -s * x; });
+    sc.site.terrain.geometry = lattice_mesh(
+        -50.0, 300.0, -20.0, 20.0, 5.0, [&](double x, double) { return x <= 0.0 ? 0.0 : -s * x; });
     sc.settings.record_trajectories = true;
     sc.settings.max_flight_time_s = 20.0;
     const double mass = 0.5;
     const double R = ball_radius(mass);
-    const double h_off = round ? R : block_clearance(0.5 * Vec3(dims[0], dims[1], dims[2]), Mat3::Identity(), n);
+    const double h_off =
+        round ? R : block_clearance(0.5 * Vec3(dims[0], dims[1], dims[2]), Mat3::Identity(), n);
     fragments::FragmentGroupSpec grp =
         round ? ball_group(Vec3(-29.7, 0.3, R), mass, Vec3(40.0, 0.0, 0.0))
               : block_group(Vec3(-29.7, 0.3, 0.5 * dims[2]), dims, Vec3(40.0, 0.0, 0.0));
@@ -554,8 +562,9 @@ struct Hollow {
 };
 std::vector<Hollow> hollows() {
   const double s_valley = std::tan(35.0 * kDegToRad), s_pit = std::tan(30.0 * kDegToRad);
-  return {{"valley", [=](double, double y) { return s_valley * std::abs(y); }, 35.0, 0.5, 0.6, 6.3},
-          {"pit", [=](double x, double y) { return s_pit * std::hypot(x, y); }, 30.0, 0.3, 7.3, 5.1}};
+  return {
+      {"valley", [=](double, double y) { return s_valley * std::abs(y); }, 35.0, 0.5, 0.6, 6.3},
+      {"pit", [=](double x, double y) { return s_pit * std::hypot(x, y); }, 30.0, 0.3, 7.3, 5.1}};
 }
 constexpr std::array<double, 3> kHollowBlock{0.08, 0.05, 0.02};
 constexpr double kHollowBallMass = 1.0;
@@ -571,8 +580,9 @@ run::Scenario hollow_scenario(const Hollow& h, std::shared_ptr<const scene::Site
   const auto yp = yaw_pitch_of_normal(fa.normal);
   const Vec3 half = 0.5 * Vec3(kHollowBlock[0], kHollowBlock[1], kHollowBlock[2]);
   EXPECT_NEAR(block_clearance(half, ypr(yp[0], yp[1], 0.0), fa.normal), half.z(), 1e-12);
-  sc.groups = {block_group(fa.centre(half.z()), kHollowBlock, Vec3::Zero(), {yp[0], yp[1], 0.0}, 4),
-               ball_group(fa.centre(ball_radius(kHollowBallMass)), kHollowBallMass, Vec3::Zero(), 4)};
+  sc.groups = {
+      block_group(fa.centre(half.z()), kHollowBlock, Vec3::Zero(), {yp[0], yp[1], 0.0}, 4),
+      ball_group(fa.centre(ball_radius(kHollowBallMass)), kHollowBallMass, Vec3::Zero(), 4)};
   return sc;
 }
 
@@ -588,9 +598,9 @@ TEST(GroundPhaseHistory, ComesToRestOnTheFloorOfAValleyAndAtTheBottomOfAPit) {
     const run::RunResult r = run::run(sc, site);
     ASSERT_EQ(r.fragments.size(), 8u);
     EXPECT_EQ(r.stats.ground_step_caps, 0) << h.name;
-    const double block_radius = 0.5 * std::sqrt(kHollowBlock[0] * kHollowBlock[0] +
-                                                kHollowBlock[1] * kHollowBlock[1] +
-                                                kHollowBlock[2] * kHollowBlock[2]);
+    const double block_radius =
+        0.5 * std::sqrt(kHollowBlock[0] * kHollowBlock[0] + kHollowBlock[1] * kHollowBlock[1] +
+                        kHollowBlock[2] * kHollowBlock[2]);
     for (const auto& f : r.fragments) {
       const std::string tag = std::string(h.name) + (f.group == 0 ? " block" : " ball");
       const double radius = f.group == 0 ? block_radius : ball_radius(kHollowBallMass);
@@ -640,7 +650,8 @@ struct EnergyAudit {
     const double tol = slack * scale, e0 = energy(0);
     bool spinning = false;  // a slider that may spin (its flight began with a rebound)
     for (std::size_t i = 0; i < tr.t_s.size(); ++i) {
-      if (!(std::isfinite(tr.t_s[i]) && tr.position_m[i].allFinite() && tr.velocity_mps[i].allFinite())) {
+      if (!(std::isfinite(tr.t_s[i]) && tr.position_m[i].allFinite() &&
+            tr.velocity_mps[i].allFinite())) {
         fail(tag + ": non-finite point " + std::to_string(i));
         return;
       }
@@ -649,7 +660,8 @@ struct EnergyAudit {
         fail(tag + ": point " + std::to_string(i) + " (" + run::trajectory_event_name(tr.event[i]) +
              ") above the launch energy by " + std::to_string((e - e0) / scale) + " of the scale");
       if (i == 0) continue;
-      if (tr.t_s[i] < tr.t_s[i - 1]) fail(tag + ": time runs backwards at point " + std::to_string(i));
+      if (tr.t_s[i] < tr.t_s[i - 1])
+        fail(tag + ": time runs backwards at point " + std::to_string(i));
       const E prev = tr.event[i - 1], cur = tr.event[i];
       const bool flight_piece = cur == E::kFlight || ((prev == E::kTakeOff || prev == E::kFlight) &&
                                                       (cur == E::kTerrainImpact || cur == E::kEnd));
@@ -661,11 +673,12 @@ struct EnergyAudit {
         flight += flight_piece ? 1 : 0;
         if (e > energy(i - 1) + tol) {
           char where[256];
-          std::snprintf(where, sizeof where,
-                        " from point %zu (%s, t %.9g, z %.6f) to %zu (%s, t %.9g, z %.6f) by %.3e of "
-                        "the scale %.4g J/kg",
-                        i - 1, run::trajectory_event_name(prev), tr.t_s[i - 1], tr.position_m[i - 1].z(),
-                        i, run::trajectory_event_name(cur), tr.t_s[i], tr.position_m[i].z(), rise, scale);
+          std::snprintf(
+              where, sizeof where,
+              " from point %zu (%s, t %.9g, z %.6f) to %zu (%s, t %.9g, z %.6f) by %.3e of "
+              "the scale %.4g J/kg",
+              i - 1, run::trajectory_event_name(prev), tr.t_s[i - 1], tr.position_m[i - 1].z(), i,
+              run::trajectory_event_name(cur), tr.t_s[i], tr.position_m[i].z(), rise, scale);
           fail(tag + (slider ? " (slider)" : " (sphere)") + ": energy rises" + where);
         }
       } else {
@@ -690,8 +703,8 @@ TEST(GroundPhaseHistory, EnergyNeverRisesInAValleyOrAPit) {
     const run::RunResult r = run::run(sc, site);
     ASSERT_EQ(r.trajectories.size(), 8u);
     for (const auto& tr : r.trajectories) {
-      const std::string tag = std::string(h.name) + (tr.group == 0 ? " block" : " ball") + " history " +
-                              std::to_string(tr.history);
+      const std::string tag = std::string(h.name) + (tr.group == 0 ? " block" : " ball") +
+                              " history " + std::to_string(tr.history);
       audit.check(tr, tr.group == 0, g * (tr.position_m.front().z() + 1.0), tag);
     }
   }
@@ -719,7 +732,8 @@ TEST(GroundPhaseHistory, EnergyNeverRisesAlongRandomGroundHistories) {
     const double lambda = 15.0 + 45.0 * U(rng), az = 2.0 * kPi * U(rng);
     const double kk = 2.0 * kPi / lambda;
     const double phase = 2.0 * kPi * U(rng);
-    waves.push_back({kk * std::cos(az), kk * std::sin(az), std::tan(30.0 * kDegToRad) / 4.0 / kk, phase});
+    waves.push_back(
+        {kk * std::cos(az), kk * std::sin(az), std::tan(30.0 * kDegToRad) / 4.0 / kk, phase});
   }
   const auto height = [&](double x, double y) {
     double z = 0.0;
@@ -765,9 +779,9 @@ TEST(GroundPhaseHistory, EnergyNeverRisesAlongRandomGroundHistories) {
         att.yaw_deg = 360.0 * U(rng) - 180.0;
         att.pitch_deg = std::asin(2.0 * U(rng) - 1.0) / kDegToRad;  // uniform rotations
         att.roll_deg = 360.0 * U(rng) - 180.0;
-        clearance = block_clearance(0.5 * Vec3(dims[0], dims[1], dims[2]),
-                                    ypr(yp[0], yp[1], 0.0) * ypr(att.yaw_deg, att.pitch_deg, att.roll_deg),
-                                    fa.normal);
+        clearance = block_clearance(
+            0.5 * Vec3(dims[0], dims[1], dims[2]),
+            ypr(yp[0], yp[1], 0.0) * ypr(att.yaw_deg, att.pitch_deg, att.roll_deg), fa.normal);
         grp = block_group(Vec3::Zero(), dims, Vec3::Zero(), att, kSamples);
       } else {
         const double mass = 0.05 + 1.95 * U(rng);
@@ -797,8 +811,8 @@ TEST(GroundPhaseHistory, EnergyNeverRisesAlongRandomGroundHistories) {
       ASSERT_EQ(tr.history, f.history);
       ++histories;
       ++outcomes[static_cast<std::size_t>(f.outcome)];
-      const std::string tag = "batch " + std::to_string(batch) + " group " + std::to_string(f.group) +
-                              " history " + std::to_string(f.history);
+      const std::string tag = "batch " + std::to_string(batch) + " group " +
+                              std::to_string(f.group) + " history " + std::to_string(f.history);
       if (!(f.outcome == run::Outcome::kGround || f.outcome == run::Outcome::kLeftSite ||
             f.outcome == run::Outcome::kMaxFlightTime))
         audit.fail(tag + ": outcome " + run::outcome_name(f.outcome));
@@ -810,7 +824,8 @@ TEST(GroundPhaseHistory, EnergyNeverRisesAlongRandomGroundHistories) {
       audit.check(tr, is_block[f.group], scale, tag);
     }
   }
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   EXPECT_EQ(step_caps, 0) << "histories stopped by max_ground_steps";
   EXPECT_EQ(audit.failures, 0) << "(the first 20 are reported above)";
   EXPECT_EQ(histories, 10000);

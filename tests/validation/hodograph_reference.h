@@ -1,6 +1,6 @@
 #pragma once
 // Reference solution of planar point-mass flight with quadratic drag (constant g, rho, Cd; no
-// wind) from the hodograph integrals (physics notes, "Closed forms for tests"). With p = tan of
+// wind) from the hodograph integrals (docs/physics.md, "Reference formulas"). With p = tan of
 // the flight-path angle and u the horizontal speed, the equations of motion reduce exactly to
 //   1/u^2 = 1/u0^2 + (k/g) (G(p0) - G(p)),   G(p) = p sqrt(1 + p^2) + asinh p,
 //   dt = -u dp / g,   dx = -u^2 dp / g,   dz = -p u^2 dp / g,

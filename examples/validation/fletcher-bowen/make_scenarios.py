@@ -2,7 +2,7 @@
 """Generate the Fletcher & Bowen (1968) block-drop scenarios used to validate fragsim's bounce,
 slide and roll model (docs/validation.md).
 
-The test (as summarised by Gan & Chrostowski, DDESB 2010, and shared/reference/physics-notes.md):
+The test (as summarised by Gan & Chrostowski, DDESB 2010, and docs/validation.md):
 concrete-filled building blocks, 55.0-56.5 lb, 7.5 x 7.7 x 15.5 in, dropped from a truck bed
 2.6 ft high moving at 10-60 mph onto a graded airstrip; the paper simulates 15-100 ft/s
 horizontal release speeds in random orientation on its hard and soft surfaces.

@@ -45,7 +45,7 @@ TEST(Atmosphere, OutsideTableUsesClosedForm) {
 TEST(Atmosphere, IsaStandardTableSpotValues) {
   // ICAO Standard Atmosphere (Doc 7488) / ISO 2533 tabulated values; tolerance half a unit in
   // the last printed digit. 30 km is not checked: the ISA has a +1 K/km layer above 20 km that
-  // this model (isothermal above 11 km, physics notes) does not include.
+  // this model (isothermal above 11 km, docs/physics.md) does not include.
   struct Row {
     double h, rho, rho_tol, a, a_tol;
   };

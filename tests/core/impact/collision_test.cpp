@@ -74,7 +74,7 @@ Vec3 approaching(const Vec3& v, const Vec3& w, const Vec3& r, const Vec3& n) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Solid sphere: K_hat = diag(7/(2m), 7/(2m), 1/m) (physics notes).
+// Solid sphere: K_hat = diag(7/(2m), 7/(2m), 1/m) (docs/physics.md, "Reference formulas").
 
 TEST(CollisionMatrix, SolidSphereIsDiagonalInTheContactFrame) {
   const double m = 2.5, R = 0.3;

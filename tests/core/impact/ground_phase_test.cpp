@@ -112,7 +112,8 @@ GroundBody sphere() {
   fragments::ShapeSpec s;
   s.type = fragments::ShapeType::kSphere;
   s.dims_m = {0.05};
-  const auto mp = fragments::mass_properties(s, 7850.0 * kPi / 6.0 * 0.05 * 0.05 * 0.05, std::nullopt);
+  const auto mp =
+      fragments::mass_properties(s, 7850.0 * kPi / 6.0 * 0.05 * 0.05 * 0.05, std::nullopt);
   GroundBody b;
   b.shape = fragments::contact_body(s.type, mp);
   b.mass_kg = mp.mass_kg;
@@ -267,7 +268,8 @@ TEST(GroundPhase, RestsOnASlopeBelowTheFrictionAngle) {
     const double dec = g * (mu * std::cos(th) - std::sin(th));
     for (int k = 0; k < 16; ++k) {
       const double az = k * kPi / 4.0, speed = k < 8 ? 0.01 : 0.05;
-      const Vec3 v = speed * Vec3(std::cos(az) * std::cos(th), std::sin(az), std::cos(az) * std::sin(th));
+      const Vec3 v =
+          speed * Vec3(std::cos(az) * std::cos(th), std::sin(az), std::cos(az) * std::sin(th));
       const GroundState s0 = start_at(*site, body, 3.0, 4.0, v);
       GroundSettings gs = settings();
       gs.t_max_s = 10.0;
@@ -293,14 +295,16 @@ TEST(GroundPhase, SlidingUphillFollowsTheClosedFormAndStays) {
   const Air air(0.0, 0.0, body.mass_kg);
   const double a = g * (std::sin(th) + mu * std::cos(th));
   const double v0 = 25.0;
-  const GroundState s0 = start_at(*site, body, -150.0, 3.3, v0 * Vec3(std::cos(th), 0.0, std::sin(th)));
+  const GroundState s0 =
+      start_at(*site, body, -150.0, 3.3, v0 * Vec3(std::cos(th), 0.0, std::sin(th)));
   Recorder rec;
   const GroundResult r = run(*site, air, body, s0, rec);
   EXPECT_EQ(r.end, GroundEnd::kRest);
   double worst_s = 0.0, worst_v = 0.0;
   for (const auto& sg : rec.segments) {
     const double t = sg.tb - s0.t_s;
-    worst_s = std::max(worst_s, std::abs((sg.b - s0.position_m).norm() - (v0 * t - 0.5 * a * t * t)));
+    worst_s =
+        std::max(worst_s, std::abs((sg.b - s0.position_m).norm() - (v0 * t - 0.5 * a * t * t)));
     worst_v = std::max(worst_v, std::abs(sg.vb.norm() - std::max(0.0, v0 - a * t)));
   }
   EXPECT_LT(worst_s, 1e-8 * v0 * v0 / a);
@@ -316,17 +320,19 @@ TEST(GroundPhase, SlidingUphillFollowsTheClosedFormAndStays) {
 // body takes off at the edge (it would need a pulling normal force to follow it).
 TEST(GroundPhase, TakesOffAtAConvexEdge) {
   const double drop = std::tan(30.0 * kDegToRad);
-  const auto site = mesh_site(100.0, 5.0, [&](double x, double) { return x <= 0.0 ? 0.0 : -drop * x; },
-                              material(0.5, 0.1, 0.2));
+  const auto site = mesh_site(
+      100.0, 5.0, [&](double x, double) { return x <= 0.0 ? 0.0 : -drop * x; },
+      material(0.5, 0.1, 0.2));
   const GroundBody body = sphere();
   const Air air(0.0, 0.0, body.mass_kg);
   const double R = body.shape.half_m.x();
-  const GroundState s0 = start_at(*site, body, -30.0, 1.0, Vec3(40.0, 0.0, 0.0), Vec3(0.0, 40.0 / R, 0.0));
+  const GroundState s0 =
+      start_at(*site, body, -30.0, 1.0, Vec3(40.0, 0.0, 0.0), Vec3(0.0, 40.0 / R, 0.0));
   Recorder rec;
   const GroundResult r = run(*site, air, body, s0, rec);
   ASSERT_EQ(r.end, GroundEnd::kTakeOff);
-  EXPECT_NEAR(r.state.position_m.x(), 0.0, 1e-6);  // at the edge
-  EXPECT_NEAR(r.state.velocity_mps.z(), 0.0, 1e-9);   // still along the plateau
+  EXPECT_NEAR(r.state.position_m.x(), 0.0, 1e-6);    // at the edge
+  EXPECT_NEAR(r.state.velocity_mps.z(), 0.0, 1e-9);  // still along the plateau
   EXPECT_GT(r.state.velocity_mps.x(), 39.0);         // rolling resistance over 30 m only
   EXPECT_TRUE(rec.impacts.empty());
 }
@@ -337,9 +343,9 @@ TEST(GroundPhase, TakesOffAtAConvexEdge) {
 TEST(GroundPhase, SlowEdgesAreImpactsThatNeverAddEnergy) {
   for (const double sign : {1.0, -1.0}) {  // +1: the ground falls away (convex), -1: rises
     const double slope = 0.05;
-    const auto site = mesh_site(100.0, 5.0,
-                                [&](double x, double) { return x <= 0.0 ? 0.0 : -sign * slope * x; },
-                                material(0.5, 0.1, 0.3));
+    const auto site = mesh_site(
+        100.0, 5.0, [&](double x, double) { return x <= 0.0 ? 0.0 : -sign * slope * x; },
+        material(0.5, 0.1, 0.3));
     const GroundBody body = plate();
     const Air air(0.0, 0.0, body.mass_kg);
     const GroundState s0 = start_at(*site, body, -3.0, 1.0, Vec3(8.0, 0.0, 0.0));
@@ -348,7 +354,8 @@ TEST(GroundPhase, SlowEdgesAreImpactsThatNeverAddEnergy) {
     ASSERT_FALSE(rec.impacts.empty()) << sign;
     const GroundImpact& i = rec.impacts.front();
     EXPECT_NEAR(i.position_m.x(), 0.0, 1e-6);
-    EXPECT_LE(i.velocity_after_mps.squaredNorm(), i.velocity_before_mps.squaredNorm() * (1 + 1e-12));
+    EXPECT_LE(i.velocity_after_mps.squaredNorm(),
+              i.velocity_before_mps.squaredNorm() * (1 + 1e-12));
     EXPECT_NE(r.end, GroundEnd::kTakeOff) << sign;
     EXPECT_GT(r.state.position_m.x(), 0.0);  // on beyond the edge
   }
@@ -363,8 +370,8 @@ TEST(GroundPhase, SlowEdgesAreImpactsThatNeverAddEnergy) {
 // histories.)
 TEST(GroundPhase, RestsAtTheBottomOfAVValley) {
   const double s = std::tan(35.0 * kDegToRad);
-  const auto site = mesh_site(50.0, 2.0, [&](double, double y) { return s * std::abs(y); },
-                              material(0.5, 0.1, 0.0));
+  const auto site = mesh_site(
+      50.0, 2.0, [&](double, double y) { return s * std::abs(y); }, material(0.5, 0.1, 0.0));
   for (const GroundBody& body : {plate(), sphere()}) {
     const Air air(0.0, 0.0, body.mass_kg);
     const GroundState s0 = start_at(*site, body, 0.3, 6.1, Vec3::Zero());
@@ -381,8 +388,9 @@ TEST(GroundPhase, RestsAtTheBottomOfAVValley) {
 // A pit: an inverted cone, 30 deg walls. Released on a wall the body ends at rest at the bottom.
 TEST(GroundPhase, RestsAtTheBottomOfAPit) {
   const double s = std::tan(30.0 * kDegToRad);
-  const auto site = mesh_site(40.0, 2.0, [&](double x, double y) { return s * std::hypot(x, y); },
-                              material(0.3, 0.05, 0.0));
+  const auto site = mesh_site(
+      40.0, 2.0, [&](double x, double y) { return s * std::hypot(x, y); },
+      material(0.3, 0.05, 0.0));
   for (const GroundBody& body : {plate(), sphere()}) {
     const Air air(0.0, 0.0, body.mass_kg);
     const GroundState s0 = start_at(*site, body, 7.3, 5.1, Vec3::Zero());
@@ -404,13 +412,18 @@ TEST(GroundPhase, RestsAtTheBottomOfAPit) {
 TEST(GroundPhase, EnergyNeverRises) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> U(-1.0, 1.0);
-  const auto site = mesh_site(100.0, 4.0, [](double x, double y) {
-    return 2.0 * std::sin(0.11 * x) * std::cos(0.07 * y) + 0.8 * std::sin(0.37 * x + 0.5 * y);
-  }, material(0.4, 0.08, 0.3));
+  const auto site = mesh_site(
+      100.0, 4.0,
+      [](double x, double y) {
+        return 2.0 * std::sin(0.11 * x) * std::cos(0.07 * y) + 0.8 * std::sin(0.37 * x + 0.5 * y);
+      },
+      material(0.4, 0.08, 0.3));
   int histories = 0;
   for (const bool round : {false, true}) {
     for (int h = 0; h < 200; ++h) {
-      GroundBody body = round ? sphere() : plate(fragments::uniform_rotation(0.5 * (1 + U(rng)), 0.5 * (1 + U(rng)), 0.5 * (1 + U(rng))));
+      GroundBody body = round ? sphere()
+                              : plate(fragments::uniform_rotation(
+                                    0.5 * (1 + U(rng)), 0.5 * (1 + U(rng)), 0.5 * (1 + U(rng))));
       const Air air(1.0, 0.002, body.mass_kg);
       const Vec3 v(20.0 * U(rng), 20.0 * U(rng), 0.0);
       const Vec3 omega = round ? Vec3(30.0 * U(rng), 30.0 * U(rng), 30.0 * U(rng)) : Vec3::Zero();
