@@ -277,6 +277,14 @@ void History::record_point(double t, const Vec3& p, const Vec3& v, TrajectoryEve
 // ---- end of the history: its tally records ----
 
 void History::finish() {
+  fold_tallies();
+  if (st_.record_fragments) out_.records.push_back(fragment_record());
+  if (record_trajectory_) out_.trajectories.push_back(std::move(traj_));
+}
+
+// The per-history tally records: PTN contributions (a prism counts once), the building hit, the
+// outcome.
+void History::fold_tallies() {
   {
     SectionTimer timer(prof_, out_.tally_s);
     // The first crossing of a prism wins (contributions are pushed in path order). A stamp per
@@ -307,37 +315,37 @@ void History::finish() {
     }
     out_.outcomes.push_back(end_.outcome);
   }
-  if (st_.record_fragments) {
-    FragmentRecord r;
-    r.group = group_;
-    r.history = static_cast<std::uint64_t>(history_);
-    r.weight = weight_;
-    r.mass_kg = mass_;
-    r.area_m2 = init_.body.presented_area_m2;
-    r.launch_position_m = init_.position_m;
-    r.launch_velocity_mps = init_.velocity_mps;
-    r.outcome = end_.outcome;
-    r.end_time_s = end_.t;
-    r.end_position_m = site_.to_input(end_.p);
-    r.end_velocity_mps = end_.v;
-    if (first_.seen) {
-      r.first_impact_time_s = first_.t;
-      r.first_impact_position_m = site_.to_input(first_.p);
-      r.first_impact_velocity_mps = first_.v;
-      r.impact_angle_deg = first_.angle_deg;
-      r.impact_ke_j = 0.5 * mass_ * first_.v.squaredNorm();
-    }
-    r.building = end_.building;
-    r.surface = end_.surface;
-    r.penetrated = end_.penetrated;
-    r.residual_ke_j = end_.residual_ke_j;
-    r.bounces = bounces_;
-    r.ground_impacts = ground_impacts_;
-    r.takeoffs = takeoffs_;
-    r.ground_path_m = ground_path_m_;
-    out_.records.push_back(r);
+}
+
+FragmentRecord History::fragment_record() const {
+  FragmentRecord r;
+  r.group = group_;
+  r.history = static_cast<std::uint64_t>(history_);
+  r.weight = weight_;
+  r.mass_kg = mass_;
+  r.area_m2 = init_.body.presented_area_m2;
+  r.launch_position_m = init_.position_m;
+  r.launch_velocity_mps = init_.velocity_mps;
+  r.outcome = end_.outcome;
+  r.end_time_s = end_.t;
+  r.end_position_m = site_.to_input(end_.p);
+  r.end_velocity_mps = end_.v;
+  if (first_.seen) {
+    r.first_impact_time_s = first_.t;
+    r.first_impact_position_m = site_.to_input(first_.p);
+    r.first_impact_velocity_mps = first_.v;
+    r.impact_angle_deg = first_.angle_deg;
+    r.impact_ke_j = 0.5 * mass_ * first_.v.squaredNorm();
   }
-  if (record_trajectory_) out_.trajectories.push_back(std::move(traj_));
+  r.building = end_.building;
+  r.surface = end_.surface;
+  r.penetrated = end_.penetrated;
+  r.residual_ke_j = end_.residual_ke_j;
+  r.bounces = bounces_;
+  r.ground_impacts = ground_impacts_;
+  r.takeoffs = takeoffs_;
+  r.ground_path_m = ground_path_m_;
+  return r;
 }
 
 }  // namespace detail

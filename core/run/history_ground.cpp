@@ -82,6 +82,11 @@ Phase History::ground_phase() {
                                   state_.omega, state_.triangle, state_.q};
   GroundTally tally(*this);
   const impact::GroundResult r = impact::move_on_ground(site_, model_, body, gs, start, tally);
+  return after_ground_phase(r, tally);
+}
+
+// How the ground phase ended: a building, rest, off the site, ..., or a take-off (a new flight).
+Phase History::after_ground_phase(const impact::GroundResult& r, const GroundTally& tally) {
   ground_steps_ += r.steps;
   out_.stats.ground_steps += r.steps;
   ground_path_m_ += r.path_m;

@@ -103,6 +103,8 @@ struct FlightStep {
 
 enum class Phase { kFlight, kGround, kDone };
 
+class GroundTally;  // history_ground.cpp
+
 class History {
  public:
   History(const RunContext& ctx, std::uint32_t group, std::int64_t history, bool record_trajectory,
@@ -118,9 +120,12 @@ class History {
   Phase flight_phase();
   Phase terrain_impact(const FlightEvent& ev);
   Phase ground_phase();
+  Phase after_ground_phase(const impact::GroundResult& r, const GroundTally& tally);
   void building_hit(const FlightEvent& ev);
   void end_as(Outcome outcome, double t, const Vec3& p, const Vec3& v);
   void finish();
+  void fold_tallies();
+  FragmentRecord fragment_record() const;
 
   // ---- flight (history_flight.cpp) ----
   FlightEvent fly();
