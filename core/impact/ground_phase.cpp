@@ -31,6 +31,9 @@ using ground::TriangleEdges;
 
 enum class Next { kContinue, kDone, kNoChange };
 
+// No edge: a crossing at a vertex (arrive_at_vertex).
+constexpr std::uint32_t kNoVertex = std::numeric_limits<std::uint32_t>::max();
+
 // A slip slower than this fraction of the speed has ended: the sticking impulse that removes it
 // changes the velocity by 2/7 of it (G7).
 constexpr double kSlipEnd_rel = 1e-6;
@@ -694,7 +697,7 @@ Next GroundMotion::edge_impact(std::uint32_t next, const Vec3& v_in, bool concav
   if (v_out.dot(n2) >= set_.takeoff_speed_mps) return take_off(next, v_out, w_out);
   const Vec3 v2 = v_out - v_out.dot(n2) * n2;
   const Vec3 w2 = res_.round ? w_out : Vec3::Zero();
-  if (concave && captured_in_crease(next, from_id, to_id, v2))
+  if (concave && from_id != kNoVertex && captured_in_crease(next, from_id, to_id, v2))
     return enter_crease(contact_.tri, next, from_id, to_id, p_, v2, radius_m_ * w2);
   return enter_face(next, p_, v2, w2);
 }
@@ -726,25 +729,8 @@ Next GroundMotion::arrive_at_vertex(std::uint32_t vertex) {
   }
   const std::int64_t next = triangle_beyond(p_, v_);
   if (next < 0) return finish(GroundEnd::kLeftSite);
-  const auto t3 = static_cast<std::uint32_t>(next);
-  const Vec3& n3 = site_.terrain_triangle_normal(t3);
-  const double vn = v_.dot(n3);
-  const Vec3 omega = omega_of(w_);
-  if (vn >= set_.takeoff_speed_mps) return take_off(t3, v_, omega);
-  if (vn != 0.0) {
-    // Onto the next plane through an impulse (a contracted hop when it falls away).
-    const Vec3 v_in = vn > 0.0 ? Vec3(v_ - 2.0 * vn * n3) : v_;
-    if (material_.embeds(v_in, n3, body_.density_kg_m3)) return finish(GroundEnd::kEmbedded);
-    const TerrainBounce b = bounce_on_terrain(body_.shape, body_.mass_kg, q_, v_in, omega, n3,
-                                              material_, body_.flat_tol_m);
-    const Vec3 v_out = b.collision.impact ? b.collision.velocity_mps : v_in;
-    const Vec3 w_out = b.collision.impact ? b.collision.omega_radps : omega;
-    ++r_.impacts;
-    obs_.on_impact({t_, p_, v_in, v_out, omega, w_out, t3});
-    if (v_out.dot(n3) >= set_.takeoff_speed_mps) return take_off(t3, v_out, w_out);
-    return enter_face(t3, p_, v_out - v_out.dot(n3) * n3, res_.round ? w_out : Vec3::Zero());
-  }
-  return enter_face(t3, p_, v_, omega);
+  // Onto the triangle ahead as across an edge (no crease there to be caught in).
+  return cross_edge(static_cast<std::uint32_t>(next), kNoVertex, kNoVertex);
 }
 
 // Is terrain vertex `vertex` a local minimum (no neighbour lower)? Then gravity lies in the cone
