@@ -273,5 +273,73 @@ TEST(Stress, PerfectlyElasticBouncingEndsAtTheBounceCap) {
   }
 }
 
+// The ground phase at its edges: frictionless ground (drag alone never quite stops a slide: the
+// time limit ends it), a block launched overlapping the ground (lifted onto it), bodies dropped
+// exactly onto grid vertices and edges of a bumpy terrain, UTM-sized coordinates. Every history
+// ends with a named outcome, nothing is NaN, no energy is gained, no step cap is hit.
+TEST(Stress, GroundPhaseEdgeCasesTerminate) {
+  {  // frictionless, drag only
+    Scenario sc = validation::flat_site_scenario(5000.0, 10.0);
+    sc.site.materials["soil"].friction = 0.0;
+    sc.site.materials["soil"].rolling_resistance = 0.0;
+    sc.settings.bounce = true;
+    sc.settings.record_fragments = true;
+    sc.settings.max_flight_time_s = 30.0;
+    sc.settings.hazardous_ke_j = 1e-9;
+    auto g = validation::sphere_group(Vec3(0.0, 0.0, 0.5), 0.2, 20.0, 1.0, 4);
+    g.shape.type = fragments::ShapeType::kCuboid;
+    g.attitude = fragments::AttitudeSpec{};
+    g.cd.constant = 1.0;
+    g.direction.elevation_min_deg = g.direction.elevation_max_deg = -5.0;
+    sc.groups = {g};
+    const RunResult r = run(sc);
+    expect_all_finite(r);
+    expect_energy_never_rises(sc, r);
+    for (const auto& f : r.fragments) {
+      EXPECT_EQ(f.outcome, Outcome::kMaxFlightTime);
+      EXPECT_GT(f.ground_path_m, 100.0);  // slid on, slower and slower
+    }
+    EXPECT_EQ(r.stats.ground_step_caps, 0);
+  }
+  for (const double x0 : {0.0, 500000.0}) {  // overlapping launches, vertex and edge drops
+    const double y0 = x0 == 0.0 ? 0.0 : 5000000.0;
+    Scenario sc = hilly_scenario(x0, y0, 100);
+    sc.settings.bounce = true;
+    sc.settings.hazardous_ke_j = 1e-9;
+    sc.site.materials["soil"].friction = 0.6;
+    sc.site.materials["soil"].restitution.constant = 0.3;
+    sc.groups.clear();
+    const auto h = [&](double x, double y) {  // the grid's own height function, at a vertex
+      const double i = (x - (x0 - 500.0)) / 10.0, j = (y - (y0 - 500.0)) / 10.0;
+      return 100.0 + 8.0 * std::sin(i * 0.13) * std::cos(j * 0.11) + 0.02 * i;
+    };
+    // Straight down onto a vertex, and onto the middle of a cell edge, from 2 m.
+    for (const Vec3 at : {Vec3(x0 + 30.0, y0 + 40.0, 0.0), Vec3(x0 + 35.0, y0 - 20.0, 0.0)}) {
+      auto g = validation::sphere_group(Vec3(at.x(), at.y(), h(at.x(), at.y()) + 2.0), 0.5, 3.0,
+                                        1.0, 20);
+      g.shape.type = fragments::ShapeType::kCuboid;
+      g.direction.elevation_min_deg = g.direction.elevation_max_deg = -90.0;
+      sc.groups.push_back(g);
+    }
+    // A block 10 cm thick whose centre is 1 cm above the ground: it overlaps it.
+    auto over = validation::sphere_group(Vec3(x0 + 10.0, y0 + 10.0, h(x0 + 10.0, y0 + 10.0) + 0.01),
+                                         5.0, 4.0, 1.0, 10);
+    over.shape.type = fragments::ShapeType::kCuboid;
+    over.shape.aspect = {1.0, 1.0, 1.0};
+    over.attitude = fragments::AttitudeSpec{};
+    over.direction.elevation_min_deg = over.direction.elevation_max_deg = 0.0;
+    sc.groups.push_back(over);
+    const RunResult r = run(sc);
+    SCOPED_TRACE("x0 " + std::to_string(x0));
+    expect_all_finite(r);
+    expect_energy_never_rises(sc, r);
+    EXPECT_EQ(r.stats.ground_step_caps, 0);
+    for (const auto& f : r.fragments) {
+      EXPECT_NE(f.outcome, Outcome::kMaxFlightTime);
+      EXPECT_NE(f.outcome, Outcome::kStartedInside);  // overlapping is not inside: lifted
+    }
+  }
+}
+
 }  // namespace
 }  // namespace fragsim::run
