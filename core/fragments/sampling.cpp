@@ -71,8 +71,8 @@ Quat body_to_site(const FragmentGroupSpec& group, const Mat3& frame, const Rando
 FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
                              std::uint64_t history, std::uint64_t seed) {
   // One Philox stream per (seed, group, history); each variable reads its own fixed slot, so
-  // the value of one never depends on whether another is fixed or random (DESIGN.md, "Monte Carlo
-  // and reproducibility"). No heap allocation: this runs once per history.
+  // the value of one never depends on whether another is fixed or random (docs/architecture.md,
+  // "Reproducibility"). No heap allocation: this runs once per history.
   const RandomStream rng(seed, group_index, history);
 
   FragmentInit f;
