@@ -314,7 +314,7 @@ TEST(Stress, GroundPhaseEdgeCasesTerminate) {
       return 100.0 + 8.0 * std::sin(i * 0.13) * std::cos(j * 0.11) + 0.02 * i;
     };
     // Straight down onto a vertex, and onto the middle of a cell edge, from 2 m.
-    for (const Vec3 at : {Vec3(x0 + 30.0, y0 + 40.0, 0.0), Vec3(x0 + 35.0, y0 - 20.0, 0.0)}) {
+    for (const Vec3& at : {Vec3(x0 + 30.0, y0 + 40.0, 0.0), Vec3(x0 + 35.0, y0 - 20.0, 0.0)}) {
       auto g = validation::sphere_group(Vec3(at.x(), at.y(), h(at.x(), at.y()) + 2.0), 0.5, 3.0,
                                         1.0, 20);
       g.shape.type = fragments::ShapeType::kCuboid;
