@@ -4,7 +4,9 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
+#include <random>
 #include <stdexcept>
 #include <system_error>
 
@@ -14,6 +16,19 @@ namespace {
 
 [[noreturn]] void fail_errno(const std::string& what, const std::filesystem::path& path, int err) {
   throw std::runtime_error(what + " " + path.string() + ": " + std::strerror(err));
+}
+
+// 64 random bits in hex (the kernel's generator through std::random_device).
+std::string random_tag() {
+  std::random_device rd;
+  const unsigned long long v = (static_cast<unsigned long long>(rd()) << 32) ^ rd();
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", v);
+  return buf;
+}
+
+bool is_temporary_name(const std::string& name) {
+  return name.size() > 1 && name[0] == '.' && name.find(".tmp.", 1) != std::string::npos;
 }
 
 }  // namespace
@@ -27,7 +42,18 @@ void fsync_path(const std::filesystem::path& path) {
   if (rc != 0) fail_errno("cannot fsync", path, err);
 }
 
-OutputDir::OutputDir(std::filesystem::path dir) : dir_(std::move(dir)) {
+std::size_t remove_stale_temporaries(const std::filesystem::path& dir) noexcept {
+  std::size_t removed = 0;
+  std::error_code ec;
+  for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    if (!it->is_regular_file(ec) || !is_temporary_name(it->path().filename().string())) continue;
+    std::error_code rm;
+    if (std::filesystem::remove(it->path(), rm)) ++removed;
+  }
+  return removed;
+}
+
+OutputDir::OutputDir(std::filesystem::path dir) : dir_(std::move(dir)), unique_(random_tag()) {
   std::error_code ec;
   if (std::filesystem::exists(dir_, ec)) {
     if (!std::filesystem::is_directory(dir_, ec))
@@ -62,7 +88,7 @@ void OutputDir::stage(const std::string& name,
   if (name.empty() || name.find('/') != std::string::npos)
     throw std::invalid_argument("OutputDir::stage: not a plain file name: \"" + name + "\"");
   const std::filesystem::path temporary =
-      dir_ / ("." + name + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter_++));
+      dir_ / ("." + name + ".tmp." + unique_ + "." + std::to_string(counter_++));
   std::error_code ec;
   try {
     write(temporary);

@@ -1,11 +1,14 @@
 #pragma once
 // An output directory whose files appear all at once or not at all.
 //
-// Each file is written under a temporary name in the target directory (".<name>.tmp.<pid>.<n>"),
-// fsynced, and only renamed to its final name by commit(), which then fsyncs the directory. If
-// commit() is never reached (an exception, a cancelled run), the destructor removes the
-// temporaries, and the directories this object created if they are left empty: a failed run
-// leaves no final-named file behind and no new directory.
+// Each file is written under a temporary name in the target directory
+// (".<name>.tmp.<random 64 bits>.<n>"), fsynced, and only renamed to its final name by commit(),
+// which then fsyncs the directory. If commit() is never reached (an exception, a cancelled run),
+// the destructor removes the temporaries, and the directories this object created if they are
+// left empty: a failed run leaves no final-named file behind and no new directory. A process
+// killed while staging leaves its temporaries: their names never collide with a later run's
+// (they do not depend on the process id, which a restarted container gives again: PID 1), and
+// remove_stale_temporaries() clears them where no other writer can be at work.
 #include <filesystem>
 #include <functional>
 #include <string>
@@ -49,7 +52,13 @@ class OutputDir {
   std::vector<Staged> staged_;
   bool committed_ = false;
   unsigned counter_ = 0;
+  std::string unique_;  // random, per object: temporaries of different runs never collide
 };
+
+// Removes the temporaries an OutputDir left in `dir` (files named ".<name>.tmp.<...>") when its
+// process was killed while staging. Only for a directory no other process writes to (fragsimd
+// holds its data directory's lock). Returns how many it removed; errors are ignored.
+std::size_t remove_stale_temporaries(const std::filesystem::path& dir) noexcept;
 
 // fsync of a file or directory by path; throws std::runtime_error naming it.
 void fsync_path(const std::filesystem::path& path);

@@ -180,6 +180,7 @@ void Scheduler::run_job(const JobRow& job) {
     api::Provenance provenance = api::build_provenance();
     provenance.scenario_sha256 = api::sha256_hex(job.scenario_json);
     const std::filesystem::path dir = job_dir(id);
+    api::remove_stale_temporaries(dir);  // a killed earlier run of this job (we hold the data dir)
     {
       api::OutputDir out(dir);
       const auto summary = api::stage_run_outputs(out, result, *site, doc, provenance);

@@ -145,6 +145,22 @@ Service::DataDirLock::~DataDirLock() {
   if (fd_ >= 0) ::close(fd_);
 }
 
+namespace {
+
+// A daemon killed while writing a site or a job's results leaves its temporaries; with the data
+// directory's lock held none can be in use, so they go (sites/ and every jobs/<id>/).
+std::size_t clean_stale_temporaries(const std::filesystem::path& data_dir) {
+  std::size_t n = api::remove_stale_temporaries(data_dir / "sites");
+  std::error_code ec;
+  for (std::filesystem::directory_iterator it(data_dir / "jobs", ec), end; !ec && it != end;
+       it.increment(ec)) {
+    if (it->is_directory(ec)) n += api::remove_stale_temporaries(it->path());
+  }
+  return n;
+}
+
+}  // namespace
+
 Service::Service(Config config)
     : config_(std::move(config)),
       data_dir_(config_.data_dir),
@@ -154,6 +170,9 @@ Service::Service(Config config)
       store_(data_dir_ / "fragsimd.sqlite"),
       sites_(store_, data_dir_ / "sites"),
       scheduler_(store_, sites_, data_dir_ / "jobs", config_.threads) {
+  if (const std::size_t n = clean_stale_temporaries(data_dir_); n > 0)
+    log(LogLevel::kWarn, "removed temporaries left by a killed daemon",
+        {{"files", std::to_string(n)}});
   sites_.load();
   for (const auto& id : store_.recover_interrupted(config_.max_crashes, utc_now()))
     log(LogLevel::kWarn, "job interrupted by a previous daemon; queued again", {{"job_id", id}});

@@ -2,6 +2,7 @@
 #include "api/output_dir.h"
 
 #include <gtest/gtest.h>
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <fstream>
@@ -47,6 +48,43 @@ TEST_F(OutputDirTest, FilesAppearOnlyAtCommitAndNoTemporaryRemains) {
   EXPECT_EQ(entries(dir), (std::vector<std::string>{"results.h5", "summary.json"}));
   EXPECT_EQ(testing::read_text(dir / "summary.json"), "{}\n");
   EXPECT_EQ(testing::read_text(dir / "results.h5"), "data");
+}
+
+// A process killed while staging leaves its temporaries. A restarted one may get the same process
+// id (always PID 1 in a container): the names of its temporaries must not collide with them
+// (they were ".<name>.tmp.<pid>.<n>" and created exclusively, so the rerun failed).
+TEST_F(OutputDirTest, LeftoversOfAKilledRunWithTheSameProcessIdDoNotBlock) {
+  const fs::path dir = root_ / "job";
+  fs::create_directories(dir);
+  const std::string pid = std::to_string(::getpid());
+  for (const std::string& name :
+       {".summary.json.tmp." + pid + ".0", ".results.h5.tmp." + pid + ".1",
+        ".summary.json.tmp." + pid + ".1", ".results.h5.tmp." + pid + ".0"})
+    std::ofstream(dir / name) << "partial";
+  OutputDir out(dir);
+  out.stage_text("summary.json", "{}\n");
+  out.stage("results.h5", [](const fs::path& p) {
+    const int fd = ::open(p.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);  // as HDF5 does
+    if (fd < 0) throw std::runtime_error("cannot create " + p.string());
+    ::close(fd);
+  });
+  out.commit();
+  EXPECT_TRUE(fs::exists(dir / "summary.json"));
+  EXPECT_TRUE(fs::exists(dir / "results.h5"));
+}
+
+// The leftovers are cleared where no other writer can be at work: only hidden ".<name>.tmp.*"
+// files, nothing else.
+TEST_F(OutputDirTest, StaleTemporariesAreRemovedAndNothingElse) {
+  const fs::path dir = root_ / "job";
+  fs::create_directories(dir / ".sub.tmp.dir");
+  for (const char* name : {".summary.json.tmp.1.0", ".results.h5.tmp.9f3a.2", "summary.json",
+                           ".hidden", "x.tmp.1"})
+    std::ofstream(dir / name) << "x";
+  EXPECT_EQ(remove_stale_temporaries(dir), 2u);
+  EXPECT_EQ(entries(dir),
+            (std::vector<std::string>{".hidden", ".sub.tmp.dir", "summary.json", "x.tmp.1"}));
+  EXPECT_EQ(remove_stale_temporaries(root_ / "missing"), 0u);  // no directory: nothing, no throw
 }
 
 TEST_F(OutputDirTest, WithoutCommitNothingRemainsAndTheCreatedDirectoryGoes) {
