@@ -7,9 +7,12 @@
 #include <sys/socket.h>
 
 #include <cerrno>
+#include <charconv>
 #include <chrono>
 #include <cstring>
 #include <fstream>
+#include <memory>
+#include <optional>
 
 #include "server/log.h"
 
@@ -61,6 +64,30 @@ void set_error_body(httplib::Response& res, const Response& r) {
   res.set_content(r.body, r.content_type);
 }
 
+// A refusal sent before the request's body is read: the unread body must not be parsed as a next
+// request, so the connection is closed after the answer. The content provider writes the whole
+// error body and then reports failure, which makes cpp-httplib drop the connection.
+void refuse_unread(httplib::Response& res, const Response& r) {
+  res.status = r.status;
+  res.set_header("Connection", "close");
+  auto body = std::make_shared<std::string>(r.body);
+  res.set_content_provider(body->size(), r.content_type,
+                           [body](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+                             sink.write(body->data() + offset, length);
+                             return false;  // all written: now close
+                           });
+}
+
+// The body size a request announces in Content-Length, if it parses.
+std::optional<std::uint64_t> announced_length(const httplib::Request& req) {
+  if (!req.has_header("Content-Length")) return std::nullopt;
+  const std::string v = req.get_header_value("Content-Length");
+  std::uint64_t n = 0;
+  const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), n);
+  if (ec != std::errc() || end != v.data() + v.size()) return std::nullopt;
+  return n;
+}
+
 }  // namespace
 
 HttpServer::HttpServer(Service& service)
@@ -110,14 +137,29 @@ HttpServer::HttpServer(Service& service)
   s.Delete(".*", handler);
   s.Options(".*", handler);
 
-  // cpp-httplib 0.11 enforces --max-body-bytes from Content-Length only: a chunked body would be
-  // read whole whatever its size. Such requests are refused before their body is read.
+  // Refused before their body is read, from the headers alone, and the connection closed:
+  // a chunked body (cpp-httplib 0.11 enforces --max-body-bytes from Content-Length only: a chunked
+  // body would be read whole whatever its size), and a Content-Length above the limit (cpp-httplib
+  // would read and discard the whole body first: 300 MiB announced, the 413 came after the
+  // request timeout).
   s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-    if (!req.has_header("Transfer-Encoding")) return httplib::Server::HandlerResponse::Unhandled;
-    set_error_body(res, error_response(411, "length_required",
-                                       "send the body with a Content-Length header (chunked "
-                                       "transfer encoding is not accepted)"));
+    std::optional<Response> refusal;
+    const auto max = static_cast<std::uint64_t>(service_.config().max_body_bytes);
+    if (req.has_header("Transfer-Encoding")) {
+      refusal = error_response(411, "length_required",
+                               "send the body with a Content-Length header (chunked transfer "
+                               "encoding is not accepted)");
+    } else if (const auto n = announced_length(req); n && *n > max) {
+      refusal = error_response(413, "payload_too_large",
+                               "the request body is larger than this daemon accepts (" +
+                                   std::to_string(*n) + " bytes announced, limit " +
+                                   std::to_string(max) + ")");
+    }
+    if (!refusal) return httplib::Server::HandlerResponse::Unhandled;
+    refuse_unread(res, *refusal);
     service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
+    log(LogLevel::kInfo, "request refused before its body",
+        {{"method", req.method}, {"path", req.path}, {"status", std::to_string(res.status)}});
     return httplib::Server::HandlerResponse::Handled;
   });
 
@@ -125,7 +167,9 @@ HttpServer::HttpServer(Service& service)
   // line) get the same JSON body as every other error.
   s.set_error_handler(httplib::Server::HandlerWithResponse([this](const httplib::Request& req,
                                                                   httplib::Response& res) {
-    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    // A body already there, or a refusal of ours (Connection: close, its body streamed).
+    if (!res.body.empty() || res.has_header("Connection"))
+      return httplib::Server::HandlerResponse::Unhandled;
     Response r;
     if (res.status == 413) {
       r = error_response(413, "payload_too_large",
@@ -145,7 +189,7 @@ HttpServer::HttpServer(Service& service)
     return httplib::Server::HandlerResponse::Handled;
   }));
   s.set_exception_handler(
-      [](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
+      [this](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
         std::string what = "unknown exception";
         try {
           std::rethrow_exception(ep);
@@ -155,6 +199,7 @@ HttpServer::HttpServer(Service& service)
         }
         log(LogLevel::kError, "internal error", {{"path", req.path}, {"error", what}});
         set_error_body(res, error_response(500, "internal", "internal error: " + what));
+        service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
       });
 }
 

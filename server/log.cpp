@@ -7,6 +7,8 @@
 #include <ctime>
 #include <mutex>
 
+#include "server/utf8.h"
+
 namespace fragsim::server {
 
 namespace {
@@ -36,7 +38,9 @@ bool needs_quotes(std::string_view v) {
   return false;
 }
 
-void append_value(std::string& out, std::string_view v) {
+void append_value(std::string& out, std::string_view raw) {
+  const std::string escaped = escape_invalid_utf8(raw);  // log lines stay valid UTF-8
+  const std::string_view v = escaped;
   if (!needs_quotes(v)) {
     out += v;
     return;

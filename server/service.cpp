@@ -19,6 +19,7 @@
 #include "api/site_document.h"
 #include "fragsim/version.h"
 #include "server/log.h"
+#include "server/utf8.h"
 #include "server/openapi_text.h"
 
 namespace fragsim::server {
@@ -43,10 +44,12 @@ enum class RouteId {
 
 constexpr const char* kJsonType = "application/json";
 
+// Strings in a body are valid UTF-8 by construction (client text passes escape_invalid_utf8);
+// should one not be, it is replaced rather than turning the answer into an exception.
 Response json_response(int status, const OJson& j) {
   Response r;
   r.status = status;
-  r.body = j.dump();
+  r.body = j.dump(-1, ' ', false, OJson::error_handler_t::replace);
   return r;
 }
 
@@ -115,8 +118,8 @@ Response error_response(int status, const std::string& code, const std::string& 
                         const std::optional<std::string>& field) {
   OJson j;
   j["code"] = code;
-  j["message"] = message;
-  j["field"] = field ? OJson(*field) : OJson(nullptr);
+  j["message"] = escape_invalid_utf8(message);  // messages echo client text
+  j["field"] = field ? OJson(escape_invalid_utf8(*field)) : OJson(nullptr);
   return json_response(status, j);
 }
 

@@ -429,6 +429,29 @@ TEST_F(ServiceInput, MalformedJsonIs400) {
   }
 }
 
+// Any byte in any part of a request: a 4xx with a valid JSON error body, never a 500 (the error
+// message echoes input; invalid UTF-8 in it made building the body throw). nlohmann's strict
+// parse of the body (body_of) fails on invalid UTF-8, so expect_error checks that too.
+TEST_F(ServiceInput, InvalidUtf8AnywhereIsA4xxWithAValidBody) {
+  start();
+  const std::string bad = "\xff\xfe\xc3(\xed\xa0\x80";  // stray, truncated, surrogate
+  expect_error(get("/v1/jobs/" + bad), 404, "not_found");
+  expect_error(get("/v1/" + bad), 404, "not_found");
+  // Invalid bytes are written "\xNN" where a message or field echoes them.
+  expect_error(get("/v1/jobs", {{"st" + bad, "1"}}), 400, "bad_parameter",
+               "st\\xff\\xfe\\xc3(\\xed\\xa0\\x80");
+  expect_error(get("/v1/jobs", {{"state", bad}}), 400, "bad_parameter", "state");
+  expect_error(post_text("/v1/sites", "{\"terrain\": \"" + bad + "\"}"), 400, "malformed_json");
+  expect_error(post_text("/v1/jobs", bad), 400, "malformed_json");
+  // A string value with valid JSON escapes that decode to a lone surrogate is refused by the parser
+  // as malformed too; a key that is not UTF-8 names no known field.
+  expect_error(post_text("/v1/jobs", "{\"\\ud800\": 1}"), 400, "malformed_json");
+  const Response auth = call("GET", "/v1/jobs", {}, {}, {{"authorization", "Bearer " + bad}});
+  expect_error(auth, 401, "unauthorized");
+  expect_error(call("POST", "/v1/jobs", {}, "{}", {{"content-type", bad}}), 415,
+               "unsupported_media_type");
+}
+
 TEST_F(ServiceInput, NestingBeyond64LevelsIs400TooDeep) {
   start();
   const std::string too_deep = std::string(65, '[') + std::string(65, ']');
