@@ -112,7 +112,7 @@ void apply_config_file(const std::string& path, Config& c) {
   static const std::vector<std::string> kKeys = {
       "listen", "data_dir", "threads", "http_threads", "token_file", "auth", "max_body_bytes",
       "max_samples_per_job", "max_sites", "max_queued_jobs", "request_timeout_s", "log_level",
-      "max_crashes", "port_file"};
+      "max_crashes", "port_file", "keep_alive_s", "max_connections", "job_nice"};
   try {
     for (const auto& item : j.items()) {
       const std::string& k = item.key();
@@ -141,6 +141,14 @@ void apply_config_file(const std::string& path, Config& c) {
         c.request_timeout_s = api::read_number(v, k);
         api::check_gt(c.request_timeout_s, 0.0, k);
         api::check_le(c.request_timeout_s, 86400.0, k);
+      } else if (k == "job_nice") {
+        c.job_nice = static_cast<int>(api::read_integer(v, k, 0, 19));
+      } else if (k == "keep_alive_s") {
+        c.keep_alive_s = api::read_number(v, k);
+        api::check_gt(c.keep_alive_s, 0.0, k);
+        api::check_le(c.keep_alive_s, 86400.0, k);
+      } else if (k == "max_connections") {
+        c.max_connections = api::read_integer(v, k, 1, 1'000'000);
       } else if (k == "log_level") {
         c.log_level = api::read_string(v, k);
         check_log_level(c.log_level, k);
@@ -204,6 +212,12 @@ Invocation parse_command_line(const std::vector<std::string>& args) {
       c.max_queued_jobs = parse_integer(value(), a, 1, kInt64Max);
     } else if (a == "--request-timeout-s") {
       c.request_timeout_s = parse_seconds(value(), a);
+    } else if (a == "--job-nice") {
+      c.job_nice = static_cast<int>(parse_integer(value(), a, 0, 19));
+    } else if (a == "--keep-alive-s") {
+      c.keep_alive_s = parse_seconds(value(), a);
+    } else if (a == "--max-connections") {
+      c.max_connections = parse_integer(value(), a, 1, 1'000'000);
     } else if (a == "--port-file") {
       c.port_file = value();
     } else if (a == "--log-level") {
@@ -237,14 +251,17 @@ const char* usage_text() {
          "  --listen HOST:PORT       address (default 127.0.0.1:8080; port 0 = any free port)\n"
          "  --data-dir DIR           queue, sites and results (default ./fragsimd-data)\n"
          "  --threads N              Monte Carlo threads per job (default: all cores)\n"
-         "  --http-threads N         request threads (default 64)\n"
+         "  --job-nice N             nice value of a job's threads, 0-19 (default 10)\n"
+         "  --http-threads N         requests handled at once (default 64)\n"
+         "  --max-connections N      open connections (default 4096; more get a 503)\n"
+         "  --keep-alive-s S         close a connection idle this long (default 15)\n"
          "  --token-file FILE        bearer tokens, one per line (required unless --no-auth)\n"
          "  --no-auth                no authentication (only on a loopback address)\n"
          "  --max-body-bytes N       largest request body (default 268435456)\n"
          "  --max-samples-per-job N  (default 100000000)\n"
          "  --max-sites N            (default 100)\n"
          "  --max-queued-jobs N      (default 1000)\n"
-         "  --request-timeout-s S    socket read/write timeout (default 30)\n"
+         "  --request-timeout-s S    a request must arrive within S of its first byte (default 30)\n"
          "  --port-file FILE         write the bound port here once listening\n"
          "  --max-crashes N          fail a job after N daemon crashes while it ran (default 3)\n"
          "  --log-level LEVEL        debug | info | warn | error (default info)\n"

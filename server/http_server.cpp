@@ -6,6 +6,7 @@
 
 #include <sys/socket.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <chrono>
@@ -13,7 +14,9 @@
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <thread>
 
+#include "server/connection_server.h"
 #include "server/log.h"
 
 namespace fragsim::server {
@@ -78,6 +81,53 @@ void refuse_unread(httplib::Response& res, const Response& r) {
                            });
 }
 
+const char* reason_phrase(int status) {
+  switch (status) {
+    case 408: return "Request Timeout";
+    case 431: return "Request Header Fields Too Large";
+    case 503: return "Service Unavailable";
+    default: return "Error";
+  }
+}
+
+// What the connection layer answers on its own before closing a connection.
+Response connection_refusal(int status, const Config& c) {
+  switch (status) {
+    case 408:
+      return error_response(408, "request_timeout",
+                            "the request's headers did not arrive within " +
+                                format_double(c.request_timeout_s) + " s of its first byte");
+    case 431:
+      return error_response(431, "headers_too_large",
+                            "the request line and headers exceed " +
+                                std::to_string(ConnectionLimits{}.max_header_bytes) + " bytes");
+    default:
+      return error_response(503, "too_many_connections",
+                            "the daemon holds " + std::to_string(c.max_connections) +
+                                " connections already; retry shortly");
+  }
+}
+
+std::string raw_response(const Response& r) {
+  std::string out = "HTTP/1.1 " + std::to_string(r.status) + " " + reason_phrase(r.status) +
+                    "\r\nContent-Type: " + r.content_type +
+                    "\r\nContent-Length: " + std::to_string(r.body.size()) +
+                    "\r\nConnection: close\r\n";
+  if (r.status == 503) out += "Retry-After: 1\r\n";
+  return out + "\r\n" + r.body;
+}
+
+ConnectionLimits connection_limits(const Config& c) {
+  ConnectionLimits l;
+  l.worker_threads = c.http_threads;
+  const auto cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  l.min_worker_threads = std::clamp(2 * cores, 4, 16);
+  l.request_timeout_s = c.request_timeout_s;
+  l.keep_alive_s = c.keep_alive_s;
+  l.max_connections = static_cast<std::size_t>(c.max_connections);
+  return l;
+}
+
 // The body size a request announces in Content-Length, if it parses.
 std::optional<std::uint64_t> announced_length(const httplib::Request& req) {
   if (!req.has_header("Content-Length")) return std::nullopt;
@@ -90,21 +140,26 @@ std::optional<std::uint64_t> announced_length(const httplib::Request& req) {
 
 }  // namespace
 
-HttpServer::HttpServer(Service& service)
-    : service_(service), server_(std::make_unique<httplib::Server>()) {
+HttpServer::HttpServer(Service& service) : service_(service) {
   const Config& c = service_.config();
+  const ConnectionLimits limits = connection_limits(c);
+  server_ = std::make_unique<ConnectionServer>(limits, [this](int status) {
+    service_.metrics().record_request("unknown", "unmatched", status, 0.0);
+    log(LogLevel::kInfo, "connection refused", {{"status", std::to_string(status)}});
+    return raw_response(connection_refusal(status, service_.config()));
+  });
+  service_.metrics().set_connection_source([server = server_.get()](Metrics::Gauges& g) {
+    const ConnectionCounts n = server->counts();
+    g.connections_open = static_cast<std::int64_t>(n.open);
+    g.requests_queued = static_cast<std::int64_t>(n.queued);
+    g.requests_in_progress = static_cast<std::int64_t>(n.busy);
+    g.http_workers = static_cast<std::int64_t>(n.workers);
+  });
   auto& s = *server_;
-  const int threads = c.http_threads;
-  s.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
   s.set_payload_max_length(static_cast<std::size_t>(c.max_body_bytes));
-  const auto timeout = std::chrono::duration<double>(c.request_timeout_s);
-  s.set_read_timeout(std::chrono::duration_cast<std::chrono::microseconds>(timeout));
-  s.set_write_timeout(std::chrono::duration_cast<std::chrono::microseconds>(timeout));
-  // cpp-httplib holds a pool thread per open connection: an idle keep-alive connection is closed
-  // after 2 s, and any connection after 100 requests, so that clients beyond --http-threads wait
-  // at most about that long for a thread.
-  s.set_keep_alive_max_count(100);
-  s.set_keep_alive_timeout(2);
+  // Only the Keep-Alive header's text: connection_server.cpp enforces these and the timeouts.
+  s.set_keep_alive_max_count(limits.max_requests_per_connection);
+  s.set_keep_alive_timeout(static_cast<time_t>(limits.keep_alive_s));
 
   const auto handler = [this](const httplib::Request& req, httplib::Response& res) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -171,7 +226,13 @@ HttpServer::HttpServer(Service& service)
     if (!res.body.empty() || res.has_header("Connection"))
       return httplib::Server::HandlerResponse::Unhandled;
     Response r;
-    if (res.status == 413) {
+    if (ConnectionServer::request_timed_out()) {
+      r = error_response(408, "request_timeout",
+                         "the request's body did not arrive within " +
+                             format_double(service_.config().request_timeout_s) +
+                             " s of its first byte");
+      res.set_header("Connection", "close");
+    } else if (res.status == 413) {
       r = error_response(413, "payload_too_large",
                          "the request body is larger than this daemon accepts (" +
                              std::to_string(service_.config().max_body_bytes) + " bytes)");
@@ -182,6 +243,7 @@ HttpServer::HttpServer(Service& service)
                          std::string("the request could not be handled (HTTP ") +
                              std::to_string(res.status) + ")");
     }
+    res.status = r.status;
     res.set_content(r.body, r.content_type);
     service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
     log(LogLevel::kInfo, "request refused",
@@ -203,7 +265,9 @@ HttpServer::HttpServer(Service& service)
       });
 }
 
-HttpServer::~HttpServer() = default;
+HttpServer::~HttpServer() {
+  service_.metrics().set_connection_source(nullptr);  // the server goes first
+}
 
 int HttpServer::bind() {
   const Config& c = service_.config();
@@ -231,7 +295,7 @@ int HttpServer::bind() {
 }
 
 bool HttpServer::run() {
-  return server_->listen_after_bind();
+  return server_->serve();
 }
 
 void HttpServer::stop() {

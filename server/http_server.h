@@ -1,16 +1,15 @@
 #pragma once
 // The HTTP side of fragsimd: cpp-httplib converts requests to server::Request, hands them to the
-// Service and sends back its Response. No route logic lives here.
+// Service and sends back its Response; connections are held by server/connection_server.h. No
+// route logic lives here.
 #include <memory>
 #include <string>
 
 #include "server/service.h"
 
-namespace httplib {
-class Server;
-}
-
 namespace fragsim::server {
+
+class ConnectionServer;
 
 class HttpServer {
  public:
@@ -28,7 +27,7 @@ class HttpServer {
 
  private:
   Service& service_;
-  std::unique_ptr<httplib::Server> server_;
+  std::unique_ptr<ConnectionServer> server_;
 };
 
 }  // namespace fragsim::server

@@ -5,8 +5,11 @@
 // 1 when the daemon cannot start (data directory, database, address in use).
 #include <pthread.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -34,6 +37,23 @@ void write_port_file(const std::string& path, int port) {
   std::filesystem::rename(tmp, path);
 }
 
+// Every connection is a file descriptor; so are the database, the result files being written
+// and the job's threads' files. A soft limit below --max-connections plus a margin is raised
+// towards the hard limit (systemd and Docker default the soft limit to 1024).
+void raise_open_file_limit(std::int64_t max_connections) {
+  constexpr std::int64_t kMargin = 256;
+  rlimit lim{};
+  if (::getrlimit(RLIMIT_NOFILE, &lim) != 0) return;
+  const auto wanted = static_cast<rlim_t>(max_connections + kMargin);
+  if (lim.rlim_cur >= wanted) return;
+  lim.rlim_cur = std::min(wanted, lim.rlim_max);
+  ::setrlimit(RLIMIT_NOFILE, &lim);
+  if (lim.rlim_cur < wanted)
+    log(LogLevel::kWarn, "open-file limit below --max-connections",
+        {{"limit", std::to_string(lim.rlim_cur)},
+         {"max_connections", std::to_string(max_connections)}});
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -55,6 +75,7 @@ int main(int argc, char** argv) {
   }
   const Config& config = inv.config;
   set_log_level(parse_log_level(config.log_level));
+  raise_open_file_limit(config.max_connections);
 
   // SIGINT/SIGTERM are taken by one thread with sigwait; every other thread (the scheduler, the
   // Monte Carlo workers, the HTTP pool) inherits the blocked mask.

@@ -39,6 +39,20 @@ void Metrics::record_request(const std::string& method, const std::string& route
   h.sum += duration_s;
 }
 
+void Metrics::set_connection_source(ConnectionSource source) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  connections_ = std::move(source);
+}
+
+void Metrics::fill_connection_gauges(Gauges& g) const {
+  ConnectionSource source;
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    source = connections_;
+  }
+  if (source) source(g);
+}
+
 std::string Metrics::render(const Gauges& g) const {
   std::ostringstream o;
   o << "# HELP fragsimd_jobs Jobs by state.\n# TYPE fragsimd_jobs gauge\n";
@@ -58,6 +72,17 @@ std::string Metrics::render(const Gauges& g) const {
   o << "# HELP fragsimd_uptime_seconds Seconds since the daemon started.\n"
     << "# TYPE fragsimd_uptime_seconds gauge\nfragsimd_uptime_seconds "
     << format_double(g.uptime_s) << "\n";
+  o << "# HELP fragsimd_http_connections Open client connections.\n"
+    << "# TYPE fragsimd_http_connections gauge\nfragsimd_http_connections " << g.connections_open
+    << "\n";
+  o << "# HELP fragsimd_http_requests_queued Requests whose headers are in, waiting for a "
+       "worker.\n# TYPE fragsimd_http_requests_queued gauge\nfragsimd_http_requests_queued "
+    << g.requests_queued << "\n";
+  o << "# HELP fragsimd_http_requests_in_progress Requests being read, handled or answered.\n"
+    << "# TYPE fragsimd_http_requests_in_progress gauge\nfragsimd_http_requests_in_progress "
+    << g.requests_in_progress << "\n";
+  o << "# HELP fragsimd_http_workers Request worker threads started.\n"
+    << "# TYPE fragsimd_http_workers gauge\nfragsimd_http_workers " << g.http_workers << "\n";
 
   const std::lock_guard<std::mutex> lock(mutex_);
   o << "# HELP fragsimd_http_requests_total HTTP requests by method, route and status.\n"

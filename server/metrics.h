@@ -3,6 +3,7 @@
 // The job and site gauges are read from the store and scheduler when the page is rendered.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <string>
@@ -26,7 +27,16 @@ class Metrics {
     double histories_per_s = 0.0;
     std::int64_t sites = 0;
     double uptime_s = 0.0;
+    // From the connection layer (zeros without one, e.g. in tests without sockets).
+    std::int64_t connections_open = 0;
+    std::int64_t requests_queued = 0;       // headers in, waiting for a worker
+    std::int64_t requests_in_progress = 0;  // with a worker
+    std::int64_t http_workers = 0;
   };
+  // Fills the connection gauges; set by the HTTP server.
+  using ConnectionSource = std::function<void(Gauges&)>;
+  void set_connection_source(ConnectionSource source);
+  void fill_connection_gauges(Gauges& g) const;
   std::string render(const Gauges& g) const;
 
  private:
@@ -36,6 +46,7 @@ class Metrics {
     double sum = 0.0;
   };
   mutable std::mutex mutex_;
+  ConnectionSource connections_;
   std::map<std::tuple<std::string, std::string, int>, std::uint64_t> requests_;
   std::map<std::string, Histogram> latency_;
 };

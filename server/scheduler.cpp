@@ -1,6 +1,12 @@
 #include "server/scheduler.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
@@ -23,18 +29,33 @@ std::vector<BuildingRow> building_rows(const run::RunResult& r) {
   return rows;
 }
 
+// Linux keeps a nice value per thread, and a new thread starts with its creator's.
+void lower_thread_priority(int nice) {
+  if (nice <= 0) return;
+  const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
+  if (::setpriority(PRIO_PROCESS, tid, nice) != 0)
+    log(LogLevel::kWarn, "job priority not lowered", {{"error", std::strerror(errno)}});
+}
+
 }  // namespace
 
 Scheduler::Scheduler(Store& store, SiteRegistry& sites, std::filesystem::path jobs_dir,
-                     int threads)
-    : store_(store), sites_(sites), jobs_dir_(std::move(jobs_dir)), threads_(threads) {}
+                     int threads, int job_nice)
+    : store_(store),
+      sites_(sites),
+      jobs_dir_(std::move(jobs_dir)),
+      threads_(threads),
+      job_nice_(job_nice) {}
 
 Scheduler::~Scheduler() {
   shutdown();
 }
 
 void Scheduler::start() {
-  worker_ = std::thread([this] { loop(); });
+  worker_ = std::thread([this] {
+    lower_thread_priority(job_nice_);  // inherited by the run's threads, which this one creates
+    loop();
+  });
 }
 
 void Scheduler::shutdown() {

@@ -30,7 +30,10 @@ struct LiveProgress {
 
 class Scheduler {
  public:
-  Scheduler(Store& store, SiteRegistry& sites, std::filesystem::path jobs_dir, int threads);
+  // `job_nice`: the nice value the job's threads run at (0 = the daemon's own), so that requests
+  // are answered promptly while a job keeps the cores busy.
+  Scheduler(Store& store, SiteRegistry& sites, std::filesystem::path jobs_dir, int threads,
+            int job_nice = 0);
   ~Scheduler();
   Scheduler(const Scheduler&) = delete;
   Scheduler& operator=(const Scheduler&) = delete;
@@ -58,6 +61,7 @@ class Scheduler {
   SiteRegistry& sites_;
   std::filesystem::path jobs_dir_;
   int threads_;
+  int job_nice_;
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;      // worker: a job queued or shutdown

@@ -172,7 +172,7 @@ Service::Service(Config config)
       started_(std::chrono::steady_clock::now()),
       store_(data_dir_ / "fragsimd.sqlite"),
       sites_(store_, data_dir_ / "sites"),
-      scheduler_(store_, sites_, data_dir_ / "jobs", config_.threads) {
+      scheduler_(store_, sites_, data_dir_ / "jobs", config_.threads, config_.job_nice) {
   if (const std::size_t n = clean_stale_temporaries(data_dir_); n > 0)
     log(LogLevel::kWarn, "removed temporaries left by a killed daemon",
         {{"files", std::to_string(n)}});
@@ -390,6 +390,7 @@ Response Service::metrics_page() {
   if (const auto live = scheduler_.running()) g.histories_per_s = live->histories_per_s;
   g.sites = static_cast<std::int64_t>(sites_.size());
   g.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+  metrics_.fill_connection_gauges(g);
   Response r;
   r.content_type = "text/plain; version=0.0.4";
   r.body = metrics_.render(g);

@@ -11,6 +11,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace fragsim::server {
@@ -35,7 +36,8 @@ struct JobRow {
   JobState state = JobState::kQueued;
   std::optional<std::string> idempotency_key;
   std::string request_sha256;  // of the scenario as stored (idempotency comparison)
-  std::string scenario_json;   // the request without priority and idempotency_key
+  std::string scenario_json;   // the request without priority and idempotency_key; empty from
+                               // job() and jobs(), which serve status requests
   std::int64_t histories_total = 0;
   std::int64_t histories_done = 0;
   int attempts = 0;  // times started
@@ -120,6 +122,7 @@ class Store {
 
   std::mutex mutex_;
   sqlite3* db_ = nullptr;
+  std::unordered_map<std::string, sqlite3_stmt*> statements_;  // prepared, by SQL text
 };
 
 }  // namespace fragsim::server

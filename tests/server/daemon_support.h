@@ -97,4 +97,32 @@ inline std::string raw_exchange(int port, const std::string& request) {
   return answer;
 }
 
+// Sends `head`, then one byte ('x') every `pause` up to `bytes` times while the server accepts
+// them, then reads until the server closes (10 s at most); returns what was read.
+inline std::string trickle_exchange(int port, const std::string& head, int bytes,
+                                    std::chrono::milliseconds pause) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return "";
+  timeval timeout{10, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  std::string answer;
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0 &&
+      ::send(fd, head.data(), head.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(head.size())) {
+    char buf[4096];
+    for (int k = 0; k < bytes; ++k) {
+      std::this_thread::sleep_for(pause);
+      const ssize_t got = ::recv(fd, buf, sizeof buf, MSG_DONTWAIT);
+      if (got > 0) answer.append(buf, static_cast<std::size_t>(got));
+      if (got == 0 || ::send(fd, "x", 1, MSG_NOSIGNAL) != 1) break;
+    }
+    for (ssize_t n; (n = ::recv(fd, buf, sizeof buf, 0)) > 0;) answer.append(buf, n);
+  }
+  ::close(fd);
+  return answer;
+}
+
 }  // namespace fragsim::server::testing

@@ -392,6 +392,43 @@ TEST(Daemon, FiftyClientsPollWhileAJobRuns) {
   EXPECT_GT(requests.load(), 50);
 }
 
+// Slow clients, as fragsimd answers them: a JSON 408 at the total deadline, while one request
+// worker keeps serving everyone else; the connection gauges in /metrics.
+TEST(Daemon, TricklingClientsGetAJson408AndOthersAreServed) {
+  const fs::path dir = fresh_dir("fragsimd_slow_");
+  Daemon d(dir, {"--request-timeout-s", "1", "--http-threads", "1"});
+  ASSERT_NO_THROW(d.start()) << d.log();
+  std::vector<std::thread> slow;
+  std::vector<std::string> answers(3);
+  for (std::size_t k = 0; k < answers.size(); ++k) {
+    slow.emplace_back([&, k] {
+      // Headers for the first, a body for the others, one byte every 100 ms.
+      const std::string head =
+          k == 0 ? "GET /v1/health HTTP/1.1\r\nHost: t\r\nX-Slow: "
+                 : std::string("POST /v1/sites HTTP/1.1\r\nHost: t\r\nAuthorization: Bearer ") +
+                       kToken + "\r\nContent-Type: application/json\r\nContent-Length: 999\r\n\r\n";
+      answers[k] = trickle_exchange(d.port(), head, 50, std::chrono::milliseconds(100));
+    });
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  auto c = d.client();
+  const auto t0 = Clock::now();
+  auto health = c->Get("/v1/health");
+  EXPECT_TRUE(health && health->status == 200);
+  EXPECT_LT(std::chrono::duration<double>(Clock::now() - t0).count(), 0.9);
+  auto metrics = c->Get("/metrics");
+  ASSERT_TRUE(metrics && metrics->status == 200);
+  EXPECT_NE(metrics->body.find("\nfragsimd_http_connections "), std::string::npos);
+  EXPECT_NE(metrics->body.find("\nfragsimd_http_workers "), std::string::npos);
+  for (auto& t : slow) t.join();
+  for (const std::string& a : answers) {
+    ASSERT_NE(a.find("HTTP/1.1 408"), std::string::npos) << a;
+    const Json body = Json::parse(a.substr(a.find("\r\n\r\n") + 4));
+    EXPECT_EQ(body.value("code", ""), "request_timeout") << a;
+  }
+  EXPECT_TRUE(d.alive());
+}
+
 TEST(Daemon, CancelStopsARunningJobAndLeavesNoResults) {
   const fs::path dir = fresh_dir("fragsimd_cancel_");
   Daemon d(dir);
