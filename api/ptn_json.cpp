@@ -1,5 +1,7 @@
 #include "api/ptn_json.h"
 
+#include <charconv>
+#include <cmath>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -41,46 +43,100 @@ std::string render_ptn_json(const std::filesystem::path& results_h5, const std::
   return j.dump();
 }
 
-std::string render_ptn_geojson(const std::filesystem::path& results_h5, const std::string& job_id,
-                               std::optional<double> min_density_per_m2) {
-  const PtnField f = read_field(results_h5);
-  const std::vector<double> vertices = read_dataset_double(results_h5, "/terrain/vertices_m");
-  const std::vector<std::int64_t> triangles = read_dataset_int64(results_h5, "/terrain/triangles");
-  if (triangles.size() != 3 * f.density.size() || vertices.size() % 3 != 0)
-    throw std::runtime_error(results_h5.string() + ": terrain does not match the PTN field");
-  const auto vertex_count = static_cast<std::int64_t>(vertices.size() / 3);
+namespace {
 
-  OJson j;
-  j["type"] = "FeatureCollection";
-  j["fragsim_job_id"] = job_id;
-  j["fragsim_threshold_per_m2"] = f.threshold;
+// Shortest text that reads back as the same double (as nlohmann::json writes them); null for
+// what JSON cannot hold.
+void append_number(std::string& out, double v) {
+  if (!std::isfinite(v)) {
+    out += "null";
+    return;
+  }
+  char buf[32];
+  const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, ec == std::errc() ? static_cast<std::size_t>(end - buf) : 0);
+}
+
+}  // namespace
+
+PtnGeoJsonWriter::PtnGeoJsonWriter(const std::filesystem::path& results_h5,
+                                   const std::string& job_id,
+                                   std::optional<double> min_density_per_m2)
+    : min_density_(min_density_per_m2) {
+  PtnField f = read_field(results_h5);
+  density_ = std::move(f.density);
+  std_error_ = std::move(f.std_error);
+  vertices_ = read_dataset_double(results_h5, "/terrain/vertices_m");
+  triangles_ = read_dataset_int64(results_h5, "/terrain/triangles");
+  if (triangles_.size() != 3 * density_.size() || vertices_.size() % 3 != 0)
+    throw std::runtime_error(results_h5.string() + ": terrain does not match the PTN field");
+  const auto vertex_count = static_cast<std::int64_t>(vertices_.size() / 3);
+  for (const std::int64_t v : triangles_)
+    if (v < 0 || v >= vertex_count)
+      throw std::runtime_error(results_h5.string() + ": triangle index out of range");
+
+  OJson head;
+  head["type"] = "FeatureCollection";
+  head["fragsim_job_id"] = job_id;
+  head["fragsim_threshold_per_m2"] = f.threshold;
   const nlohmann::json scenario =
       nlohmann::json::parse(read_attribute_string(results_h5, "/", "scenario_json"));
   if (const auto site = scenario.find("site"); site != scenario.end()) {
     if (const auto origin = site->find("origin"); origin != site->end())
-      j["fragsim_origin"] = *origin;
+      head["fragsim_origin"] = *origin;
   }
-  auto features = OJson::array();
-  for (std::size_t t = 0; t < f.density.size(); ++t) {
-    if (min_density_per_m2 && !(f.density[t] >= *min_density_per_m2)) continue;
-    auto ring = OJson::array();
-    for (int c = 0; c <= 3; ++c) {
-      const std::int64_t v = triangles[3 * t + static_cast<std::size_t>(c % 3)];
-      if (v < 0 || v >= vertex_count)
-        throw std::runtime_error(results_h5.string() + ": triangle index out of range");
-      const auto k = static_cast<std::size_t>(3 * v);
-      ring.push_back({vertices[k], vertices[k + 1], vertices[k + 2]});
-    }
-    OJson feature;
-    feature["type"] = "Feature";
-    feature["geometry"] = {{"type", "Polygon"}, {"coordinates", OJson::array({std::move(ring)})}};
-    feature["properties"] = {{"triangle", t},
-                             {"density_per_m2", f.density[t]},
-                             {"std_error_per_m2", f.std_error[t]}};
-    features.push_back(std::move(feature));
+  head_ = head.dump();
+  head_.pop_back();  // the closing brace: the features follow
+  head_ += ",\"features\":[";
+}
+
+void PtnGeoJsonWriter::append_feature(std::string& out, std::size_t t) const {
+  out += first_feature_ ? "" : ",";
+  out += R"({"type":"Feature","geometry":{"type":"Polygon","coordinates":[[)";
+  for (int c = 0; c <= 3; ++c) {
+    const auto k = static_cast<std::size_t>(3 * triangles_[3 * t + static_cast<std::size_t>(c % 3)]);
+    out += c == 0 ? "[" : ",[";
+    append_number(out, vertices_[k]);
+    out += ',';
+    append_number(out, vertices_[k + 1]);
+    out += ',';
+    append_number(out, vertices_[k + 2]);
+    out += ']';
   }
-  j["features"] = std::move(features);
-  return j.dump();
+  out += R"(]]},"properties":{"triangle":)";
+  out += std::to_string(t);
+  out += R"(,"density_per_m2":)";
+  append_number(out, density_[t]);
+  out += R"(,"std_error_per_m2":)";
+  append_number(out, std_error_[t]);
+  out += "}}";
+}
+
+bool PtnGeoJsonWriter::next(std::string& out, std::size_t piece_bytes) {
+  if (done_) return false;
+  const std::size_t limit = out.size() + piece_bytes;
+  if (!started_) {
+    out += head_;
+    started_ = true;
+  }
+  for (; next_ < density_.size() && out.size() < limit; ++next_) {
+    if (min_density_ && !(density_[next_] >= *min_density_)) continue;
+    append_feature(out, next_);
+    first_feature_ = false;
+  }
+  if (next_ < density_.size()) return true;
+  out += "]}";
+  done_ = true;
+  return false;
+}
+
+std::string render_ptn_geojson(const std::filesystem::path& results_h5, const std::string& job_id,
+                               std::optional<double> min_density_per_m2) {
+  PtnGeoJsonWriter writer(results_h5, job_id, min_density_per_m2);
+  std::string out;
+  while (writer.next(out)) {
+  }
+  return out;
 }
 
 }  // namespace fragsim::api

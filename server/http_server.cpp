@@ -62,6 +62,25 @@ bool send_file(const std::filesystem::path& path, const std::string& content_typ
   return true;
 }
 
+// A body produced in pieces (Response::stream), sent chunked as it is produced.
+void send_stream(const std::function<bool(std::string&)>& stream, const std::string& content_type,
+                 httplib::Response& res) {
+  res.set_chunked_content_provider(
+      content_type, [stream](std::size_t, httplib::DataSink& sink) {
+        std::string piece;
+        bool more = false;
+        try {
+          more = stream(piece);
+        } catch (const std::exception& e) {  // the status is sent: all we can do is cut it short
+          log(LogLevel::kError, "streamed answer failed", {{"error", e.what()}});
+          return false;
+        }
+        if (!piece.empty() && !sink.write(piece.data(), piece.size())) return false;
+        if (!more) sink.done();
+        return true;
+      });
+}
+
 void set_error_body(httplib::Response& res, const Response& r) {
   res.status = r.status;
   res.set_content(r.body, r.content_type);
@@ -172,6 +191,8 @@ HttpServer::HttpServer(Service& service) : service_(service) {
         log(LogLevel::kError, "result file unreadable", {{"file", r.file->string()}});
         set_error_body(res, error_response(500, "internal", "a result file cannot be read"));
       }
+    } else if (r.stream) {
+      send_stream(r.stream, r.content_type, res);
     } else if (r.status != 204) {
       res.set_content(r.body, r.content_type);
     }

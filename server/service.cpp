@@ -671,7 +671,8 @@ Response Service::job_ptn(const Request& req, const std::string& id) {
   Response r;
   if (geojson) {
     r.content_type = "application/geo+json";
-    r.body = api::render_ptn_geojson(h5, id, min_density);
+    auto writer = std::make_shared<api::PtnGeoJsonWriter>(h5, id, min_density);
+    r.stream = [writer](std::string& piece) { return writer->next(piece); };
   } else {
     r.body = api::render_ptn_json(h5, id);
   }

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -37,6 +38,9 @@ struct Response {
   std::string body;
   std::vector<std::pair<std::string, std::string>> headers;
   std::optional<std::filesystem::path> file;  // send this file's bytes instead of body
+  // Or produce the body in pieces: each call appends the next piece to its argument and returns
+  // false after the last (sent with chunked transfer encoding; memory stays at one piece).
+  std::function<bool(std::string&)> stream;
   std::string route = "unmatched";            // the matched pattern, for metrics and logs
 };
 

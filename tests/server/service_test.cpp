@@ -57,8 +57,13 @@ Json blocker_job(const std::string& site_id) {
   return j;
 }
 
+// The body, also of a streamed response (consumed: call once per response).
 Json body_of(const Response& r) {
-  return Json::parse(r.body);
+  std::string body = r.body;
+  if (r.stream)
+    while (r.stream(body)) {
+    }
+  return Json::parse(body);
 }
 
 std::optional<std::string> header(const Response& r, const std::string& name) {
