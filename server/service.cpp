@@ -190,6 +190,14 @@ void Service::shutdown() {
   scheduler_.shutdown();
 }
 
+// A job's owner: who submitted it, named without revealing the token (null with auth off).
+std::optional<std::string> Service::owner_of(const Request& req) const {
+  if (!config_.auth) return std::nullopt;
+  const auto it = req.headers.find("authorization");
+  if (it == req.headers.end() || it->second.size() <= 7) return std::nullopt;
+  return "tok_" + api::sha256_hex(it->second.substr(7)).substr(0, 16);
+}
+
 bool Service::authorised(const Request& req) const {
   if (!config_.auth) return true;
   const auto it = req.headers.find("authorization");
@@ -347,7 +355,7 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
   if (route.id == RouteId::kJobPtn) return job_ptn(req, id);
   switch (route.id) {
     case RouteId::kJob:
-      return get ? get_job(id) : delete_job(id);
+      return get ? get_job(id) : delete_job(id, owner_of(req));
     case RouteId::kJobSummary:
       return job_summary(id);
     case RouteId::kJobBuildings:
@@ -462,6 +470,7 @@ OJson Service::job_json(const JobRow& row) {
   j["state"] = job_state_name(row.state);
   j["priority"] = row.priority;
   j["idempotency_key"] = row.idempotency_key ? OJson(*row.idempotency_key) : OJson(nullptr);
+  j["owner"] = row.owner ? OJson(*row.owner) : OJson(nullptr);
   j["created_utc"] = row.created_utc;
   j["started_utc"] = row.started_utc ? OJson(*row.started_utc) : OJson(nullptr);
   j["finished_utc"] = row.finished_utc ? OJson(*row.finished_utc) : OJson(nullptr);
@@ -525,6 +534,7 @@ Response Service::post_job(const Request& req) {
   row.scenario_json = jr.scenario.dump();
   row.histories_total = jr.total_samples;
   row.created_utc = utc_now();
+  row.owner = owner_of(req);
 
   Store::Insert inserted;
   {
@@ -555,7 +565,8 @@ Response Service::post_job(const Request& req) {
       {{"job_id", row.job_id},
        {"site_id", row.site_id.value_or("inline")},
        {"priority", std::to_string(row.priority)},
-       {"histories", std::to_string(row.histories_total)}});
+       {"histories", std::to_string(row.histories_total)},
+       {"owner", row.owner.value_or("-")}});
   Response r = json_response(202, job_json(inserted.job));
   r.headers.emplace_back("Location", "/v1/jobs/" + row.job_id);
   return r;
@@ -591,16 +602,19 @@ Response Service::get_job(const std::string& id) {
   return json_response(200, job_json(*row));
 }
 
-Response Service::delete_job(const std::string& id) {
+Response Service::delete_job(const std::string& id, const std::optional<std::string>& by) {
   const auto before = scheduler_.cancel(id);
   if (!before) return error_response(404, "not_found", "no job " + id);
   if (is_final(*before))
     return error_response(409, "conflict",
                           "job " + id + " is already " + job_state_name(*before) +
                               "; only queued or running jobs can be cancelled");
-  log(LogLevel::kInfo, "job cancelled by request",
-      {{"job_id", id}, {"was", job_state_name(*before)}});
   const auto row = store_.job(id);
+  log(LogLevel::kInfo, "job cancelled by request",
+      {{"job_id", id},
+       {"was", job_state_name(*before)},
+       {"by", by.value_or("-")},
+       {"owner", row->owner.value_or("-")}});
   return json_response(200, job_json(*row));
 }
 

@@ -92,13 +92,14 @@ class Service {
   Response post_job(const Request& req);
   Response list_jobs(const Request& req);
   Response get_job(const std::string& id);
-  Response delete_job(const std::string& id);
+  Response delete_job(const std::string& id, const std::optional<std::string>& by);
   Response job_summary(const std::string& id);
   Response job_buildings(const std::string& id);
   Response job_ptn(const Request& req, const std::string& id);
   Response job_results_h5(const std::string& id);
 
   bool authorised(const Request& req) const;
+  std::optional<std::string> owner_of(const Request& req) const;
   nlohmann::ordered_json site_json(const SiteEntry& e);
   nlohmann::ordered_json job_json(const JobRow& row);
   // The job's row when its results can be served; else the error response to send.

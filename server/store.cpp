@@ -37,7 +37,8 @@ CREATE TABLE IF NOT EXISTS jobs (
   finished_utc    TEXT,
   error_code      TEXT,
   error_message   TEXT,
-  summary_json    TEXT
+  summary_json    TEXT,
+  owner           TEXT
 );
 CREATE INDEX IF NOT EXISTS jobs_by_queue ON jobs (state, priority DESC, seq);
 CREATE TABLE IF NOT EXISTS job_buildings (
@@ -56,13 +57,13 @@ INSERT OR IGNORE INTO meta (key, value) VALUES ('schema_version', '1');
 constexpr const char* kJobColumns =
     "job_id, seq, site_id, priority, state, idempotency_key, request_sha256, scenario_json, "
     "histories_total, histories_done, attempts, crashes, created_utc, started_utc, finished_utc, "
-    "error_code, error_message";
+    "error_code, error_message, owner";
 // The same without the scenario (an empty string in its place): a status poll must not copy a
 // scenario with an inline site of megabytes (it was 11 % of the daemon's time under wrk).
 constexpr const char* kJobStatusColumns =
     "job_id, seq, site_id, priority, state, idempotency_key, request_sha256, '', "
     "histories_total, histories_done, attempts, crashes, created_utc, started_utc, finished_utc, "
-    "error_code, error_message";
+    "error_code, error_message, owner";
 
 }  // namespace
 
@@ -173,6 +174,7 @@ Store::Store(const std::string& path) {
     exec("PRAGMA synchronous = FULL", "synchronous");
     exec("PRAGMA foreign_keys = ON", "foreign keys");
     exec(kSchema, "schema");
+    add_missing_columns();
   } catch (...) {
     sqlite3_close(db_);
     throw;
@@ -182,6 +184,17 @@ Store::Store(const std::string& path) {
 Store::~Store() {
   for (auto& [sql, stmt] : statements_) sqlite3_finalize(stmt);
   sqlite3_close(db_);
+}
+
+// Databases written by an earlier fragsimd lack the columns added since (CREATE TABLE IF NOT
+// EXISTS leaves an existing table as it is).
+void Store::add_missing_columns() {
+  bool has_owner = false;
+  {
+    Statement s(*this, "SELECT name FROM pragma_table_info('jobs')", "table info");
+    while (s.step()) has_owner = has_owner || s.text(0) == "owner";
+  }
+  if (!has_owner) exec("ALTER TABLE jobs ADD COLUMN owner TEXT", "add column owner");
 }
 
 void Store::exec(const char* sql, const char* what) {
@@ -270,6 +283,7 @@ JobRow Store::read_job(Statement& s) {
   r.finished_utc = s.optional_text(14);
   r.error_code = s.optional_text(15);
   r.error_message = s.optional_text(16);
+  r.owner = s.optional_text(17);
   return r;
 }
 
@@ -290,8 +304,8 @@ Store::Insert Store::insert_job(JobRow row) {
     }
     Statement s(*this,
                 "INSERT INTO jobs (job_id, seq, site_id, priority, state, idempotency_key, "
-                "request_sha256, scenario_json, histories_total, created_utc) VALUES "
-                "(?1, ?2, ?3, ?4, 'queued', ?5, ?6, ?7, ?8, ?9)",
+                "request_sha256, scenario_json, histories_total, created_utc, owner) VALUES "
+                "(?1, ?2, ?3, ?4, 'queued', ?5, ?6, ?7, ?8, ?9, ?10)",
                 "insert job");
     s.bind(1, row.job_id)
         .bind(2, row.seq)
@@ -302,6 +316,7 @@ Store::Insert Store::insert_job(JobRow row) {
         .bind(7, row.scenario_json)
         .bind(8, row.histories_total)
         .bind(9, row.created_utc)
+        .bind(10, row.owner)
         .run();
     row.state = JobState::kQueued;
     return {std::move(row), true};

@@ -47,6 +47,7 @@ struct JobRow {
   std::optional<std::string> finished_utc;
   std::optional<std::string> error_code;
   std::optional<std::string> error_message;
+  std::optional<std::string> owner;  // who submitted it: "tok_" + 16 hex of the token's SHA-256
 };
 
 struct BuildingRow {
@@ -115,6 +116,7 @@ class Store {
  private:
   class Statement;
   void exec(const char* sql, const char* what);
+  void add_missing_columns();
   // Runs `body` in one write transaction; rolled back if it throws. Defined in store.cpp.
   template <class F>
   auto transaction(F&& body);

@@ -18,6 +18,7 @@
 
 #include "api/job_request.h"
 #include "api/scenario_json.h"
+#include "api/sha256.h"
 #include "api/site_document.h"
 #include "api/test_support.h"
 #include "core/run/run.h"
@@ -397,6 +398,12 @@ TEST_F(ServiceAuth, NoAuthNeedsNoToken) {
   });
   EXPECT_EQ(get_anonymous("/v1/sites").status, 200);
   EXPECT_EQ(get_anonymous("/metrics").status, 200);
+  Json body = minimal_example();
+  body["fragment_groups"][0]["samples"] = 10;
+  const Response r = call("POST", "/v1/jobs", {}, body.dump(),
+                          {{"content-type", "application/json"}}, false);
+  ASSERT_EQ(r.status, 202) << r.body;
+  EXPECT_TRUE(body_of(r)["owner"].is_null()) << "no token, no owner";
 }
 
 // ---- Bodies and input errors ----
@@ -692,15 +699,18 @@ TEST_F(ServiceJobs, PostJobIs202WithLocationAndJobStatus) {
 
   const std::vector<std::string> keys = {
       "job_id",         "site_id",        "state",           "priority",  "idempotency_key",
-      "created_utc",    "started_utc",    "finished_utc",    "histories_done",
-      "histories_total", "progress",      "histories_per_s", "eta_s",     "attempts",
-      "error",          "links"};
+      "owner",          "created_utc",    "started_utc",     "finished_utc",
+      "histories_done", "histories_total", "progress",       "histories_per_s",
+      "eta_s",          "attempts",       "error",           "links"};
   for (const auto& key : keys) EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j.size(), keys.size()) << j.dump();
   EXPECT_EQ(j["site_id"], site);
   EXPECT_EQ(j["state"], "queued");
   EXPECT_EQ(j["priority"], 7);
   EXPECT_TRUE(j["idempotency_key"].is_null());
+  // The submitting token, named by its hash: echo -n "$TOKEN" | sha256sum | cut -c1-16.
+  EXPECT_EQ(j["owner"], "tok_" + api::sha256_hex(kToken).substr(0, 16));
+  EXPECT_EQ(j["owner"].get<std::string>().find(kToken), std::string::npos);
   EXPECT_TRUE(j["created_utc"].is_string());
   EXPECT_TRUE(j["started_utc"].is_null());
   EXPECT_TRUE(j["finished_utc"].is_null());

@@ -546,6 +546,50 @@ TEST_F(StoreTest, RunningJobSurvivesReopenForRecovery) {
   EXPECT_EQ(store().job("j_a")->crashes, 1);
 }
 
+TEST_F(StoreTest, OwnerIsStoredAndReadBack) {
+  JobRow r = job_row("j_mine");
+  r.owner = "tok_0123456789abcdef";
+  store().insert_job(r);
+  store().insert_job(job_row("j_anonymous"));
+  reopen();
+  EXPECT_EQ(store().job("j_mine")->owner, "tok_0123456789abcdef");
+  EXPECT_EQ(store().jobs(std::nullopt, 10).back().owner, "tok_0123456789abcdef");
+  EXPECT_FALSE(store().job("j_anonymous")->owner.has_value());
+}
+
+TEST(StoreOpen, ADatabaseOfAnEarlierDaemonGetsTheOwnerColumnAndKeepsItsJobs) {
+  // The jobs table as fragsimd created it before owners were recorded.
+  const fs::path dir = api::testing::fresh_test_dir("fragsim_store_migrate_");
+  const std::string path = (dir / "fragsimd.sqlite").string();
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  const char* old_schema =
+      "CREATE TABLE jobs (job_id TEXT PRIMARY KEY, seq INTEGER NOT NULL UNIQUE, site_id TEXT, "
+      "priority INTEGER NOT NULL, state TEXT NOT NULL, idempotency_key TEXT UNIQUE, "
+      "request_sha256 TEXT NOT NULL, scenario_json TEXT NOT NULL, histories_total INTEGER NOT "
+      "NULL, histories_done INTEGER NOT NULL DEFAULT 0, attempts INTEGER NOT NULL DEFAULT 0, "
+      "crashes INTEGER NOT NULL DEFAULT 0, created_utc TEXT NOT NULL, started_utc TEXT, "
+      "finished_utc TEXT, error_code TEXT, error_message TEXT, summary_json TEXT);"
+      "INSERT INTO jobs (job_id, seq, priority, state, request_sha256, scenario_json, "
+      "histories_total, created_utc) VALUES ('j_old', 1, 0, 'queued', 'x', '{}', 10, 't');";
+  ASSERT_EQ(sqlite3_exec(db, old_schema, nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  {
+    Store s(path);
+    const auto old = s.job("j_old");
+    ASSERT_TRUE(old.has_value());
+    EXPECT_FALSE(old->owner.has_value());
+    JobRow r = job_row("j_new");
+    r.owner = "tok_fedcba9876543210";
+    s.insert_job(r);
+    EXPECT_EQ(s.job("j_new")->owner, "tok_fedcba9876543210");
+    EXPECT_EQ(s.next_queued()->job_id, "j_old");
+  }
+  Store again(path);  // the column is not added twice
+  EXPECT_EQ(again.job("j_new")->owner, "tok_fedcba9876543210");
+  fs::remove_all(dir);
+}
+
 TEST(StoreOpen, UnopenablePathThrows) {
   const fs::path dir = api::testing::fresh_test_dir("fragsim_store_open_");
   const std::string path = (dir / "no" / "such" / "dir" / "db.sqlite").string();
