@@ -97,6 +97,10 @@ int main(int argc, char** argv) {
          {"auth", config.auth ? "bearer" : "off"},
          {"version", fragsim::kVersion}});
 
+    if (!is_loopback_host(config.listen_host))
+      log(LogLevel::kWarn, "plain HTTP beyond loopback: bearer tokens cross the network in clear",
+          {{"advice", "put a TLS proxy in front (deploy/nginx/fragsimd.conf, docs/http-api.md)"}});
+
     std::thread signal_thread([&] {
       int sig = 0;
       sigwait(&stop_signals, &sig);
