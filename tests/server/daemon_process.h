@@ -79,7 +79,8 @@ class Daemon {
     if (pid_ == 0) {
       std::FILE* f = std::freopen((dir_ / "fragsimd.log").c_str(), "a", stderr);
       (void)f;
-      std::vector<std::string> argv = {FRAGSIMD,
+      std::vector<std::string> argv = wrapper_;
+      const std::vector<std::string> daemon = {FRAGSIMD,
                                        "--listen",
                                        "127.0.0.1:0",
                                        "--data-dir",
@@ -92,6 +93,7 @@ class Daemon {
                                        "2",
                                        "--log-level",
                                        "debug"};
+      argv.insert(argv.end(), daemon.begin(), daemon.end());
       argv.insert(argv.end(), extra_.begin(), extra_.end());
       std::vector<char*> args;
       for (auto& a : argv) args.push_back(a.data());
@@ -127,6 +129,10 @@ class Daemon {
   }
   bool alive() const { return pid_ > 0 && ::kill(pid_, 0) == 0; }
 
+  // A command the daemon is started under (e.g. unshare, to run it as PID 1); pid() is then
+  // the wrapper's.
+  void set_wrapper(std::vector<std::string> wrapper) { wrapper_ = std::move(wrapper); }
+
   int port() const { return port_; }
   pid_t pid() const { return pid_; }
   const fs::path& dir() const { return dir_; }
@@ -145,6 +151,7 @@ class Daemon {
  private:
   fs::path dir_;
   std::vector<std::string> extra_;
+  std::vector<std::string> wrapper_;
   pid_t pid_ = -1;
   int port_ = 0;
 };

@@ -2,6 +2,7 @@
 #include <sqlite3.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <set>
 
 #include "api/results_h5.h"
@@ -173,6 +174,66 @@ TEST(Daemon, JobsSurviveKillNineAndRerunIdentically) {
   EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(stmt, 0)), "ok");
   sqlite3_finalize(stmt);
   sqlite3_close(db);
+}
+
+// The daemon's process id inside its own PID namespace (the last NSpid field), and its id here.
+std::pair<pid_t, pid_t> inner_daemon_pid(pid_t wrapper) {
+  const std::string children = read_text("/proc/" + std::to_string(wrapper) + "/task/" +
+                                         std::to_string(wrapper) + "/children");
+  const pid_t here = static_cast<pid_t>(std::atol(children.c_str()));
+  std::istringstream status(read_text("/proc/" + std::to_string(here) + "/status"));
+  pid_t inside = -1;
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind("NSpid:", 0) == 0) inside = static_cast<pid_t>(std::atol(line.c_str() + line.rfind('\t')));
+  return {inside, here};
+}
+
+// As in the shipped container, fragsimd is PID 1 of its PID namespace, every time it starts:
+// SIGTERM (ignored by PID 1 unless handled) still stops it cleanly, and after kill -9 the restart,
+// with the same PID, reruns the job to the end.
+TEST(Daemon, AsPidOneItStopsOnSigtermAndRerunsAfterKillNine) {
+  if (std::system("unshare --pid --fork --kill-child true >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "cannot create a PID namespace here (unshare needs CAP_SYS_ADMIN)";
+  const fs::path dir = fresh_dir("fragsimd_pid1_");
+  Daemon d(dir);
+  d.set_wrapper({"/usr/bin/unshare", "--pid", "--fork", "--kill-child"});
+  ASSERT_NO_THROW(d.start()) << d.log();
+  ASSERT_EQ(inner_daemon_pid(d.pid()).first, 1);
+  auto c = d.client();
+  const Json demo = demo_scenario();
+  const std::string site = upload_site(*c, demo);
+  const std::string id = submit(*c, scaled_samples(by_site_id(demo, site), 3.0));
+  const auto wait_running = [&] {
+    const auto deadline = Clock::now() + std::chrono::seconds(120);
+    while (Clock::now() < deadline) {
+      const Json s = job_status(*c, id);
+      if (s.value("state", "") == "running" && s.value("histories_done", 0) > 0) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return false;
+  };
+  ASSERT_TRUE(wait_running());
+  ::kill(inner_daemon_pid(d.pid()).second, SIGTERM);
+  EXPECT_EQ(d.kill(0), 0) << "PID 1 stopped cleanly on SIGTERM\n" << d.log();
+
+  ASSERT_NO_THROW(d.start()) << d.log();
+  ASSERT_EQ(inner_daemon_pid(d.pid()).first, 1);
+  c = d.client();
+  ASSERT_TRUE(wait_running());
+  ::kill(inner_daemon_pid(d.pid()).second, SIGKILL);
+  d.kill(0);
+
+  ASSERT_NO_THROW(d.start()) << d.log();
+  ASSERT_EQ(inner_daemon_pid(d.pid()).first, 1);
+  c = d.client();
+  const Json s = wait_final(*c, id);
+  EXPECT_EQ(s.value("state", ""), "done") << s.dump() << "\n" << d.log();
+  EXPECT_EQ(s["attempts"], 3) << "started, restarted after SIGTERM, restarted after kill -9";
+  const fs::path served = download(*c, dir, id);
+  expect_same_datasets(served / "results.h5",
+                       cli_run(dir, id, scaled_samples(demo, 3.0)) / "results.h5");
+  ::kill(inner_daemon_pid(d.pid()).second, SIGTERM);
+  EXPECT_EQ(d.kill(0), 0);
 }
 
 TEST(Daemon, ShutdownPutsTheRunningJobBackInTheQueue) {
