@@ -80,7 +80,9 @@ std::string new_job_id() {
 // Query parameters a route accepts; anything else is refused (a misspelt filter would otherwise
 // silently return everything).
 std::optional<Response> check_query(const Request& req, std::initializer_list<const char*> known) {
-  for (const auto& [key, value] : req.query) {
+  for (const auto& entry : req.query) {
+    // Not a structured binding: C++20 lets a lambda capture one, clang before 16 does not.
+    const std::string& key = entry.first;
     if (std::find_if(known.begin(), known.end(), [&](const char* k) { return key == k; }) ==
         known.end())
       return error_response(400, "bad_parameter", "unknown query parameter", key);
