@@ -5,6 +5,7 @@
 #include <cctype>
 #include <utility>
 
+#include "api/limits.h"
 #include "api/scenario_json.h"
 #include "core/fragments/sampling.h"
 
@@ -130,24 +131,30 @@ fragments::ShapeSpec parse_shape(const Json& j, const std::string& path) {
   const std::size_t n = shape_dimension_count(s.type);
   const std::string layout = std::string("a ") + shape_name(s.type) + " takes " +
                              std::to_string(n) + " (" + shape_dimension_layout(s.type) + ")";
-  const auto read_positive_list = [&](const char* key) {
+  const auto read_positive_list = [&](const char* key, double lo, double hi) {
     const std::string p = o.at(key);
     std::vector<double> v = read_numbers(o.require(key), p);
     if (v.size() != n)
       fail(p, "expected " + std::to_string(n) + " values, got " + std::to_string(v.size()) + "; " +
                   layout);
-    for (std::size_t k = 0; k < v.size(); ++k) check_gt(v[k], 0.0, index_path(p, k));
+    for (std::size_t k = 0; k < v.size(); ++k) {
+      check_gt(v[k], 0.0, index_path(p, k));
+      check_ge_le(v[k], lo, hi, index_path(p, k));
+    }
     return v;
   };
   if (o.has("dims_m") && o.has("density_kg_m3"))
     fail(path, "give either dims_m (fixed size) or density_kg_m3 (size from mass), not both");
   if (o.has("dims_m")) {
-    s.dims_m = read_positive_list("dims_m");
+    s.dims_m = read_positive_list("dims_m", limits::kMinDimension_m, limits::kMaxDimension_m);
     if (o.has("aspect")) fail(o.at("aspect"), "only used with density_kg_m3");
   } else if (o.has("density_kg_m3")) {
     s.density_kg_m3 = o.number("density_kg_m3");
     check_gt(*s.density_kg_m3, 0.0, o.at("density_kg_m3"));
-    if (o.has("aspect")) s.aspect = read_positive_list("aspect");
+    check_ge_le(*s.density_kg_m3, limits::kMinDensity_kg_m3, limits::kMaxDensity_kg_m3,
+                o.at("density_kg_m3"));
+    if (o.has("aspect"))
+      s.aspect = read_positive_list("aspect", limits::kMinAspect, limits::kMaxAspect);
   } else {
     fail(path, "needs dims_m (fixed size) or density_kg_m3 (size from mass)");
   }
@@ -185,7 +192,7 @@ fragments::CdSpec parse_cd(const Json& j, const std::string& path) {
   fragments::CdSpec cd;
   if (j.is_number()) {
     cd.constant = read_number(j, path);
-    check_ge(cd.constant, 0.0, path);
+    check_ge_le(cd.constant, 0.0, limits::kMaxDragCoefficient, path);
     return cd;
   }
   if (!j.is_object()) fail(path, "expected number or object, got " + json_type_name(j));
@@ -198,8 +205,8 @@ fragments::CdSpec parse_cd(const Json& j, const std::string& path) {
     fail(o.at("cd"), "expected " + std::to_string(cd.mach.size()) +
                          " values (one per Mach number), got " + std::to_string(cd.cd.size()));
   for (std::size_t k = 0; k < cd.mach.size(); ++k) {
-    check_ge(cd.mach[k], 0.0, index_path(o.at("mach"), k));
-    check_gt(cd.cd[k], 0.0, index_path(o.at("cd"), k));
+    check_ge_le(cd.mach[k], 0.0, limits::kMaxMach, index_path(o.at("mach"), k));
+    check_gt_le(cd.cd[k], 0.0, limits::kMaxDragCoefficient, index_path(o.at("cd"), k));
   }
   check_strictly_increasing(cd.mach, o.at("mach"));
   cd.constant = cd.cd.front();  // unused with a table
@@ -209,11 +216,12 @@ fragments::CdSpec parse_cd(const Json& j, const std::string& path) {
 fragments::FrameSpec parse_frame(const Json& j, const std::string& path) {
   const ObjectReader o(j, path, "frame");
   fragments::FrameSpec f;
-  f.origin_m = o.vec3("origin_m");
+  f.origin_m = read_position(o.require("origin_m"), o.at("origin_m"));
   f.yaw_deg = o.number_or("yaw_deg", 0.0);
   f.pitch_deg = o.number_or("pitch_deg", 0.0);
   f.roll_deg = o.number_or("roll_deg", 0.0);
   f.velocity_mps = o.vec3_or("velocity_mps", Vec3::Zero());
+  check_abs_le(f.velocity_mps, limits::kMaxFrameSpeed_mps, o.at("velocity_mps"));
   return f;
 }
 
@@ -335,7 +343,7 @@ fragments::FragmentGroupSpec parse_fragment_group(const Json& j, const std::stri
   g.name = o.string("name");
   if (g.name.empty()) fail(o.at("name"), "must not be empty");
   g.count = o.number("count");
-  check_gt(g.count, 0.0, o.at("count"));
+  check_gt_le(g.count, 0.0, limits::kMaxCount, o.at("count"));
   g.samples = o.integer("samples", 1, kMaxSamplesPerGroup);
   g.frame = parse_frame(o.require("frame"), o.at("frame"));
   g.shape = parse_shape(o.require("shape"), o.at("shape"));
@@ -347,7 +355,7 @@ fragments::FragmentGroupSpec parse_fragment_group(const Json& j, const std::stri
   if (const Json* d = o.find("direction")) g.direction = parse_direction(*d, o.at("direction"));
   g.cd = parse_cd(o.require("cd"), o.at("cd"));
   g.area_m2 = o.optional_number("area_m2");
-  if (g.area_m2) check_gt(*g.area_m2, 0.0, o.at("area_m2"));
+  if (g.area_m2) check_gt_le(*g.area_m2, 0.0, limits::kMaxArea_m2, o.at("area_m2"));
   if (g.shape.type == ShapeType::kPoint && !g.area_m2)
     fail(o.at("area_m2"), "is required for shape type point");
   if (const Json* s = o.find("spin_radps"))

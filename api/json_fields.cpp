@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "api/scenario_keys.h"
+#include "core/scene/site_limits.h"
 
 namespace fragsim::api {
 
@@ -118,9 +119,14 @@ std::int64_t read_integer(const Json& j, const std::string& path, std::int64_t l
     const double d = j.get<double>();
     if (!std::isfinite(d)) fail(path, "not finite");
     if (d != std::floor(d)) fail(path, "expected integer, got " + format_number(d));
-    if (d < static_cast<double>(lo)) below(format_number(d));
-    if (d > static_cast<double>(hi)) above(format_number(d));
-    return static_cast<std::int64_t>(d);
+    // Converted only within [-2^63, 2^63): 2^63 itself (what INT64_MAX becomes as a double, so
+    // `d > hi` lets it through) is out of int64's range, and the cast would be undefined.
+    if (d < -9223372036854775808.0) below(format_number(d));
+    if (d >= 9223372036854775808.0) above(format_number(d));
+    const auto v = static_cast<std::int64_t>(d);
+    if (v < lo) below(format_number(d));
+    if (v > hi) above(format_number(d));
+    return v;
   }
   wrong_type("integer", j, path);
 }
@@ -201,6 +207,32 @@ void check_in(double v, double lo, double hi, const std::string& path) {
   if (!(v >= lo && v <= hi))
     fail(path, "must be in [" + format_number(lo) + ", " + format_number(hi) + "] (got " +
                    format_number(v) + ")");
+}
+
+void check_gt_le(double v, double lo, double hi, const std::string& path) {
+  check_gt(v, lo, path);
+  check_le(v, hi, path);
+}
+
+void check_ge_le(double v, double lo, double hi, const std::string& path) {
+  check_ge(v, lo, path);
+  check_le(v, hi, path);
+}
+
+void check_abs_le(double v, double bound, const std::string& path) {
+  check_in(v, -bound, bound, path);
+}
+
+void check_abs_le(const Vec3& v, double bound, const std::string& path) {
+  for (int k = 0; k < 3; ++k) check_abs_le(v[k], bound, index_path(path, static_cast<std::size_t>(k)));
+}
+
+Vec3 read_position(const Json& j, const std::string& path) {
+  const Vec3 p = read_vec3(j, path);
+  check_abs_le(p.x(), scene::kMaxAbsCoordinate_m, index_path(path, 0));
+  check_abs_le(p.y(), scene::kMaxAbsCoordinate_m, index_path(path, 1));
+  check_abs_le(p.z(), scene::kMaxAbsElevation_m, index_path(path, 2));
+  return p;
 }
 
 ObjectReader::ObjectReader(const Json& j, std::string path, std::string_view kind)

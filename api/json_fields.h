@@ -51,6 +51,16 @@ void check_gt(double v, double lo, const std::string& path);
 void check_ge(double v, double lo, const std::string& path);
 void check_le(double v, double hi, const std::string& path);
 void check_in(double v, double lo, double hi, const std::string& path);
+// A lower bound, then an upper one, each with its own message: "must be > 0 (got 0)", then
+// "must be <= 10 (got 20)".
+void check_gt_le(double v, double lo, double hi, const std::string& path);
+void check_ge_le(double v, double lo, double hi, const std::string& path);
+// |v| <= bound, componentwise for a vector: "must be in [-200, 200] (got 300)".
+void check_abs_le(double v, double bound, const std::string& path);
+void check_abs_le(const Vec3& v, double bound, const std::string& path);
+// A point in site coordinates within the site limits (core/scene/site_limits.h): |x|, |y| up to
+// 1e8 m, |z| up to 1e5 m.
+Vec3 read_position(const Json& j, const std::string& path);
 
 // A JSON object of a known kind. The constructor checks that `j` is an object and that it has no
 // keys outside object_keys(kind): "settings.integrater: unknown key (did you mean "integrator"?)".

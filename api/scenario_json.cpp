@@ -7,6 +7,7 @@
 
 #include "api/group_json.h"
 #include "api/json_fields.h"
+#include "api/limits.h"
 #include "api/site_json.h"
 
 namespace fragsim::api {
@@ -24,13 +25,14 @@ flight::AtmosphereSpec parse_atmosphere(const Json& j, const std::string& path) 
   } else if (model == "constant") {
     a.model = flight::AtmosphereSpec::Model::kConstant;
     a.density_kg_m3 = o.number_or("density_kg_m3", a.density_kg_m3);
-    check_ge(a.density_kg_m3, 0.0, o.at("density_kg_m3"));  // 0: vacuum
+    check_ge_le(a.density_kg_m3, 0.0, limits::kMaxAirDensity_kg_m3, o.at("density_kg_m3"));  // 0: vacuum
     a.sound_speed_mps = o.number_or("sound_speed_mps", a.sound_speed_mps);
-    check_gt(a.sound_speed_mps, 0.0, o.at("sound_speed_mps"));
+    check_gt_le(a.sound_speed_mps, 0.0, limits::kMaxSoundSpeed_mps, o.at("sound_speed_mps"));
   } else {
     fail(o.at("model"), "must be \"isa\" or \"constant\" (got \"" + model + "\")");
   }
   a.wind_mps = o.vec3_or("wind_mps", a.wind_mps);
+  check_abs_le(a.wind_mps, limits::kMaxWind_mps, o.at("wind_mps"));
   return a;
 }
 
@@ -39,14 +41,14 @@ run::Settings parse_settings(const Json& j, const std::string& path) {
   run::Settings s;
   if (const Json* seed = o.find("seed")) s.seed = read_unsigned(*seed, o.at("seed"));
   s.person_height_m = o.number_or("person_height_m", s.person_height_m);
-  check_gt(s.person_height_m, 0.0, o.at("person_height_m"));
+  check_gt_le(s.person_height_m, 0.0, limits::kMaxPersonHeight_m, o.at("person_height_m"));
   s.hazardous_ke_j = o.number_or("hazardous_ke_j", s.hazardous_ke_j);
   check_gt(s.hazardous_ke_j, 0.0, o.at("hazardous_ke_j"));
   s.hfd_threshold_per_m2 = o.number_or("hfd_threshold_per_m2", s.hfd_threshold_per_m2);
   check_gt(s.hfd_threshold_per_m2, 0.0, o.at("hfd_threshold_per_m2"));
-  if (o.has("hfd_origin_m")) s.hfd_origin_m = o.vec3("hfd_origin_m");
+  if (const Json* h = o.find("hfd_origin_m")) s.hfd_origin_m = read_position(*h, o.at("hfd_origin_m"));
   s.max_flight_time_s = o.number_or("max_flight_time_s", s.max_flight_time_s);
-  check_gt(s.max_flight_time_s, 0.0, o.at("max_flight_time_s"));
+  check_gt_le(s.max_flight_time_s, 0.0, limits::kMaxFlightTime_s, o.at("max_flight_time_s"));
   if (const Json* integrator = o.find("integrator")) {
     const ObjectReader r(*integrator, o.at("integrator"), "integrator");
     s.rtol = r.number_or("rtol", s.rtol);
@@ -58,9 +60,11 @@ run::Settings parse_settings(const Json& j, const std::string& path) {
   if (const Json* limits = o.find("bounce_limits")) {
     const ObjectReader r(*limits, o.at("bounce_limits"), "bounce_limits");
     s.min_rebound_speed_mps = r.number_or("min_rebound_speed_mps", s.min_rebound_speed_mps);
-    check_ge(s.min_rebound_speed_mps, 0.0, r.at("min_rebound_speed_mps"));
+    check_ge_le(s.min_rebound_speed_mps, 0.0, limits::kMaxImpactSpeed_mps,
+             r.at("min_rebound_speed_mps"));
     s.max_bounces = r.integer_or("max_bounces", s.max_bounces, 1, 1'000'000);
-    s.max_ground_steps = r.integer_or("max_ground_steps", s.max_ground_steps, 1, 100'000'000);
+    s.max_ground_steps =
+        r.integer_or("max_ground_steps", s.max_ground_steps, 1, limits::kMaxGroundSteps);
   }
   s.threads = static_cast<int>(o.integer_or("threads", s.threads, 0, kMaxThreads));
   s.chunk_histories = o.integer_or("chunk_histories", s.chunk_histories, 1, kMaxSamplesPerGroup);
@@ -215,7 +219,7 @@ ScenarioDocument parse_scenario_document(const nlohmann::json& j, const SiteReso
   }
   if (const Json* a = o.find("atmosphere")) sc.atmosphere = parse_atmosphere(*a, "atmosphere");
   sc.gravity_mps2 = o.number_or("gravity_mps2", sc.gravity_mps2);
-  check_ge(sc.gravity_mps2, 0.0, "gravity_mps2");
+  check_ge_le(sc.gravity_mps2, 0.0, limits::kMaxGravity_mps2, "gravity_mps2");
 
   const Json& groups = read_array(o.require("fragment_groups"), "fragment_groups");
   if (groups.empty())

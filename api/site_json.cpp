@@ -6,6 +6,9 @@
 #include <limits>
 #include <set>
 
+#include "api/limits.h"
+#include "core/scene/site_limits.h"
+
 namespace fragsim::api::detail {
 
 namespace {
@@ -33,7 +36,7 @@ scene::RestitutionSpec parse_restitution(const Json& j, const std::string& path)
                         " values (one per normal speed), got " + std::to_string(r.e.size()));
   for (std::size_t k = 0; k < r.normal_speed_mps.size(); ++k) {
     const std::string sp = index_path(o.at("normal_speed_mps"), k);
-    check_ge(r.normal_speed_mps[k], 0.0, sp);
+    check_ge_le(r.normal_speed_mps[k], 0.0, limits::kMaxImpactSpeed_mps, sp);
     if (k > 0 && !(r.normal_speed_mps[k] > r.normal_speed_mps[k - 1]))
       fail(sp, "must be strictly increasing (got " + format_number(r.normal_speed_mps[k]) +
                    " after " + format_number(r.normal_speed_mps[k - 1]) + ")");
@@ -54,10 +57,12 @@ scene::EmbedmentSpec parse_embedment(const Json& j, const std::string& path) {
   scene::EmbedmentSpec e;
   e.bulk_density_kg_m3 = o.number("bulk_density_kg_m3");
   check_gt(e.bulk_density_kg_m3, 0.0, o.at("bulk_density_kg_m3"));
+  check_ge_le(e.bulk_density_kg_m3, limits::kMinDensity_kg_m3, limits::kMaxDensity_kg_m3,
+              o.at("bulk_density_kg_m3"));
   e.coefficient_deg = o.number_or("coefficient_deg", e.coefficient_deg);
-  check_gt(e.coefficient_deg, 0.0, o.at("coefficient_deg"));
+  check_gt_le(e.coefficient_deg, 0.0, 90.0, o.at("coefficient_deg"));  // an angle
   e.min_speed_mps = o.number_or("min_speed_mps", e.min_speed_mps);
-  check_ge(e.min_speed_mps, 0.0, o.at("min_speed_mps"));
+  check_ge_le(e.min_speed_mps, 0.0, limits::kMaxImpactSpeed_mps, o.at("min_speed_mps"));
   return e;
 }
 
@@ -65,9 +70,9 @@ scene::MaterialSpec parse_material(const Json& j, const std::string& path, Mater
   const ObjectReader o(j, path, "material");
   scene::MaterialSpec m;
   m.friction = o.number_or("friction", m.friction);
-  check_ge(m.friction, 0.0, o.at("friction"));
+  check_ge_le(m.friction, 0.0, limits::kMaxFriction, o.at("friction"));
   m.rolling_resistance = o.number_or("rolling_resistance", m.rolling_resistance);
-  check_ge(m.rolling_resistance, 0.0, o.at("rolling_resistance"));
+  check_ge_le(m.rolling_resistance, 0.0, limits::kMaxFriction, o.at("rolling_resistance"));
   if (const Json* r = o.find("restitution"))
     m.restitution = parse_restitution(*r, o.at("restitution"));
   if (const Json* p = o.find("penetration")) {
@@ -206,6 +211,24 @@ scene::BuildingSpec parse_building(const Json& j, const std::string& path,
   return b;
 }
 
+// ---- Limits ----
+
+// The site limits (core/scene/site_limits.h), checked before anything is sized from the site.
+// Core names fields from "site"; a site document is the site itself (path "").
+void check_limits(const scene::SiteSpec& site, const std::string& path) {
+  try {
+    scene::check_site_limits(site);
+  } catch (const InputError& e) {
+    std::string field = e.field();
+    if (field.compare(0, 4, "site") == 0) {
+      field.erase(0, 4);
+      if (path.empty() && !field.empty() && field[0] == '.') field.erase(0, 1);
+      field = path + field;
+    }
+    throw InputError(field, e.message());
+  }
+}
+
 // ---- Output ----
 
 Json vec2_json(const std::array<double, 2>& v) {
@@ -296,6 +319,7 @@ scene::SiteSpec parse_site(const Json& j, const std::string& path,
       site.buildings.push_back(std::move(b));
     }
   }
+  check_limits(site, path);
   return site;
 }
 

@@ -23,13 +23,19 @@ enum Slot : std::uint32_t {
 };
 
 // Physical ranges sample_fragment passes to Distribution::sample (validate the group's
-// distributions with the same ranges): a mass is > 0, a speed or spin rate >= 0.
+// distributions with the same ranges): a mass is > 0, a speed or spin rate >= 0. The upper ends
+// are generous physical limits (docs/scenario.md, "Limits"), far beyond any fragment:
+//  - mass <= 1e5 kg: a 10 m x 3 m x 0.3 m reinforced-concrete wall panel weighs about 22 t;
+//  - speed <= 2e4 m/s: twice the fastest explosively driven metal, shaped-charge jet tips at
+//    8-10 km/s (Walters & Zukas 1989, Fundamentals of Shaped Charges); fragments from cased
+//    charges stay below the Gurney velocities of high explosives, about 3 km/s;
+//  - spin <= 1e5 rad/s: a 1 cm fragment spinning that fast has a 500 m/s rim speed.
 struct PhysRange {
   double lo, hi;
 };
-inline constexpr PhysRange kMassRange{kPositiveLowerBound, std::numeric_limits<double>::infinity()};
-inline constexpr PhysRange kSpeedRange{0.0, std::numeric_limits<double>::infinity()};
-inline constexpr PhysRange kSpinRange{0.0, std::numeric_limits<double>::infinity()};
+inline constexpr PhysRange kMassRange{kPositiveLowerBound, 1e5};
+inline constexpr PhysRange kSpeedRange{0.0, 2e4};
+inline constexpr PhysRange kSpinRange{0.0, 1e5};
 
 // Mass properties of a rigid body of uniform density (body frame = principal axes).
 struct MassProperties {

@@ -161,6 +161,9 @@ Phase History::flight_phase() {
     case FlightEnd::kIntegrationFailed:
       end_.outcome = Outcome::kIntegrationFailed;
       return Phase::kDone;
+    case FlightEnd::kWorkLimit:
+      end_.outcome = Outcome::kWorkLimit;
+      return Phase::kDone;
     case FlightEnd::kTerrain:
       note_first_impact(ev.t, ev.p, ev.v, ev.normal);
       if (!st_.bounce) return Phase::kDone;  // without bounce the first ground impact ends it
@@ -184,6 +187,7 @@ Phase History::terrain_impact(const FlightEvent& ev) {
   const impact::TerrainBounce b = impact::bounce_on_terrain(
       body_, mass_, state_.q, ev.v, state_.omega, ev.normal, mat, flat_tol_m_);
   ++bounces_;
+  ++work_;
   ++out_.stats.bounces;
   record_point(ev.t, ev.p, ev.v, TrajectoryEvent::kTerrainImpact);
   state_.t = ev.t;

@@ -15,12 +15,19 @@ FlightEvent History::fly() {
   integ.reset(state_.t, state_.p, state_.v);
   scene::BuildingProximity near_buildings(site_);
   FlightStep s;
+  s.t1 = state_.t;
   s.p1 = state_.p;
   s.v1 = state_.v;
   s.a1 = model_.acceleration(s.p1, s.v1);
   FlightEvent ev;
   for (;;) {
+    // Checked before a step, so everything up to the end state has been examined and tallied.
+    if (work_ >= st_.max_history_work) {
+      ev = {FlightEnd::kWorkLimit, s.t1, s.p1, s.v1};
+      break;
+    }
     if (!flight_step(integ, s, ev)) break;
+    ++work_;
     bool done = examine_step(integ, s, near_buildings, ev);
     if (!done) done = catch_slip_through(integ, s, ev);
     // Trajectory record: the step's end, or where it was cut short (time stays increasing

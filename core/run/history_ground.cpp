@@ -75,7 +75,10 @@ Phase History::ground_phase() {
   body.density_kg_m3 = density_kg_m3_;
   impact::GroundSettings gs;
   gs.t_max_s = st_.max_flight_time_s;
-  gs.max_steps = std::max<long>(0, static_cast<long>(st_.max_ground_steps) - ground_steps_);
+  // The ground step cap, or the history's work cap if that comes first (after_ground_phase
+  // tells them apart).
+  gs.max_steps = std::max<long>(0, std::min(static_cast<long>(st_.max_ground_steps) - ground_steps_,
+                                            static_cast<long>(st_.max_history_work - work_)));
   gs.takeoff_speed_mps = st_.min_rebound_speed_mps;
   gs.rtol = st_.rtol;
   const impact::GroundState start{state_.t,     state_.p,        state_.v,
@@ -88,6 +91,7 @@ Phase History::ground_phase() {
 // How the ground phase ended: a building, rest, off the site, ..., or a take-off (a new flight).
 Phase History::after_ground_phase(const impact::GroundResult& r, const GroundTally& tally) {
   ground_steps_ += r.steps;
+  work_ += r.steps;
   out_.stats.ground_steps += r.steps;
   ground_path_m_ += r.path_m;
   end_as(Outcome::kGround, r.state.t_s, r.state.position_m, r.state.velocity_mps);
@@ -110,6 +114,10 @@ Phase History::after_ground_phase(const impact::GroundResult& r, const GroundTal
       end_.outcome = tally.harmless ? Outcome::kHarmless : Outcome::kGround;
       return Phase::kDone;
     case impact::GroundEnd::kStepCap:
+      if (ground_steps_ < st_.max_ground_steps) {  // the history's work cap came first
+        end_.outcome = Outcome::kWorkLimit;
+        return Phase::kDone;
+      }
       ++out_.stats.ground_step_caps;  // counted in stats; not expected on a valid site
       return Phase::kDone;
     case impact::GroundEnd::kEmbedded:

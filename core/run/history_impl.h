@@ -81,6 +81,7 @@ enum class FlightEnd {
   kMaxTime,
   kHarmless,
   kIntegrationFailed,
+  kWorkLimit,  // Settings::max_history_work reached
 };
 
 struct FlightEvent {
@@ -193,6 +194,7 @@ class History {
   FirstImpact first_;
   std::uint32_t bounces_ = 0, ground_impacts_ = 0, takeoffs_ = 0;
   long ground_steps_ = 0;
+  std::int64_t work_ = 0;  // steps and events so far (Settings::max_history_work)
   double ground_path_m_ = 0.0;
   std::uint32_t last_ground_prism_ = std::numeric_limits<std::uint32_t>::max();
   TrajectoryRecord traj_;

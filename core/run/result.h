@@ -29,8 +29,9 @@ enum class Outcome : std::uint8_t {
   kHarmless = 5,  // can never become hazardous and nothing else to tally: tracking stopped
   kIntegrationFailed = 6,  // step size underflow (counted, never silently dropped)
   kEmbedded = 7,  // stopped in the ground at an impact too fast and steep to ricochet (bounce)
+  kWorkLimit = 8,  // stopped at Settings::max_history_work steps and events (never on real input)
 };
-inline constexpr int kOutcomeCount = 8;
+inline constexpr int kOutcomeCount = 9;
 const char* outcome_name(Outcome o);
 
 struct BuildingResult {

@@ -22,6 +22,7 @@ const char* outcome_name(Outcome o) {
     case Outcome::kHarmless: return "harmless";
     case Outcome::kIntegrationFailed: return "integration_failed";
     case Outcome::kEmbedded: return "embedded";
+    case Outcome::kWorkLimit: return "work_limit";
   }
   return "unknown";
 }

@@ -38,6 +38,12 @@ struct Settings {
   // (outcome `harmless`, docs/architecture.md). Not a scenario key: it never changes a tally,
   // only outcomes and cost, and tests compare runs with and without it.
   bool harmless_cutoff = true;
+  // Work cap per history: integrator steps (flight and ground) and events (impacts, ground
+  // events) together. A history that reaches it ends (outcome `work_limit`), so that no history
+  // runs unbounded whatever the inputs. Not a scenario key: real histories stay far below it
+  // (the demo: about 22 steps per history; 100 bounces and 1e5 ground steps are the default
+  // caps), and at ~1 us a unit it bounds a history to about a second. Tests lower it.
+  std::int64_t max_history_work = 1'000'000;
 };
 
 struct Scenario {

@@ -83,11 +83,11 @@ double lowest_terrain_under(const Site& site, const std::vector<Vec2>& poly) {
   }
   const Vec2 glo = (lo - index.origin).cwiseQuotient(index.cell);
   const Vec2 ghi = (hi - index.origin).cwiseQuotient(index.cell);
-  const int i0 = std::clamp(static_cast<int>(std::floor(glo.x())), 0, index.nx - 1);
-  const int i1 = std::clamp(static_cast<int>(std::floor(ghi.x())), 0, index.nx - 1);
-  const int j0 = std::clamp(static_cast<int>(std::floor(glo.y())), 0, index.ny - 1);
-  const int j1 = std::clamp(static_cast<int>(std::floor(ghi.y())), 0, index.ny - 1);
-  if (ghi.x() < 0 || ghi.y() < 0 || glo.x() > index.nx || glo.y() > index.ny) return zmin;
+  if (!(ghi.x() >= 0 && ghi.y() >= 0 && glo.x() <= index.nx && glo.y() <= index.ny)) return zmin;
+  // Clamped in double before the conversion: a footprint far beyond a fine grid is more buckets
+  // away than an int holds.
+  const int i0 = clamped_bucket(glo.x(), index.nx), i1 = clamped_bucket(ghi.x(), index.nx);
+  const int j0 = clamped_bucket(glo.y(), index.ny), j1 = clamped_bucket(ghi.y(), index.ny);
   for (int j = j0; j <= j1; ++j) {
     for (int i = i0; i <= i1; ++i) {
       const std::size_t bucket = static_cast<std::size_t>(j) * index.nx + i;

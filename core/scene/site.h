@@ -95,7 +95,18 @@ class TerrainIndex2D {
  private:
   template <class F>
   void visit_bucket(int i, int j, F& f) const;
+  // for_each_candidate in bucket units.
+  template <class F>
+  void walk(const Vec2& pa, const Vec2& pb, F& f) const;
 };
+
+// floor(f) as a bucket index clamped to [0, n - 1], with the clamp done in double: a cast of a
+// value beyond int's range (a point far outside the grid) would be undefined. NaN gives 0.
+inline int clamped_bucket(double f, int n) {
+  const double c = std::floor(f);
+  if (!(c > 0.0)) return 0;
+  return c >= static_cast<double>(n - 1) ? n - 1 : static_cast<int>(c);
+}
 
 struct EmbreeErrorLog;  // embree_scene.h
 
@@ -282,7 +293,26 @@ void TerrainIndex2D::for_each_candidate(const Vec2& a, const Vec2& b, F&& f) con
   if (nx <= 0 || ny <= 0) return;
   const Vec2 pa = (a - origin).cwiseQuotient(cell), pb = (b - origin).cwiseQuotient(cell);
   if (!pa.allFinite() || !pb.allFinite()) return;  // NaN would reach an int cast below (UB)
+  walk(pa, pb, f);
+}
+
+template <class F>
+void TerrainIndex2D::walk(const Vec2& pa, const Vec2& pb, F& f) const {
+  if (std::max(pa.x(), pb.x()) < 0 || std::min(pa.x(), pb.x()) > nx ||
+      std::max(pa.y(), pb.y()) < 0 || std::min(pa.y(), pb.y()) > ny)
+    return;  // beside the grid
   const Vec2 d = pb - pa;
+  // The clipping below resolves a segment to ~1e-16 of its length (and a difference of ends
+  // near the largest doubles overflows, and 0 * inf is NaN): a segment longer than 2^32 buckets
+  // is halved first, and halves beside the grid are dropped. Only a far-away point (a footprint
+  // far from a fine terrain, a core caller's extreme input) makes one; chords are short.
+  constexpr double kLongest = 4294967296.0;
+  if (!(std::abs(d.x()) <= kLongest && std::abs(d.y()) <= kLongest)) {
+    const Vec2 pm = 0.5 * pa + 0.5 * pb;
+    walk(pa, pm, f);
+    walk(pm, pb, f);
+    return;
+  }
   // Clip the parametric segment to [0,nx]x[0,ny].
   double s0 = 0.0, s1 = 1.0;
   for (int k = 0; k < 2; ++k) {
@@ -298,11 +328,11 @@ void TerrainIndex2D::for_each_candidate(const Vec2& a, const Vec2& b, F&& f) con
   }
   if (s0 > s1) return;
   const Vec2 p0 = pa + s0 * d;
-  int i = std::clamp(static_cast<int>(std::floor(p0.x())), 0, nx - 1);
-  int j = std::clamp(static_cast<int>(std::floor(p0.y())), 0, ny - 1);
+  int i = clamped_bucket(p0.x(), nx);
+  int j = clamped_bucket(p0.y(), ny);
   const Vec2 p1 = pa + s1 * d;
-  const int iend = std::clamp(static_cast<int>(std::floor(p1.x())), 0, nx - 1);
-  const int jend = std::clamp(static_cast<int>(std::floor(p1.y())), 0, ny - 1);
+  const int iend = clamped_bucket(p1.x(), nx);
+  const int jend = clamped_bucket(p1.y(), ny);
   const int si = d.x() > 0 ? 1 : (d.x() < 0 ? -1 : 0);
   const int sj = d.y() > 0 ? 1 : (d.y() < 0 ? -1 : 0);
   const double inf = std::numeric_limits<double>::infinity();

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "core/scene/embree_scene.h"
+#include "core/scene/site_limits.h"
 #include "core/scene/validation.h"
 
 namespace fragsim::scene {
@@ -27,6 +28,7 @@ std::shared_ptr<const Site> Site::build(const SiteSpec& spec) { return SiteBuild
 std::shared_ptr<const Site> SiteBuilder::build(const SiteSpec& spec) {
   std::unique_ptr<Site> site(new Site());  // ~Site releases whatever Embree objects exist
   if (spec.origin) validate_origin(*spec.origin);
+  check_site_limits(spec);  // before anything is sized from the spec
   site->origin_ = spec.origin;
   const MaterialIds ids = build_materials(*site, spec);
   build_terrain(*site, spec, ids);  // sets local_origin_

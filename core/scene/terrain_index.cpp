@@ -79,6 +79,9 @@ TerrainIndex2D make_mesh_index(const std::vector<Vec3>& vertices,
     projected_area += 0.5 * std::abs((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
   }
   const Vec2 size = hi - lo;
+  // Site::build refuses terrains this wide (site_limits.h); called directly with vertices near
+  // the largest doubles, the size overflows and no bucket size would make the loop below end.
+  if (!size.allFinite()) throw std::length_error("terrain index: terrain extent not finite");
   const double tri_count = static_cast<double>(triangles.size());
   // Bucket side 0.7 sqrt(mean projected triangle area): about two buckets per triangle. A
   // triangle is listed in every bucket it overlaps, so the mean list length cannot fall to one;
@@ -89,16 +92,20 @@ TerrainIndex2D make_mesh_index(const std::vector<Vec3>& vertices,
   if (!(s > 0)) s = 1.0;
   // Cap the bucket count (a few large triangles among tiny ones, or a sparse mesh over a large
   // box, would otherwise ask for far more buckets than triangles).
+  // Also at most 2^30 buckets per side, so that bucket indices fit an int. Each pass grows s by
+  // at least 1.0001 while the count is too high; the side cap ends it whatever the sizes.
   const double max_buckets = 4.0 * tri_count + 64.0;
-  for (;;) {
+  constexpr double kMaxSide = 1073741824.0;  // 2^30
+  s = std::max(s, std::max(size.x(), size.y()) / kMaxSide);
+  for (int pass = 0; pass < 100000; ++pass) {
     const double cells = std::ceil(size.x() / s) * std::ceil(size.y() / s);
     if (cells <= max_buckets) break;
     s *= std::sqrt(cells / max_buckets) * 1.0001;
   }
   index.origin = lo;
   index.cell = Vec2(s, s);
-  index.nx = std::max(1, static_cast<int>(std::ceil(size.x() / s)));
-  index.ny = std::max(1, static_cast<int>(std::ceil(size.y() / s)));
+  index.nx = static_cast<int>(std::clamp(std::ceil(size.x() / s), 1.0, kMaxSide));
+  index.ny = static_cast<int>(std::clamp(std::ceil(size.y() / s), 1.0, kMaxSide));
   const std::size_t buckets =
       static_cast<std::size_t>(index.nx) * static_cast<std::size_t>(index.ny);
 
@@ -108,10 +115,10 @@ TerrainIndex2D make_mesh_index(const std::vector<Vec3>& vertices,
     Vec2 p[3];
     for (int k = 0; k < 3; ++k) p[k] = (vertices[t[k]].head<2>() - lo) / s;  // bucket units
     const Vec2 tlo = p[0].cwiseMin(p[1]).cwiseMin(p[2]), thi = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
-    const int i0 = std::clamp(static_cast<int>(std::floor(tlo.x() - pad)), 0, index.nx - 1);
-    const int i1 = std::clamp(static_cast<int>(std::floor(thi.x() + pad)), 0, index.nx - 1);
-    const int j0 = std::clamp(static_cast<int>(std::floor(tlo.y() - pad)), 0, index.ny - 1);
-    const int j1 = std::clamp(static_cast<int>(std::floor(thi.y() + pad)), 0, index.ny - 1);
+    const int i0 = clamped_bucket(tlo.x() - pad, index.nx);
+    const int i1 = clamped_bucket(thi.x() + pad, index.nx);
+    const int j0 = clamped_bucket(tlo.y() - pad, index.ny);
+    const int j1 = clamped_bucket(thi.y() + pad, index.ny);
     for (int j = j0; j <= j1; ++j) {
       for (int i = i0; i <= i1; ++i) {
         const Vec2 blo(i - pad, j - pad), bhi(i + 1 + pad, j + 1 + pad);

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 namespace fragsim::api {
 namespace {
 
@@ -57,6 +59,34 @@ TEST(JsonFields, Integers) {
   } catch (const InputError& e) {
     EXPECT_EQ(e.message(), "must be < 2^64 (got 1.5e+20)");
   }
+}
+
+TEST(JsonFields, IntegersAtTheEdgeOfInt64AreErrorsNotUndefined) {
+  // Issue 10 (UBSan): 2^63 written as a float passed `d > INT64_MAX as a double` (which is 2^63)
+  // and was converted to int64, which is undefined.
+  constexpr auto lo = std::numeric_limits<std::int64_t>::min();
+  constexpr auto hi = std::numeric_limits<std::int64_t>::max();
+  const auto message = [&](const Json& j) {
+    try {
+      read_integer(j, "triangles[0][1]", lo, hi);
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.field(), "triangles[0][1]");
+      return e.message();
+    }
+    return std::string("<no error>");
+  };
+  EXPECT_EQ(message(Json::parse("9223372036854775808.0")),
+            "must be <= 9223372036854775807 (got 9223372036854775808)");
+  EXPECT_EQ(message(Json::parse("9223372036854775808")),
+            "must be <= 9223372036854775807 (got 9223372036854775808)");
+  EXPECT_EQ(message(Json::parse("1e19")), "must be <= 9223372036854775807 (got 1e+19)");
+  EXPECT_EQ(message(Json::parse("-1e19")), "must be >= -9223372036854775808 (got -1e+19)");
+  EXPECT_EQ(read_integer(Json::parse("-9223372036854775808.0"), "n", lo, hi), lo);
+  EXPECT_EQ(read_integer(Json::parse("9.007199254740992e15"), "n", lo, hi), 9007199254740992);
+  // A bound that is not a double: 2^53 + 1 as a double is 2^53; the integer compare is exact.
+  const std::int64_t odd = 9007199254740993;
+  EXPECT_EQ(read_integer(Json(9007199254740992.0), "n", 0, odd), 9007199254740992);
+  EXPECT_THROW(read_integer(Json(9007199254740994.0), "n", 0, odd), InputError);
 }
 
 }  // namespace

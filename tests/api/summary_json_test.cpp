@@ -113,6 +113,7 @@ TEST(SummaryJson, OutcomesInEnumOrder) {
   EXPECT_EQ(s["outcomes"]["ground"]["fragments_std_error"], 3.5);
   EXPECT_EQ(s["outcomes"]["left_site"]["histories"], 1952);
   EXPECT_EQ(s["outcomes"]["integration_failed"]["histories"], 0);
+  EXPECT_EQ(s["outcomes"]["work_limit"]["histories"], 0);
 }
 
 TEST(SummaryJson, TimingStatsAndProfile) {

@@ -309,7 +309,11 @@ TEST(DistributionValidate, NamesTheField) {
   EXPECT_EQ(far.validate(-kInf, kInf), "mean: truncation range [8, inf] has no probability mass");
   // Normal mass entirely below zero, for a quantity that must be > 0.
   EXPECT_EQ(normal(-100.0, 1.0).validate(lo, hi),
-            "mean: truncation range (0, inf] has no probability mass");
+            "mean: truncation range (0, 1e+05] has no probability mass");
+  // Beyond the physical upper limits (sampling.h; docs/scenario.md, "Limits").
+  EXPECT_EQ(Distribution::fixed(1.8e19).validate(lo, hi), "value: must be <= 1e+05");
+  EXPECT_EQ(normal(1e9, 1.0).validate(kSpeedRange.lo, kSpeedRange.hi),
+            "mean: truncation range [0, 20000] has no probability mass");
   EXPECT_EQ(truncated(lognormal(1.0, 0.1), 10.0, 20.0).validate(lo, hi),
             "median: truncation range [10, 20] has no probability mass");
 
