@@ -418,11 +418,14 @@ OJson Service::site_json(const SiteEntry& e) {
 Response Service::post_site(const Request& req) {
   if (auto bad = check_json_content_type(req)) return *bad;
   const api::SiteDocument doc = api::parse_site_document(parse_body(req));
-  std::shared_ptr<const SiteEntry> entry;
+  std::shared_ptr<const SiteEntry> entry = sites_.find(doc.site_id);
   bool created = false;
-  {
+  if (!entry) {
+    // Built with no lock held: job submissions and site deletions go on meanwhile. Only the
+    // insertion, which is quick, is serialised with them.
+    const auto prepared = SiteRegistry::prepare(doc);
     const std::lock_guard<std::mutex> lock(catalogue_mutex_);
-    const auto added = sites_.add(doc, config_.max_sites);
+    const auto added = sites_.insert(prepared, config_.max_sites);
     entry = added.entry;
     created = added.created;
   }

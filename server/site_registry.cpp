@@ -65,28 +65,36 @@ void SiteRegistry::load() {
   }
 }
 
-SiteRegistry::Added SiteRegistry::add(const api::SiteDocument& doc, std::int64_t max_sites) {
-  if (auto existing = find(doc.site_id)) return {existing, false};
+std::shared_ptr<const SiteEntry> SiteRegistry::prepare(const api::SiteDocument& doc) {
   auto e = std::make_shared<SiteEntry>();
   e->site_id = doc.site_id;
   e->created_utc = utc_now();
   e->normalised = doc.normalised;
-  e->site = api::build_site(doc);  // the expensive part, outside the lock
+  e->site = api::build_site(doc);
   e->summary = summarise(*e, doc);
+  return e;
+}
 
+SiteRegistry::Added SiteRegistry::insert(std::shared_ptr<const SiteEntry> e,
+                                         std::int64_t max_sites) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  if (const auto it = sites_.find(doc.site_id); it != sites_.end()) return {it->second, false};
+  if (const auto it = sites_.find(e->site_id); it != sites_.end()) return {it->second, false};
   if (static_cast<std::int64_t>(sites_.size()) >= max_sites)
     throw LimitError("", "the daemon holds " + std::to_string(sites_.size()) +
                              " sites, its limit (--max-sites); delete one first");
   api::OutputDir out(dir_);
-  out.stage_text(doc.site_id + ".json", doc.normalised.dump());
+  out.stage_text(e->site_id + ".json", e->normalised.dump());
   out.commit();
   SiteRow row{e->site_id, e->created_utc, e->summary.dump()};
   store_.insert_site(row);
-  sites_[doc.site_id] = e;
-  order_.push_back(doc.site_id);
+  sites_[e->site_id] = e;
+  order_.push_back(e->site_id);
   return {e, true};
+}
+
+SiteRegistry::Added SiteRegistry::add(const api::SiteDocument& doc, std::int64_t max_sites) {
+  if (auto existing = find(doc.site_id)) return {existing, false};
+  return insert(prepare(doc), max_sites);
 }
 
 std::shared_ptr<const SiteEntry> SiteRegistry::find(const std::string& site_id) const {

@@ -35,8 +35,15 @@ class SiteRegistry {
     std::shared_ptr<const SiteEntry> entry;
     bool created = false;  // false: the identical site was already stored
   };
-  // Builds (InputError with site-relative paths on bad geometry), writes the file atomically,
-  // then the row. Throws LimitError when max_sites would be exceeded.
+  // Builds the site (InputError with site-relative paths on bad geometry): the expensive part,
+  // which takes no lock, so that a caller can run it outside its own locks (issue 10: a site
+  // built under the service's catalogue lock held every job submission for as long).
+  static std::shared_ptr<const SiteEntry> prepare(const api::SiteDocument& doc);
+  // Stores a prepared entry: writes the file atomically, then the row. Returns the stored entry
+  // instead if a site with that id is already there. Throws LimitError when max_sites would be
+  // exceeded. Fast: no geometry work.
+  Added insert(std::shared_ptr<const SiteEntry> e, std::int64_t max_sites);
+  // prepare, then insert (after a check that the site is not stored already).
   Added add(const api::SiteDocument& doc, std::int64_t max_sites);
 
   std::shared_ptr<const SiteEntry> find(const std::string& site_id) const;

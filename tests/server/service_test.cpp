@@ -6,8 +6,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -670,6 +672,62 @@ TEST_F(ServiceSites, SitesAndJobsSurviveARestart) {
   // A clean shutdown puts a running job back in the queue; it may have started again since.
   EXPECT_TRUE(j["state"] == "queued" || j["state"] == "running") << j.dump();
   EXPECT_EQ(j["histories_total"], kBlockerSamples);
+}
+
+TEST_F(ServiceSites, ASiteBeingBuiltHoldsNoOtherRequest) {
+  // Issue 10: the site was built under the catalogue lock, so that every job submission, site
+  // submission and deletion waited for the slowest site build in progress. A 1001 x 1001 grid
+  // (2 million triangles) takes seconds to build; meanwhile the catalogue's other requests are
+  // answered at once. No timing threshold on the build itself: it is only required to be long
+  // against the answers' latency.
+  start();
+  const std::string small = add_site();
+  Json big = minimal_site();
+  constexpr int n = 1001;
+  std::vector<double> elevation(static_cast<std::size_t>(n) * n);
+  for (std::size_t k = 0; k < elevation.size(); ++k) elevation[k] = 0.001 * static_cast<double>(k % 97);
+  big["terrain"] = {{"grid",
+                     {{"origin_m", {-500, -500}},
+                      {"spacing_m", 1.0},
+                      {"nx", n},
+                      {"ny", n},
+                      {"elevation_m", elevation}}},
+                    {"material", "soil"}};
+  const std::string big_text = big.dump();
+  using Clock = std::chrono::steady_clock;
+  const auto seconds_since = [](Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+  };
+  std::atomic<bool> done{false};
+  double build_s = 0;
+  std::thread poster([&] {
+    const auto t0 = Clock::now();
+    const Response r = post_text("/v1/sites", big_text);
+    build_s = seconds_since(t0);
+    EXPECT_EQ(r.status, 201) << r.body;
+    done = true;
+  });
+  double slowest_s = 0;
+  int answered = 0;
+  bool job_posted = false;
+  const auto t0 = Clock::now();
+  while (!done) {
+    const auto t = Clock::now();
+    expect_error(del(std::string("/v1/sites/") + kUnknownSite), 404, "not_found");
+    if (!job_posted && seconds_since(t0) > 0.5) {
+      EXPECT_EQ(post("/v1/jobs", job_on(small, 10)).status, 202);
+      job_posted = true;
+    }
+    slowest_s = std::max(slowest_s, seconds_since(t));
+    ++answered;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  poster.join();
+  std::printf("[ measured ] site build request %.2f s; %d other requests meanwhile, slowest %.3f s\n",
+              build_s, answered, slowest_s);
+  ASSERT_GT(build_s, 0.5) << "the site built too fast to show anything";
+  EXPECT_TRUE(job_posted);
+  EXPECT_LT(slowest_s, 0.25 * build_s);
 }
 
 TEST_F(ServiceSites, OneServicePerDataDirectory) {
