@@ -46,31 +46,22 @@ const char* distribution_name(Distribution::Kind k) {
 // cylinder [diameter, length].
 std::size_t shape_dimension_count(ShapeType s) {
   switch (s) {
-    case ShapeType::kSphere:
-      return 1;
-    case ShapeType::kCylinder:
-      return 2;
+    case ShapeType::kSphere: return 1;
+    case ShapeType::kCylinder: return 2;
     case ShapeType::kCuboid:
-    case ShapeType::kEllipsoid:
-      return 3;
-    case ShapeType::kPoint:
-      return 0;
+    case ShapeType::kEllipsoid: return 3;
+    case ShapeType::kPoint: return 0;
   }
   return 0;
 }
 
 const char* shape_dimension_layout(ShapeType s) {
   switch (s) {
-    case ShapeType::kSphere:
-      return "[diameter]";
-    case ShapeType::kCylinder:
-      return "[diameter, length]";
-    case ShapeType::kCuboid:
-      return "[a, b, c] edge lengths";
-    case ShapeType::kEllipsoid:
-      return "[a, b, c] axis lengths";
-    case ShapeType::kPoint:
-      return "[]";
+    case ShapeType::kSphere: return "[diameter]";
+    case ShapeType::kCylinder: return "[diameter, length]";
+    case ShapeType::kCuboid: return "[a, b, c] edge lengths";
+    case ShapeType::kEllipsoid: return "[a, b, c] axis lengths";
+    case ShapeType::kPoint: return "[]";
   }
   return "[]";
 }
@@ -287,9 +278,7 @@ Distribution parse_distribution(const Json& j, const std::string& path, double p
       }
     };
     switch (d.kind) {
-      case Distribution::Kind::kFixed:
-        d.value = o.number("value");
-        break;
+      case Distribution::Kind::kFixed: d.value = o.number("value"); break;
       case Distribution::Kind::kUniform:
         d.min = o.number("min");
         d.max = o.number("max");
@@ -323,10 +312,8 @@ Json distribution_to_json(const Distribution& d) {
     return j;
   };
   switch (d.kind) {
-    case Distribution::Kind::kFixed:
-      return d.value;
-    case Distribution::Kind::kUniform:
-      return {{"dist", "uniform"}, {"min", d.min}, {"max", d.max}};
+    case Distribution::Kind::kFixed: return d.value;
+    case Distribution::Kind::kUniform: return {{"dist", "uniform"}, {"min", d.min}, {"max", d.max}};
     case Distribution::Kind::kNormal:
       return with_bounds({{"dist", "normal"}, {"mean", d.mean}, {"sigma", d.sigma}});
     case Distribution::Kind::kLognormal:

@@ -19,7 +19,8 @@ JobRequest parse_job_request(const nlohmann::json& body, const SiteResolver& res
   JobRequest req;
   req.scenario = body;
   if (const auto it = body.find("priority"); it != body.end()) {
-    req.priority = static_cast<int>(read_integer(*it, "priority", kMinJobPriority, kMaxJobPriority));
+    req.priority =
+        static_cast<int>(read_integer(*it, "priority", kMinJobPriority, kMaxJobPriority));
     req.scenario.erase("priority");
   }
   if (const auto it = body.find("idempotency_key"); it != body.end()) {

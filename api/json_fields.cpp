@@ -224,7 +224,8 @@ void check_abs_le(double v, double bound, const std::string& path) {
 }
 
 void check_abs_le(const Vec3& v, double bound, const std::string& path) {
-  for (int k = 0; k < 3; ++k) check_abs_le(v[k], bound, index_path(path, static_cast<std::size_t>(k)));
+  for (int k = 0; k < 3; ++k)
+    check_abs_le(v[k], bound, index_path(path, static_cast<std::size_t>(k)));
 }
 
 Vec3 read_position(const Json& j, const std::string& path) {

@@ -94,7 +94,8 @@ void PtnGeoJsonWriter::append_feature(std::string& out, std::size_t t) const {
   out += first_feature_ ? "" : ",";
   out += R"({"type":"Feature","geometry":{"type":"Polygon","coordinates":[[)";
   for (int c = 0; c <= 3; ++c) {
-    const auto k = static_cast<std::size_t>(3 * triangles_[3 * t + static_cast<std::size_t>(c % 3)]);
+    const auto k =
+        static_cast<std::size_t>(3 * triangles_[3 * t + static_cast<std::size_t>(c % 3)]);
     out += c == 0 ? "[" : ",[";
     append_number(out, vertices_[k]);
     out += ',';

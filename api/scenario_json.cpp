@@ -25,7 +25,8 @@ flight::AtmosphereSpec parse_atmosphere(const Json& j, const std::string& path) 
   } else if (model == "constant") {
     a.model = flight::AtmosphereSpec::Model::kConstant;
     a.density_kg_m3 = o.number_or("density_kg_m3", a.density_kg_m3);
-    check_ge_le(a.density_kg_m3, 0.0, limits::kMaxAirDensity_kg_m3, o.at("density_kg_m3"));  // 0: vacuum
+    check_ge_le(a.density_kg_m3, 0.0, limits::kMaxAirDensity_kg_m3,
+                o.at("density_kg_m3"));  // 0: vacuum
     a.sound_speed_mps = o.number_or("sound_speed_mps", a.sound_speed_mps);
     check_gt_le(a.sound_speed_mps, 0.0, limits::kMaxSoundSpeed_mps, o.at("sound_speed_mps"));
   } else {
@@ -46,7 +47,8 @@ run::Settings parse_settings(const Json& j, const std::string& path) {
   check_gt(s.hazardous_ke_j, 0.0, o.at("hazardous_ke_j"));
   s.hfd_threshold_per_m2 = o.number_or("hfd_threshold_per_m2", s.hfd_threshold_per_m2);
   check_gt(s.hfd_threshold_per_m2, 0.0, o.at("hfd_threshold_per_m2"));
-  if (const Json* h = o.find("hfd_origin_m")) s.hfd_origin_m = read_position(*h, o.at("hfd_origin_m"));
+  if (const Json* h = o.find("hfd_origin_m"))
+    s.hfd_origin_m = read_position(*h, o.at("hfd_origin_m"));
   s.max_flight_time_s = o.number_or("max_flight_time_s", s.max_flight_time_s);
   check_gt_le(s.max_flight_time_s, 0.0, limits::kMaxFlightTime_s, o.at("max_flight_time_s"));
   if (const Json* integrator = o.find("integrator")) {
@@ -61,7 +63,7 @@ run::Settings parse_settings(const Json& j, const std::string& path) {
     const ObjectReader r(*limits, o.at("bounce_limits"), "bounce_limits");
     s.min_rebound_speed_mps = r.number_or("min_rebound_speed_mps", s.min_rebound_speed_mps);
     check_ge_le(s.min_rebound_speed_mps, 0.0, limits::kMaxImpactSpeed_mps,
-             r.at("min_rebound_speed_mps"));
+                r.at("min_rebound_speed_mps"));
     s.max_bounces = r.integer_or("max_bounces", s.max_bounces, 1, 1'000'000);
     s.max_ground_steps =
         r.integer_or("max_ground_steps", s.max_ground_steps, 1, limits::kMaxGroundSteps);

@@ -25,8 +25,8 @@ bool is_lower_hex(char c) {
 }  // namespace
 
 SiteDocument parse_site_document(const nlohmann::json& j) {
-  if (!j.is_object()) fail("", "expected a JSON object (a site) at the top level, got " +
-                                   json_type_name(j));
+  if (!j.is_object())
+    fail("", "expected a JSON object (a site) at the top level, got " + json_type_name(j));
   SiteDocument doc;
   doc.spec = detail::parse_site(j, "", doc.material_notes);
   doc.normalised = detail::site_to_json(doc.spec, &doc.material_notes);

@@ -293,8 +293,9 @@ scene::SiteSpec parse_site(const Json& j, const std::string& path,
     if (site.materials.count(name)) return;
     if (auto m = scene::builtin_ground_material(name)) {
       site.materials[name] = *m;
-      notes[name] = {true, "fragsim built-in ground material: friction from Gan & Chrostowski "
-                           "(DDESB 2010); restitution table illustrative (docs/physics.md)"};
+      notes[name] = {true,
+                     "fragsim built-in ground material: friction from Gan & Chrostowski "
+                     "(DDESB 2010); restitution table illustrative (docs/physics.md)"};
     }
   };
   adopt_builtin(o.find("terrain"), "material");

@@ -62,15 +62,9 @@ CollisionInput make(Kind kind, std::mt19937_64& rng) {
       in.omega_radps.setZero();
       in.r_m.setZero();
       break;
-    case Kind::kCube:
-      d = Vec3(0.1, 0.1, 0.1);
-      break;
-    case Kind::kPlate:
-      d = Vec3(0.2, 0.15, 0.02);
-      break;
-    case Kind::kRod:
-      d = Vec3(0.4, 0.02, 0.02);
-      break;
+    case Kind::kCube: d = Vec3(0.1, 0.1, 0.1); break;
+    case Kind::kPlate: d = Vec3(0.2, 0.15, 0.02); break;
+    case Kind::kRod: d = Vec3(0.4, 0.02, 0.02); break;
   }
   if (kind == Kind::kCube || kind == Kind::kPlate || kind == Kind::kRod) {
     const Quat q = random_rotation(rng);

@@ -145,11 +145,13 @@ int main(int argc, char** argv) {
   std::printf("  fragsimd (submit until seen done)               %8.3f s   run %8.3f s\n",
               daemon_best, daemon_run_best);
   std::printf("  overhead: end to end %+.1f %%, run alone %+.1f %%\n",
-              100.0 * (daemon_best / cli_best - 1.0), 100.0 * (daemon_run_best / cli_run_best - 1.0));
+              100.0 * (daemon_best / cli_best - 1.0),
+              100.0 * (daemon_run_best / cli_run_best - 1.0));
   const auto [jobs_rss, jobs_hwm] = memory_mib(d.pid());
-  std::printf("  daemon memory (MiB): started %.1f; demo site loaded %.1f (peak %.1f); after %d "
-              "jobs %.1f (peak %.1f)\n",
-              idle_rss, site_rss, site_hwm, repeat, jobs_rss, jobs_hwm);
+  std::printf(
+      "  daemon memory (MiB): started %.1f; demo site loaded %.1f (peak %.1f); after %d "
+      "jobs %.1f (peak %.1f)\n",
+      idle_rss, site_rss, site_hwm, repeat, jobs_rss, jobs_hwm);
   (void)idle_hwm;
 
   // 2. Latency under polling while the job runs.

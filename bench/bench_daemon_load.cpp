@@ -49,7 +49,8 @@ Json get_json(httplib::Client& c, const std::string& path) {
 std::string submit(httplib::Client& c, const Json& job) {
   auto r = c.Post("/v1/jobs", job.dump(), "application/json");
   if (!r || r->status != 202)
-    throw std::runtime_error("POST /v1/jobs failed: " + (r ? r->body : httplib::to_string(r.error())));
+    throw std::runtime_error("POST /v1/jobs failed: " +
+                             (r ? r->body : httplib::to_string(r.error())));
   return Json::parse(r->body).at("job_id").get<std::string>();
 }
 
@@ -64,8 +65,8 @@ void wait_done(httplib::Client& c, const std::string& id) {
 
 Json with_samples_scaled(Json job, double factor) {
   for (auto& g : job["fragment_groups"])
-    g["samples"] = std::max<std::int64_t>(
-        1, static_cast<std::int64_t>(g["samples"].get<double>() * factor));
+    g["samples"] =
+        std::max<std::int64_t>(1, static_cast<std::int64_t>(g["samples"].get<double>() * factor));
   return job;
 }
 
@@ -135,8 +136,8 @@ void wrk_runs(Daemon& d, const Json& job, const std::vector<int>& connections, i
       const std::string out = run_command(
           "wrk -t2 -c" + std::to_string(n) + " -d" + std::to_string(duration_s) +
           "s --timeout 10s --latency " + (paced ? "-s " + pace.string() + " " : "") +
-          "-H 'Authorization: Bearer " + kToken + "' http://127.0.0.1:" +
-          std::to_string(d.port()) + "/v1/jobs/" + id + " 2>&1");
+          "-H 'Authorization: Bearer " + kToken + "' http://127.0.0.1:" + std::to_string(d.port()) +
+          "/v1/jobs/" + id + " 2>&1");
       const double wall = seconds_since(t0);
       const auto h1 = get_json(*c, "/v1/jobs/" + id).at("histories_done").get<double>();
       const WrkFigures f = parse_wrk(out);

@@ -68,11 +68,12 @@ void print_results(const run::RunResult& r) {
     imp_se2 += b.impacts.std_error * b.impacts.std_error;
     pen += b.penetrations.mean;
   }
-  std::printf("%-22s HFD %.2f m (band %.1f .. %.1f), max PTN density %.6g /m2 (triangle %lld), "
-              "sum of densities %.9g, building impacts %.4f (se %.4f), penetrations %.4f\n",
-              "results", r.hazardous_fragment_distance_m, r.hfd_lower_m, r.hfd_upper_m,
-              r.max_ptn_density_per_m2, static_cast<long long>(r.max_ptn_triangle), sum_d, imp,
-              std::sqrt(imp_se2), pen);
+  std::printf(
+      "%-22s HFD %.2f m (band %.1f .. %.1f), max PTN density %.6g /m2 (triangle %lld), "
+      "sum of densities %.9g, building impacts %.4f (se %.4f), penetrations %.4f\n",
+      "results", r.hazardous_fragment_distance_m, r.hfd_lower_m, r.hfd_upper_m,
+      r.max_ptn_density_per_m2, static_cast<long long>(r.max_ptn_triangle), sum_d, imp,
+      std::sqrt(imp_se2), pen);
   std::printf("%-22s outcomes (histories):", "");
   for (int k = 0; k < run::kOutcomeCount; ++k)
     if (r.outcome_histories[static_cast<std::size_t>(k)] > 0)
@@ -127,11 +128,13 @@ void sweep_rtol(run::Scenario sc, const std::shared_ptr<const scene::Site>& site
   sc.settings.profile = false;
   sc.settings.rtol = 1e-10;
   const run::RunResult ref = run::run(sc, site);
-  std::printf("\n# rtol sweep, 1 thread, reference rtol 1e-10: HFD %.2f m, max density %.4f /m2, "
-              "building impacts %.4f\n",
-              ref.hazardous_fragment_distance_m, ref.max_ptn_density_per_m2, total_impacts(ref));
-  std::printf("rtol     us/fragment  rhs/frag  |dHFD| m  max|dD|/Dmax  |d impacts|  "
-              "HFD se band (m)\n");
+  std::printf(
+      "\n# rtol sweep, 1 thread, reference rtol 1e-10: HFD %.2f m, max density %.4f /m2, "
+      "building impacts %.4f\n",
+      ref.hazardous_fragment_distance_m, ref.max_ptn_density_per_m2, total_impacts(ref));
+  std::printf(
+      "rtol     us/fragment  rhs/frag  |dHFD| m  max|dD|/Dmax  |d impacts|  "
+      "HFD se band (m)\n");
   for (double rtol : {1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8}) {
     sc.settings.rtol = rtol;
     const run::RunResult r = run::run(sc, site);

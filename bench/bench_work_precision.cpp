@@ -32,9 +32,10 @@ int main(int argc, char** argv) {
     refs.push_back({l.x_m, l.t_s});
   }
 
-  std::printf("# 2-D quadratic drag, steel sphere %.3f kg, v0 %.0f m/s, k = %.4e 1/m, %lld "
-              "histories per elevation, 1 thread\n",
-              mass, speed, k, static_cast<long long>(samples));
+  std::printf(
+      "# 2-D quadratic drag, steel sphere %.3f kg, v0 %.0f m/s, k = %.4e 1/m, %lld "
+      "histories per elevation, 1 thread\n",
+      mass, speed, k, static_cast<long long>(samples));
   std::printf("%-8s %-9s %14s %14s %12s %10s %10s\n", "rtol", "sagitta", "max_rel_range",
               "max_rel_time", "us/fragment", "rhs/frag", "chords/frag");
   for (double rtol : {1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9}) {

@@ -46,12 +46,9 @@ std::string illustrative_note(const api::ScenarioDocument& doc) {
 
 const char* terrain_form(const scene::TerrainSpec& t) {
   switch (t.geometry.index()) {
-    case 0:
-      return "plane";
-    case 1:
-      return "grid";
-    default:
-      return "mesh";
+    case 0: return "plane";
+    case 1: return "grid";
+    default: return "mesh";
   }
 }
 

@@ -42,17 +42,12 @@ int main(int argc, char** argv) {
   try {
     const Options options = parse_args(std::vector<std::string>(argv + 1, argv + argc));
     switch (options.command) {
-      case Command::kHelp:
-        std::cout << usage_text();
-        return kExitOk;
+      case Command::kHelp: std::cout << usage_text(); return kExitOk;
       case Command::kVersion:
         std::cout << "fragsim " << fragsim::kVersion << " (git " << fragsim::kGitSha << ")\n";
         return kExitOk;
-      case Command::kValidate:
-        return validate_command(options);
-      case Command::kRun:
-        install_signal_handlers();
-        return run_command(options, g_cancel);
+      case Command::kValidate: return validate_command(options);
+      case Command::kRun: install_signal_handlers(); return run_command(options, g_cancel);
       case Command::kSubmit:
         install_signal_handlers();
         // A server that refuses a body before reading it all closes the connection under the

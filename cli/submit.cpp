@@ -61,9 +61,8 @@ class Client {
   // Returns (status, body); throws ServerError for a status >= 400 and for no answer.
   std::pair<int, std::string> request(const std::string& method, const std::string& path,
                                       const std::string& body = "") {
-    httplib::Result res = method == "POST"
-                              ? http_.Post(path, body, "application/json")
-                              : http_.Get(path);
+    httplib::Result res =
+        method == "POST" ? http_.Post(path, body, "application/json") : http_.Get(path);
     if (!res)
       throw ServerError(0, "cannot reach " + url_ + " (" + httplib::to_string(res.error()) + ")");
     if (res->status >= 400) {
@@ -106,8 +105,8 @@ int submit_command(const Options& o, const std::atomic<bool>& cancel) {
       const auto [status, body] = client.request("POST", "/v1/sites", scenario["site"].dump());
       const std::string site_id = Json::parse(body).at("site_id").get<std::string>();
       if (!o.quiet)
-        std::cerr << (status == 201 ? "site uploaded: " : "site already on the server: ")
-                  << site_id << "\n";
+        std::cerr << (status == 201 ? "site uploaded: " : "site already on the server: ") << site_id
+                  << "\n";
       scenario.erase("site");
       scenario["site_id"] = site_id;
     }
@@ -165,7 +164,8 @@ int submit_command(const Options& o, const std::atomic<bool>& cancel) {
       return kExitCancelled;
     }
 
-    const std::string summary_text = client.request("GET", "/v1/jobs/" + job_id + "/summary").second;
+    const std::string summary_text =
+        client.request("GET", "/v1/jobs/" + job_id + "/summary").second;
     if (!o.out.empty()) {
       const std::string h5 = client.request("GET", "/v1/jobs/" + job_id + "/results.h5").second;
       api::OutputDir out(o.out);

@@ -109,10 +109,23 @@ void apply_config_file(const std::string& path, Config& c) {
     throw ConfigError(path + ": " + e.what());
   }
   if (!j.is_object()) throw ConfigError(path + ": expected a JSON object");
-  static const std::vector<std::string> kKeys = {
-      "listen", "data_dir", "threads", "http_threads", "token_file", "auth", "max_body_bytes",
-      "max_samples_per_job", "max_sites", "max_queued_jobs", "request_timeout_s", "log_level",
-      "max_crashes", "port_file", "keep_alive_s", "max_connections", "job_nice"};
+  static const std::vector<std::string> kKeys = {"listen",
+                                                 "data_dir",
+                                                 "threads",
+                                                 "http_threads",
+                                                 "token_file",
+                                                 "auth",
+                                                 "max_body_bytes",
+                                                 "max_samples_per_job",
+                                                 "max_sites",
+                                                 "max_queued_jobs",
+                                                 "request_timeout_s",
+                                                 "log_level",
+                                                 "max_crashes",
+                                                 "port_file",
+                                                 "keep_alive_s",
+                                                 "max_connections",
+                                                 "job_nice"};
   try {
     for (const auto& item : j.items()) {
       const std::string& k = item.key();
@@ -158,7 +171,8 @@ void apply_config_file(const std::string& path, Config& c) {
         c.port_file = api::read_string(v, k);
       } else {
         const std::string guess = api::suggest_key(k, kKeys);
-        throw InputError(k, guess.empty() ? "unknown key" : "unknown key (did you mean \"" + guess + "\"?)");
+        throw InputError(
+            k, guess.empty() ? "unknown key" : "unknown key (did you mean \"" + guess + "\"?)");
       }
     }
   } catch (const InputError& e) {
@@ -261,7 +275,8 @@ const char* usage_text() {
          "  --max-samples-per-job N  (default 100000000)\n"
          "  --max-sites N            (default 100)\n"
          "  --max-queued-jobs N      (default 1000)\n"
-         "  --request-timeout-s S    a request must arrive within S of its first byte (default 30)\n"
+         "  --request-timeout-s S    a request must arrive within S of its first byte (default "
+         "30)\n"
          "  --port-file FILE         write the bound port here once listening\n"
          "  --max-crashes N          fail a job after N daemon crashes while it ran (default 3)\n"
          "  --log-level LEVEL        debug | info | warn | error (default info)\n"

@@ -13,9 +13,9 @@ struct Config {
   std::string listen_host = "127.0.0.1";
   int listen_port = 8080;  // 0: any free port (see port_file)
   std::string data_dir = "fragsimd-data";
-  int threads = 0;  // Monte Carlo threads per job; 0 = all cores
-  int job_nice = 10;  // nice value of the job's threads (0: the daemon's own priority)
-  int http_threads = 64;  // requests handled at once (idle connections hold no thread)
+  int threads = 0;             // Monte Carlo threads per job; 0 = all cores
+  int job_nice = 10;           // nice value of the job's threads (0: the daemon's own priority)
+  int http_threads = 64;       // requests handled at once (idle connections hold no thread)
   double keep_alive_s = 15.0;  // an idle connection is closed after this
   std::int64_t max_connections = 4096;  // open connections; beyond, a new one gets a 503
   std::string token_file;

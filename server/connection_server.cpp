@@ -448,8 +448,7 @@ class ConnectionServer::Impl {
     bool keep = false;
     {
       DeadlineStream stream(*c, limits_);
-      const bool last =
-          is_stopping() || c->served + 1 >= limits_.max_requests_per_connection;
+      const bool last = is_stopping() || c->served + 1 >= limits_.max_requests_per_connection;
       bool closed = false;
       t_request_timed_out = false;
       const bool ok = server_.process_request(stream, last, closed, nullptr);
@@ -542,8 +541,8 @@ class ConnectionServer::Impl {
 
   mutable std::mutex mutex_;
   bool stopping_ = true;
-  std::unordered_map<int, ConnectionPtr> idle_;  // watched, between requests
-  std::deque<ConnectionPtr> queue_;              // headers in, waiting for a worker
+  std::unordered_map<int, ConnectionPtr> idle_;         // watched, between requests
+  std::deque<ConnectionPtr> queue_;                     // headers in, waiting for a worker
   std::unordered_map<int, Clock::time_point> closing_;  // refused: drained until then
   std::size_t busy_ = 0;
   std::atomic<std::size_t> open_{0};

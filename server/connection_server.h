@@ -33,10 +33,10 @@ struct ConnectionLimits {
 
 // Connection counts for /metrics.
 struct ConnectionCounts {
-  std::size_t open = 0;    // accepted and not yet closed
-  std::size_t queued = 0;  // headers complete, waiting for a worker
-  std::size_t busy = 0;    // a worker is reading, handling or answering its request
-  std::size_t workers = 0; // worker threads started
+  std::size_t open = 0;     // accepted and not yet closed
+  std::size_t queued = 0;   // headers complete, waiting for a worker
+  std::size_t busy = 0;     // a worker is reading, handling or answering its request
+  std::size_t workers = 0;  // worker threads started
 };
 
 // A complete raw HTTP response (status line, headers, body) the connection layer sends on its
@@ -67,7 +67,6 @@ class ConnectionServer : public httplib::Server {
  private:
   // Called by cpp-httplib's accept loop for each new connection: hands it to the watcher.
   bool process_and_close_socket(socket_t sock) override;
-
 
   std::unique_ptr<Impl> impl_;
   std::shared_ptr<std::atomic<bool>> stop_requested_;

@@ -3,7 +3,6 @@
 // After Eigen (through http_server.h): httplib.h pulls in <resolv.h>, whose `_res` macro breaks
 // Eigen's parameter names.
 #include <httplib.h>
-
 #include <sys/socket.h>
 
 #include <algorithm>
@@ -47,38 +46,36 @@ bool send_file(const std::filesystem::path& path, const std::string& content_typ
   std::error_code ec;
   const auto size = std::filesystem::file_size(path, ec);
   if (!*in || ec) return false;
-  res.set_content_provider(
-      static_cast<std::size_t>(size), content_type,
-      [in](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
-        constexpr std::size_t kPiece = 1 << 20;
-        std::vector<char> buf(std::min(length, kPiece));
-        in->seekg(static_cast<std::streamoff>(offset));
-        in->read(buf.data(), static_cast<std::streamsize>(buf.size()));
-        const auto got = static_cast<std::size_t>(in->gcount());
-        if (got == 0) return false;
-        sink.write(buf.data(), got);
-        return true;
-      });
+  res.set_content_provider(static_cast<std::size_t>(size), content_type,
+                           [in](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+                             constexpr std::size_t kPiece = 1 << 20;
+                             std::vector<char> buf(std::min(length, kPiece));
+                             in->seekg(static_cast<std::streamoff>(offset));
+                             in->read(buf.data(), static_cast<std::streamsize>(buf.size()));
+                             const auto got = static_cast<std::size_t>(in->gcount());
+                             if (got == 0) return false;
+                             sink.write(buf.data(), got);
+                             return true;
+                           });
   return true;
 }
 
 // A body produced in pieces (Response::stream), sent chunked as it is produced.
 void send_stream(const std::function<bool(std::string&)>& stream, const std::string& content_type,
                  httplib::Response& res) {
-  res.set_chunked_content_provider(
-      content_type, [stream](std::size_t, httplib::DataSink& sink) {
-        std::string piece;
-        bool more = false;
-        try {
-          more = stream(piece);
-        } catch (const std::exception& e) {  // the status is sent: all we can do is cut it short
-          log(LogLevel::kError, "streamed answer failed", {{"error", e.what()}});
-          return false;
-        }
-        if (!piece.empty() && !sink.write(piece.data(), piece.size())) return false;
-        if (!more) sink.done();
-        return true;
-      });
+  res.set_chunked_content_provider(content_type, [stream](std::size_t, httplib::DataSink& sink) {
+    std::string piece;
+    bool more = false;
+    try {
+      more = stream(piece);
+    } catch (const std::exception& e) {  // the status is sent: all we can do is cut it short
+      log(LogLevel::kError, "streamed answer failed", {{"error", e.what()}});
+      return false;
+    }
+    if (!piece.empty() && !sink.write(piece.data(), piece.size())) return false;
+    if (!more) sink.done();
+    return true;
+  });
 }
 
 void set_error_body(httplib::Response& res, const Response& r) {
@@ -186,8 +183,7 @@ HttpServer::HttpServer(Service& service) : service_(service) {
     res.status = r.status;
     for (const auto& [k, v] : r.headers) res.set_header(k, v);
     if (r.file) {
-      if (!send_file(*r.file, r.content_type.empty() ? "application/json" : r.content_type,
-                     res)) {
+      if (!send_file(*r.file, r.content_type.empty() ? "application/json" : r.content_type, res)) {
         log(LogLevel::kError, "result file unreadable", {{"file", r.file->string()}});
         set_error_body(res, error_response(500, "internal", "a result file cannot be read"));
       }
@@ -241,36 +237,36 @@ HttpServer::HttpServer(Service& service) : service_(service) {
 
   // Errors cpp-httplib answers itself (413 before the body is read, 400 for a malformed request
   // line) get the same JSON body as every other error.
-  s.set_error_handler(httplib::Server::HandlerWithResponse([this](const httplib::Request& req,
-                                                                  httplib::Response& res) {
-    // A body already there, or a refusal of ours (Connection: close, its body streamed).
-    if (!res.body.empty() || res.has_header("Connection"))
-      return httplib::Server::HandlerResponse::Unhandled;
-    Response r;
-    if (ConnectionServer::request_timed_out()) {
-      r = error_response(408, "request_timeout",
-                         "the request's body did not arrive within " +
-                             format_double(service_.config().request_timeout_s) +
-                             " s of its first byte");
-      res.set_header("Connection", "close");
-    } else if (res.status == 413) {
-      r = error_response(413, "payload_too_large",
-                         "the request body is larger than this daemon accepts (" +
-                             std::to_string(service_.config().max_body_bytes) + " bytes)");
-    } else if (res.status >= 500) {
-      r = error_response(res.status, "internal", "internal error");
-    } else {
-      r = error_response(res.status, res.status == 404 ? "not_found" : "bad_request",
-                         std::string("the request could not be handled (HTTP ") +
-                             std::to_string(res.status) + ")");
-    }
-    res.status = r.status;
-    res.set_content(r.body, r.content_type);
-    service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
-    log(LogLevel::kInfo, "request refused",
-        {{"method", req.method}, {"path", req.path}, {"status", std::to_string(res.status)}});
-    return httplib::Server::HandlerResponse::Handled;
-  }));
+  s.set_error_handler(httplib::Server::HandlerWithResponse(
+      [this](const httplib::Request& req, httplib::Response& res) {
+        // A body already there, or a refusal of ours (Connection: close, its body streamed).
+        if (!res.body.empty() || res.has_header("Connection"))
+          return httplib::Server::HandlerResponse::Unhandled;
+        Response r;
+        if (ConnectionServer::request_timed_out()) {
+          r = error_response(408, "request_timeout",
+                             "the request's body did not arrive within " +
+                                 format_double(service_.config().request_timeout_s) +
+                                 " s of its first byte");
+          res.set_header("Connection", "close");
+        } else if (res.status == 413) {
+          r = error_response(413, "payload_too_large",
+                             "the request body is larger than this daemon accepts (" +
+                                 std::to_string(service_.config().max_body_bytes) + " bytes)");
+        } else if (res.status >= 500) {
+          r = error_response(res.status, "internal", "internal error");
+        } else {
+          r = error_response(res.status, res.status == 404 ? "not_found" : "bad_request",
+                             std::string("the request could not be handled (HTTP ") +
+                                 std::to_string(res.status) + ")");
+        }
+        res.status = r.status;
+        res.set_content(r.body, r.content_type);
+        service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
+        log(LogLevel::kInfo, "request refused",
+            {{"method", req.method}, {"path", req.path}, {"status", std::to_string(res.status)}});
+        return httplib::Server::HandlerResponse::Handled;
+      }));
   s.set_exception_handler(
       [this](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
         std::string what = "unknown exception";

@@ -70,8 +70,8 @@ std::string Metrics::render(const Gauges& g) const {
   o << "# HELP fragsimd_sites Sites held in memory.\n# TYPE fragsimd_sites gauge\nfragsimd_sites "
     << g.sites << "\n";
   o << "# HELP fragsimd_uptime_seconds Seconds since the daemon started.\n"
-    << "# TYPE fragsimd_uptime_seconds gauge\nfragsimd_uptime_seconds "
-    << format_double(g.uptime_s) << "\n";
+    << "# TYPE fragsimd_uptime_seconds gauge\nfragsimd_uptime_seconds " << format_double(g.uptime_s)
+    << "\n";
   o << "# HELP fragsimd_http_connections Open client connections.\n"
     << "# TYPE fragsimd_http_connections gauge\nfragsimd_http_connections " << g.connections_open
     << "\n";
@@ -89,8 +89,8 @@ std::string Metrics::render(const Gauges& g) const {
     << "# TYPE fragsimd_http_requests_total counter\n";
   for (const auto& [key, n] : requests_) {
     const auto& [method, route, status] = key;
-    o << "fragsimd_http_requests_total{method=\"" << label(method) << "\",route=\""
-      << label(route) << "\",status=\"" << status << "\"} " << n << "\n";
+    o << "fragsimd_http_requests_total{method=\"" << label(method) << "\",route=\"" << label(route)
+      << "\",status=\"" << status << "\"} " << n << "\n";
   }
   o << "# HELP fragsimd_http_request_duration_seconds Request latency by route.\n"
     << "# TYPE fragsimd_http_request_duration_seconds histogram\n";

@@ -24,8 +24,8 @@ using Clock = std::chrono::steady_clock;
 std::vector<BuildingRow> building_rows(const run::RunResult& r) {
   std::vector<BuildingRow> rows;
   for (const auto& b : r.buildings)
-    rows.push_back({b.id, b.impacts.mean, b.impacts.std_error, b.penetrations.mean,
-                    b.penetrations.std_error});
+    rows.push_back(
+        {b.id, b.impacts.mean, b.impacts.std_error, b.penetrations.mean, b.penetrations.std_error});
   return rows;
 }
 
@@ -39,8 +39,8 @@ void lower_thread_priority(int nice) {
 
 }  // namespace
 
-Scheduler::Scheduler(Store& store, SiteRegistry& sites, std::filesystem::path jobs_dir,
-                     int threads, int job_nice)
+Scheduler::Scheduler(Store& store, SiteRegistry& sites, std::filesystem::path jobs_dir, int threads,
+                     int job_nice)
     : store_(store),
       sites_(sites),
       jobs_dir_(std::move(jobs_dir)),
@@ -148,7 +148,8 @@ void Scheduler::run_job(const JobRow& job) {
     }
   } release{*this};
 
-  log(LogLevel::kInfo, "job started", {{"job_id", id}, {"histories", std::to_string(job.histories_total)}});
+  log(LogLevel::kInfo, "job started",
+      {{"job_id", id}, {"histories", std::to_string(job.histories_total)}});
   try {
     std::shared_ptr<const SiteEntry> entry;
     const api::SiteResolver resolve = [&](const std::string& site_id) -> const nlohmann::json* {
@@ -219,8 +220,7 @@ void Scheduler::run_job(const JobRow& job) {
       const std::lock_guard<std::mutex> lock(mutex_);
       completed_ += result.histories_done;
     }
-    const double wall =
-        std::chrono::duration<double>(Clock::now() - started).count();
+    const double wall = std::chrono::duration<double>(Clock::now() - started).count();
     log(LogLevel::kInfo, "job done",
         {{"job_id", id},
          {"wall_s", format_double(wall)},

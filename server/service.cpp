@@ -19,8 +19,8 @@
 #include "api/site_document.h"
 #include "fragsim/version.h"
 #include "server/log.h"
-#include "server/utf8.h"
 #include "server/openapi_text.h"
+#include "server/utf8.h"
 
 namespace fragsim::server {
 
@@ -101,10 +101,10 @@ std::optional<Response> check_json_content_type(const Request& req) {
   if (const auto semi = type.find(';'); semi != std::string::npos) type.resize(semi);
   while (!type.empty() && type.back() == ' ') type.pop_back();
   if (type != kJsonType)
-    return error_response(415, "unsupported_media_type",
-                          "the body must be sent with Content-Type: application/json" +
-                              (type.empty() ? std::string(" (none given)")
-                                            : " (got " + type + ")"));
+    return error_response(
+        415, "unsupported_media_type",
+        "the body must be sent with Content-Type: application/json" +
+            (type.empty() ? std::string(" (none given)") : " (got " + type + ")"));
   return std::nullopt;
 }
 
@@ -206,7 +206,8 @@ bool Service::authorised(const Request& req) const {
   if (it == req.headers.end()) return false;
   const std::string& h = it->second;
   constexpr std::string_view kBearer = "bearer ";
-  if (h.size() <= kBearer.size() || ascii_lower(h.substr(0, kBearer.size())) != kBearer) return false;
+  if (h.size() <= kBearer.size() || ascii_lower(h.substr(0, kBearer.size())) != kBearer)
+    return false;
   const std::string token = h.substr(kBearer.size());
   bool ok = false;
   for (const auto& t : tokens_) ok = same_token(token, t) || ok;  // no early exit
@@ -283,9 +284,9 @@ Response Service::handle(const Request& req) {
     if (std::find(route.methods.begin(), route.methods.end(), method) == route.methods.end()) {
       std::string allow;
       for (const char* m : route.methods) allow += (allow.empty() ? "" : ", ") + std::string(m);
-      Response r = error_response(405, "method_not_allowed",
-                                  req.method + " is not allowed on " + route.pattern +
-                                      " (allowed: " + allow + ")");
+      Response r = error_response(
+          405, "method_not_allowed",
+          req.method + " is not allowed on " + route.pattern + " (allowed: " + allow + ")");
       r.headers.emplace_back("Allow", allow);
       r.route = route.pattern;
       return r;
@@ -337,35 +338,24 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
   }
   if (bad) return *bad;
   switch (route.id) {
-    case RouteId::kHealth:
-      return health();
-    case RouteId::kOpenapi:
-      return openapi();
-    case RouteId::kMetrics:
-      return metrics_page();
-    case RouteId::kSites:
-      return get ? list_sites() : post_site(req);
+    case RouteId::kHealth: return health();
+    case RouteId::kOpenapi: return openapi();
+    case RouteId::kMetrics: return metrics_page();
+    case RouteId::kSites: return get ? list_sites() : post_site(req);
     case RouteId::kSite:
       if (!api::is_site_id(id)) return error_response(404, "not_found", "no site " + id);
       return get ? get_site(id) : delete_site(id);
-    case RouteId::kJobs:
-      return get ? list_jobs(req) : post_job(req);
-    default:
-      break;
+    case RouteId::kJobs: return get ? list_jobs(req) : post_job(req);
+    default: break;
   }
   if (!api::is_job_id(id)) return error_response(404, "not_found", "no job " + id);
   if (route.id == RouteId::kJobPtn) return job_ptn(req, id);
   switch (route.id) {
-    case RouteId::kJob:
-      return get ? get_job(id) : delete_job(id, owner_of(req));
-    case RouteId::kJobSummary:
-      return job_summary(id);
-    case RouteId::kJobBuildings:
-      return job_buildings(id);
-    case RouteId::kJobResults:
-      return job_results_h5(id);
-    default:
-      return error_response(404, "not_found", "no route " + req.path);
+    case RouteId::kJob: return get ? get_job(id) : delete_job(id, owner_of(req));
+    case RouteId::kJobSummary: return job_summary(id);
+    case RouteId::kJobBuildings: return job_buildings(id);
+    case RouteId::kJobResults: return job_results_h5(id);
+    default: return error_response(404, "not_found", "no route " + req.path);
   }
 }
 
@@ -499,9 +489,9 @@ OJson Service::job_json(const JobRow& row) {
   j["histories_per_s"] = rate;
   j["eta_s"] = eta;
   j["attempts"] = row.attempts;
-  j["error"] = row.error_code ? OJson{{"code", *row.error_code},
-                                      {"message", row.error_message.value_or("")}}
-                              : OJson(nullptr);
+  j["error"] = row.error_code
+                   ? OJson{{"code", *row.error_code}, {"message", row.error_message.value_or("")}}
+                   : OJson(nullptr);
   const std::string self = "/v1/jobs/" + row.job_id;
   j["links"] = {{"self", self},
                 {"summary", self + "/summary"},
@@ -523,10 +513,10 @@ Response Service::post_job(const Request& req) {
   };
   const api::JobRequest jr = api::parse_job_request(body, resolve);
   if (jr.total_samples > config_.max_samples_per_job)
-    throw LimitError("fragment_groups",
-                     "the job asks for " + std::to_string(jr.total_samples) +
-                         " samples in all; this daemon allows at most " +
-                         std::to_string(config_.max_samples_per_job) + " (--max-samples-per-job)");
+    throw LimitError("fragment_groups", "the job asks for " + std::to_string(jr.total_samples) +
+                                            " samples in all; this daemon allows at most " +
+                                            std::to_string(config_.max_samples_per_job) +
+                                            " (--max-samples-per-job)");
   // An inline site gets the full geometry check now, not when the job runs.
   if (!jr.document.site_id) (void)api::validate_scenario(jr.document.scenario);
 
@@ -558,8 +548,8 @@ Response Service::post_job(const Request& req) {
     if (inserted.job.request_sha256 != row.request_sha256)
       return error_response(409, "conflict",
                             "idempotency_key \"" + *row.idempotency_key +
-                                "\" was used for a different request (job " +
-                                inserted.job.job_id + ")",
+                                "\" was used for a different request (job " + inserted.job.job_id +
+                                ")",
                             "idempotency_key");
     Response r = json_response(200, job_json(inserted.job));
     r.headers.emplace_back("Location", "/v1/jobs/" + inserted.job.job_id);
@@ -583,15 +573,16 @@ Response Service::list_jobs(const Request& req) {
   if (const auto it = req.query.find("state"); it != req.query.end()) {
     state = parse_job_state(it->second);
     if (!state)
-      return error_response(400, "bad_parameter",
-                            "must be queued, running, done, failed or cancelled (got \"" +
-                                it->second + "\")",
-                            "state");
+      return error_response(
+          400, "bad_parameter",
+          "must be queued, running, done, failed or cancelled (got \"" + it->second + "\")",
+          "state");
   }
   if (const auto it = req.query.find("limit"); it != req.query.end()) {
     const std::string& v = it->second;
-    const bool digits = !v.empty() && v.size() <= 4 &&
-                        std::all_of(v.begin(), v.end(), [](char c) { return c >= '0' && c <= '9'; });
+    const bool digits = !v.empty() && v.size() <= 4 && std::all_of(v.begin(), v.end(), [](char c) {
+      return c >= '0' && c <= '9';
+    });
     limit = digits ? std::stoi(v) : 0;
     if (limit < 1 || limit > 1000)
       return error_response(400, "bad_parameter", "must be an integer in [1, 1000]", "limit");
@@ -671,8 +662,7 @@ Response Service::job_ptn(const Request& req, const std::string& id) {
   std::optional<double> min_density;
   if (const auto it = req.query.find("min_density_per_m2"); it != req.query.end()) {
     if (!geojson)
-      return error_response(400, "bad_parameter", "only with format=geojson",
-                            "min_density_per_m2");
+      return error_response(400, "bad_parameter", "only with format=geojson", "min_density_per_m2");
     std::size_t used = 0;
     double v = 0.0;
     try {

@@ -41,7 +41,7 @@ struct Response {
   // Or produce the body in pieces: each call appends the next piece to its argument and returns
   // false after the last (sent with chunked transfer encoding; memory stays at one piece).
   std::function<bool(std::string&)> stream;
-  std::string route = "unmatched";            // the matched pattern, for metrics and logs
+  std::string route = "unmatched";  // the matched pattern, for metrics and logs
 };
 
 // Header names and media types compare case-insensitively.

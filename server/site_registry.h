@@ -19,8 +19,8 @@ namespace fragsim::server {
 struct SiteEntry {
   std::string site_id;
   std::string created_utc;
-  nlohmann::json normalised;          // the site JSON a scenario's "site" would hold
-  nlohmann::ordered_json summary;     // SiteSummary without jobs_using
+  nlohmann::json normalised;       // the site JSON a scenario's "site" would hold
+  nlohmann::ordered_json summary;  // SiteSummary without jobs_using
   std::shared_ptr<const scene::Site> site;
 };
 

@@ -86,12 +86,10 @@ class Store::Statement {
  public:
   // Prepared once per SQL text and kept (store.statements_): preparing was a fifth of the time
   // of a status request. With the store's mutex held.
-  Statement(Store& store, const std::string& sql, const char* what)
-      : db_(store.db_), what_(what) {
+  Statement(Store& store, const std::string& sql, const char* what) : db_(store.db_), what_(what) {
     auto& cached = store.statements_[sql];
-    if (!cached &&
-        sqlite3_prepare_v3(db_, sql.c_str(), -1, SQLITE_PREPARE_PERSISTENT, &cached, nullptr) !=
-            SQLITE_OK) {
+    if (!cached && sqlite3_prepare_v3(db_, sql.c_str(), -1, SQLITE_PREPARE_PERSISTENT, &cached,
+                                      nullptr) != SQLITE_OK) {
       store.statements_.erase(sql);
       fail();
     }
@@ -384,8 +382,7 @@ bool Store::mark_running(const std::string& job_id, const std::string& started_u
 
 void Store::update_progress(const std::string& job_id, std::int64_t histories_done) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  Statement s(*this,
-              "UPDATE jobs SET histories_done = ?2 WHERE job_id = ?1 AND state = 'running'",
+  Statement s(*this, "UPDATE jobs SET histories_done = ?2 WHERE job_id = ?1 AND state = 'running'",
               "job progress");
   s.bind(1, job_id).bind(2, histories_done).run();
 }
@@ -443,8 +440,7 @@ std::optional<JobState> Store::cancel(const std::string& job_id, const std::stri
     if (!q.step()) return std::nullopt;
     const JobState before = parse_job_state(q.text(0)).value_or(JobState::kFailed);
     if (!is_final(before)) {
-      Statement s(*this,
-                  "UPDATE jobs SET state = 'cancelled', finished_utc = ?2 WHERE job_id = ?1",
+      Statement s(*this, "UPDATE jobs SET state = 'cancelled', finished_utc = ?2 WHERE job_id = ?1",
                   "cancel job");
       s.bind(1, job_id).bind(2, finished_utc).run();
     }

@@ -3,8 +3,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
-#include <limits>
 #include <cstdint>
+#include <limits>
 
 namespace fragsim {
 

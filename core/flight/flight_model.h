@@ -14,9 +14,7 @@ class DragCoefficient {
  public:
   DragCoefficient() = default;
   explicit DragCoefficient(const fragments::CdSpec& spec);
-  double at_mach(double mach) const {
-    return mach_.empty() ? constant_ : from_table(mach);
-  }
+  double at_mach(double mach) const { return mach_.empty() ? constant_ : from_table(mach); }
   bool is_constant() const { return mach_.empty(); }
 
  private:

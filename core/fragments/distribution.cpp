@@ -221,10 +221,8 @@ double normal_quantile(double p) {
 
 double Distribution::sample(double u, double phys_lo, double phys_hi) const {
   switch (kind) {
-    case Kind::kFixed:
-      return value;
-    case Kind::kUniform:
-      return min + u * (max - min);
+    case Kind::kFixed: return value;
+    case Kind::kUniform: return min + u * (max - min);
     case Kind::kNormal: {
       const Interval r = truncation(*this, phys_lo, phys_hi);
       const Interval z = standard_bounds(*this, r);

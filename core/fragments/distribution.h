@@ -20,15 +20,15 @@ inline constexpr double kMinTruncatedMass = 1e-12;
 struct Distribution {
   enum class Kind { kFixed, kUniform, kNormal, kLognormal, kTable };
   Kind kind = Kind::kFixed;
-  double value = 0.0;     // fixed
-  double min = 0.0;       // uniform; normal/lognormal/table: lower truncation (if has_min)
-  double max = 0.0;       // uniform; normal/lognormal/table: upper truncation (if has_max)
-  bool has_min = false;   // normal/lognormal/table: an explicit truncation bound was given
+  double value = 0.0;    // fixed
+  double min = 0.0;      // uniform; normal/lognormal/table: lower truncation (if has_min)
+  double max = 0.0;      // uniform; normal/lognormal/table: upper truncation (if has_max)
+  bool has_min = false;  // normal/lognormal/table: an explicit truncation bound was given
   bool has_max = false;
-  double mean = 0.0;      // normal
-  double sigma = 0.0;     // normal: standard deviation (> 0)
-  double median = 0.0;    // lognormal: exp(mu) (> 0)
-  double sigma_ln = 0.0;  // lognormal: standard deviation of ln X (> 0)
+  double mean = 0.0;                 // normal
+  double sigma = 0.0;                // normal: standard deviation (> 0)
+  double median = 0.0;               // lognormal: exp(mu) (> 0)
+  double sigma_ln = 0.0;             // lognormal: standard deviation of ln X (> 0)
   std::vector<double> table_values;  // table: strictly increasing values x_k
   std::vector<double> table_cdf;     // table: CDF at x_k, nondecreasing from 0 to 1
 

@@ -21,16 +21,16 @@ const char* shape_type_name(ShapeType s);
 // needs the group's area_m2.
 struct ShapeSpec {
   ShapeType type = ShapeType::kSphere;
-  std::vector<double> dims_m;          // empty or as above
+  std::vector<double> dims_m;  // empty or as above
   std::optional<double> density_kg_m3;
-  std::vector<double> aspect;          // relative proportions, same layout as dims_m
+  std::vector<double> aspect;  // relative proportions, same layout as dims_m
 };
 
 struct FrameSpec {
-  Vec3 origin_m{0, 0, 0};  // input (site) coordinates
-  double yaw_deg = 0.0;    // about +z, from +x toward +y
-  double pitch_deg = 0.0;  // nose (+x) up
-  double roll_deg = 0.0;   // about the body x axis
+  Vec3 origin_m{0, 0, 0};      // input (site) coordinates
+  double yaw_deg = 0.0;        // about +z, from +x toward +y
+  double pitch_deg = 0.0;      // nose (+x) up
+  double roll_deg = 0.0;       // about the body x axis
   Vec3 velocity_mps{0, 0, 0};  // frame velocity (site coordinates), added to every fragment
 };
 

@@ -17,9 +17,9 @@ enum Slot : std::uint32_t {
   kSlotOrientation = 3,  // k=0,1 and kSlotOrientation2 k=0: uniform random rotation (not read
                          // when the group fixes its attitude)
   kSlotOrientation2 = 4,
-  kSlotSpin = 5,         // k=0 magnitude
-  kSlotSpinAxis = 6,     // k=0,1 axis on the sphere (body frame)
-  kSlotFirstFree = 16,   // later issues (bounce) use slots from here
+  kSlotSpin = 5,        // k=0 magnitude
+  kSlotSpinAxis = 6,    // k=0,1 axis on the sphere (body frame)
+  kSlotFirstFree = 16,  // later issues (bounce) use slots from here
 };
 
 // Physical ranges sample_fragment passes to Distribution::sample (validate the group's
@@ -40,9 +40,9 @@ inline constexpr PhysRange kSpinRange{0.0, 1e5};
 // Mass properties of a rigid body of uniform density (body frame = principal axes).
 struct MassProperties {
   double mass_kg = 0.0;
-  Vec3 dims_m{0, 0, 0};       // resolved dims (layout as ShapeSpec::dims_m, unused entries 0)
-  Vec3 inertia_kg_m2{0, 0, 0};  // principal moments about body x, y, z
-  double surface_m2 = 0.0;    // total surface area (0 for point)
+  Vec3 dims_m{0, 0, 0};            // resolved dims (layout as ShapeSpec::dims_m, unused entries 0)
+  Vec3 inertia_kg_m2{0, 0, 0};     // principal moments about body x, y, z
+  double surface_m2 = 0.0;         // total surface area (0 for point)
   double presented_area_m2 = 0.0;  // tumble-averaged: surface / 4 (Cauchy), or the override
 };
 

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <string>
 
-#include "core/common/error.h"
 #include "core/common/elliptic.h"
+#include "core/common/error.h"
 #include "core/fragments/sampling.h"
 
 namespace fragsim::fragments {
@@ -14,16 +14,11 @@ namespace {
 // Number of entries of dims_m / aspect for each shape (layout in group.h).
 std::size_t dims_count(ShapeType s) {
   switch (s) {
-    case ShapeType::kSphere:
-      return 1;
-    case ShapeType::kCuboid:
-      return 3;
-    case ShapeType::kEllipsoid:
-      return 3;
-    case ShapeType::kCylinder:
-      return 2;
-    case ShapeType::kPoint:
-      return 0;
+    case ShapeType::kSphere: return 1;
+    case ShapeType::kCuboid: return 3;
+    case ShapeType::kEllipsoid: return 3;
+    case ShapeType::kCylinder: return 2;
+    case ShapeType::kPoint: return 0;
   }
   return 0;
 }
@@ -31,16 +26,11 @@ std::size_t dims_count(ShapeType s) {
 // Volume of the solid with dimensions d (layout in group.h).
 double volume(ShapeType s, const Vec3& d) {
   switch (s) {
-    case ShapeType::kSphere:
-      return kPi / 6.0 * d[0] * d[0] * d[0];
-    case ShapeType::kCuboid:
-      return d[0] * d[1] * d[2];
-    case ShapeType::kEllipsoid:
-      return kPi / 6.0 * d[0] * d[1] * d[2];  // 4/3 pi (a/2)(b/2)(c/2)
-    case ShapeType::kCylinder:
-      return kPi / 4.0 * d[0] * d[0] * d[1];
-    case ShapeType::kPoint:
-      return 0.0;
+    case ShapeType::kSphere: return kPi / 6.0 * d[0] * d[0] * d[0];
+    case ShapeType::kCuboid: return d[0] * d[1] * d[2];
+    case ShapeType::kEllipsoid: return kPi / 6.0 * d[0] * d[1] * d[2];  // 4/3 pi (a/2)(b/2)(c/2)
+    case ShapeType::kCylinder: return kPi / 4.0 * d[0] * d[0] * d[1];
+    case ShapeType::kPoint: return 0.0;
   }
   return 0.0;
 }
@@ -67,16 +57,11 @@ Vec3 checked_dims(ShapeType s, const std::vector<double>& v, const char* field) 
 
 const char* shape_type_name(ShapeType s) {
   switch (s) {
-    case ShapeType::kSphere:
-      return "sphere";
-    case ShapeType::kCuboid:
-      return "cuboid";
-    case ShapeType::kEllipsoid:
-      return "ellipsoid";
-    case ShapeType::kCylinder:
-      return "cylinder";
-    case ShapeType::kPoint:
-      return "point";
+    case ShapeType::kSphere: return "sphere";
+    case ShapeType::kCuboid: return "cuboid";
+    case ShapeType::kEllipsoid: return "ellipsoid";
+    case ShapeType::kCylinder: return "cylinder";
+    case ShapeType::kPoint: return "point";
   }
   return "unknown";
 }
@@ -156,8 +141,7 @@ MassProperties mass_properties(const ShapeSpec& shape, double mass_kg,
       mp.surface_m2 = 2.0 * kPi * r * (r + len);
       break;
     }
-    case ShapeType::kPoint:
-      break;
+    case ShapeType::kPoint: break;
   }
 
   // Cauchy's surface-area formula: averaged over uniformly random orientations, the projected

@@ -10,13 +10,9 @@ ContactBody contact_body(ShapeType type, const MassProperties& mp) {
   b.type = type;
   b.inertia_kg_m2 = mp.inertia_kg_m2;
   switch (type) {
-    case ShapeType::kSphere:
-      b.half_m.setConstant(0.5 * mp.dims_m[0]);
-      break;
+    case ShapeType::kSphere: b.half_m.setConstant(0.5 * mp.dims_m[0]); break;
     case ShapeType::kCuboid:
-    case ShapeType::kEllipsoid:
-      b.half_m = 0.5 * mp.dims_m;
-      break;
+    case ShapeType::kEllipsoid: b.half_m = 0.5 * mp.dims_m; break;
     case ShapeType::kCylinder:
       b.half_m = Vec3(0.5 * mp.dims_m[0], 0.5 * mp.dims_m[0], 0.5 * mp.dims_m[1]);
       break;
@@ -35,26 +31,20 @@ ContactBody contact_body(ShapeType type, const MassProperties& mp) {
 double body_volume(const ContactBody& b) {
   const Vec3& h = b.half_m;
   switch (b.type) {
-    case ShapeType::kCuboid:
-      return 8.0 * h.x() * h.y() * h.z();
-    case ShapeType::kCylinder:
-      return kPi * h.x() * h.x() * 2.0 * h.z();
+    case ShapeType::kCuboid: return 8.0 * h.x() * h.y() * h.z();
+    case ShapeType::kCylinder: return kPi * h.x() * h.x() * 2.0 * h.z();
     case ShapeType::kSphere:
     case ShapeType::kEllipsoid:
-    case ShapeType::kPoint:
-      break;
+    case ShapeType::kPoint: break;
   }
   return 4.0 / 3.0 * kPi * h.x() * h.y() * h.z();
 }
 
 double bounding_radius(const ContactBody& b) {
   switch (b.type) {
-    case ShapeType::kCuboid:
-      return b.half_m.norm();  // a corner
-    case ShapeType::kCylinder:
-      return std::hypot(b.half_m[0], b.half_m[2]);  // a rim point
-    default:
-      return b.half_m.maxCoeff();  // sphere, ellipsoid
+    case ShapeType::kCuboid: return b.half_m.norm();                         // a corner
+    case ShapeType::kCylinder: return std::hypot(b.half_m[0], b.half_m[2]);  // a rim point
+    default: return b.half_m.maxCoeff();                                     // sphere, ellipsoid
   }
 }
 
@@ -62,16 +52,14 @@ double support_extent(const ContactBody& b, const Quat& q, const Vec3& d) {
   const Vec3 db = q.conjugate() * d;  // direction in body axes
   const Vec3& a = b.half_m;
   switch (b.type) {
-    case ShapeType::kCuboid:
-      return a.cwiseProduct(db).cwiseAbs().sum();
+    case ShapeType::kCuboid: return a.cwiseProduct(db).cwiseAbs().sum();
     case ShapeType::kEllipsoid:
       return a.cwiseProduct(db).norm();  // sqrt(d^T A^2 d), A = diag(semi-axes)
     case ShapeType::kCylinder: {
       const double c = std::clamp(db.z(), -1.0, 1.0);
       return a.z() * std::abs(c) + a.x() * std::sqrt(std::max(0.0, 1.0 - c * c));
     }
-    default:
-      return a.x();
+    default: return a.x();
   }
 }
 

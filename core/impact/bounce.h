@@ -11,9 +11,9 @@ namespace fragsim::impact {
 
 struct TerrainBounce {
   CollisionResult collision;
-  Vec3 r_m{0, 0, 0};           // contact point - centre of mass, site axes
+  Vec3 r_m{0, 0, 0};              // contact point - centre of mass, site axes
   double normal_speed_mps = 0.0;  // approach speed of the contact point along the normal (>= 0)
-  double restitution = 0.0;    // e used
+  double restitution = 0.0;       // e used
 };
 
 // `q` body -> site attitude at contact, `omega_radps` in site axes, `normal` the triangle's unit

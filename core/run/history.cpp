@@ -149,21 +149,13 @@ Phase History::flight_phase() {
       note_first_impact(ev.t, ev.p, ev.v, ev.normal);
       building_hit(ev);
       return Phase::kDone;
-    case FlightEnd::kLeftSite:
-      end_.outcome = Outcome::kLeftSite;
-      return Phase::kDone;
-    case FlightEnd::kMaxTime:
-      end_.outcome = Outcome::kMaxFlightTime;
-      return Phase::kDone;
-    case FlightEnd::kHarmless:
-      end_.outcome = Outcome::kHarmless;
-      return Phase::kDone;
+    case FlightEnd::kLeftSite: end_.outcome = Outcome::kLeftSite; return Phase::kDone;
+    case FlightEnd::kMaxTime: end_.outcome = Outcome::kMaxFlightTime; return Phase::kDone;
+    case FlightEnd::kHarmless: end_.outcome = Outcome::kHarmless; return Phase::kDone;
     case FlightEnd::kIntegrationFailed:
       end_.outcome = Outcome::kIntegrationFailed;
       return Phase::kDone;
-    case FlightEnd::kWorkLimit:
-      end_.outcome = Outcome::kWorkLimit;
-      return Phase::kDone;
+    case FlightEnd::kWorkLimit: end_.outcome = Outcome::kWorkLimit; return Phase::kDone;
     case FlightEnd::kTerrain:
       note_first_impact(ev.t, ev.p, ev.v, ev.normal);
       if (!st_.bounce) return Phase::kDone;  // without bounce the first ground impact ends it

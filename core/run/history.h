@@ -51,12 +51,12 @@ struct RunContext {
   flight::Atmosphere atmosphere;
   std::vector<flight::DragCoefficient> cd;  // per group
   tally::PtnPrisms prisms;
-  double terrain_min_z = 0.0;   // local
-  double terrain_max_z = 0.0;   // local
-  double terrain_min_nz = 1.0;  // smallest z of a terrain triangle's unit normal (> 0)
-  double top_z = 0.0;           // highest point anything can be hit or tallied (local)
-  bool step_min_at_ends = true; // no updraft: a step's lowest point is one of its ends
-  bool still_air = true;        // no wind: drag only removes mechanical energy
+  double terrain_min_z = 0.0;    // local
+  double terrain_max_z = 0.0;    // local
+  double terrain_min_nz = 1.0;   // smallest z of a terrain triangle's unit normal (> 0)
+  double top_z = 0.0;            // highest point anything can be hit or tallied (local)
+  bool step_min_at_ends = true;  // no updraft: a step's lowest point is one of its ends
+  bool still_air = true;         // no wind: drag only removes mechanical energy
   RunContext(const Scenario& sc, const scene::Site& s);
 };
 

@@ -102,14 +102,9 @@ Phase History::after_ground_phase(const impact::GroundResult& r, const GroundTal
     return Phase::kDone;
   }
   switch (r.end) {
-    case impact::GroundEnd::kRest:
-      return Phase::kDone;
-    case impact::GroundEnd::kLeftSite:
-      end_.outcome = Outcome::kLeftSite;
-      return Phase::kDone;
-    case impact::GroundEnd::kMaxTime:
-      end_.outcome = Outcome::kMaxFlightTime;
-      return Phase::kDone;
+    case impact::GroundEnd::kRest: return Phase::kDone;
+    case impact::GroundEnd::kLeftSite: end_.outcome = Outcome::kLeftSite; return Phase::kDone;
+    case impact::GroundEnd::kMaxTime: end_.outcome = Outcome::kMaxFlightTime; return Phase::kDone;
     case impact::GroundEnd::kStoppedByObserver:
       end_.outcome = tally.harmless ? Outcome::kHarmless : Outcome::kGround;
       return Phase::kDone;
@@ -120,11 +115,8 @@ Phase History::after_ground_phase(const impact::GroundResult& r, const GroundTal
       }
       ++out_.stats.ground_step_caps;  // counted in stats; not expected on a valid site
       return Phase::kDone;
-    case impact::GroundEnd::kEmbedded:
-      end_.outcome = Outcome::kEmbedded;
-      return Phase::kDone;
-    case impact::GroundEnd::kTakeOff:
-      break;
+    case impact::GroundEnd::kEmbedded: end_.outcome = Outcome::kEmbedded; return Phase::kDone;
+    case impact::GroundEnd::kTakeOff: break;
   }
   // Off the ground again: a crest taken fast, an edge impact's rebound, or the air lifting it.
   ++takeoffs_;

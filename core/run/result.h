@@ -21,14 +21,14 @@ struct Estimate {
 
 // How a history ended.
 enum class Outcome : std::uint8_t {
-  kGround = 0,           // terrain impact (no bounce) / came to rest on the terrain (bounce)
-  kBuilding = 1,         // stopped by a building (impact; penetrated or not)
-  kMaxFlightTime = 2,    // still flying at max_flight_time_s
-  kLeftSite = 3,         // left the terrain's horizontal extent
-  kStartedInside = 4,    // launched below the terrain or inside a building: not flown
-  kHarmless = 5,  // can never become hazardous and nothing else to tally: tracking stopped
+  kGround = 0,             // terrain impact (no bounce) / came to rest on the terrain (bounce)
+  kBuilding = 1,           // stopped by a building (impact; penetrated or not)
+  kMaxFlightTime = 2,      // still flying at max_flight_time_s
+  kLeftSite = 3,           // left the terrain's horizontal extent
+  kStartedInside = 4,      // launched below the terrain or inside a building: not flown
+  kHarmless = 5,           // can never become hazardous and nothing else to tally: tracking stopped
   kIntegrationFailed = 6,  // step size underflow (counted, never silently dropped)
-  kEmbedded = 7,  // stopped in the ground at an impact too fast and steep to ricochet (bounce)
+  kEmbedded = 7,   // stopped in the ground at an impact too fast and steep to ricochet (bounce)
   kWorkLimit = 8,  // stopped at Settings::max_history_work steps and events (never on real input)
 };
 inline constexpr int kOutcomeCount = 9;
@@ -36,7 +36,7 @@ const char* outcome_name(Outcome o);
 
 struct BuildingResult {
   std::string id;
-  Estimate impacts;      // expected number of real fragments hitting the building
+  Estimate impacts;       // expected number of real fragments hitting the building
   Estimate penetrations;  // expected number penetrating
   std::array<Estimate, scene::kSurfaceTypeCount> impacts_by_surface;
   std::array<Estimate, scene::kSurfaceTypeCount> penetrations_by_surface;
@@ -57,7 +57,7 @@ struct FragmentRecord {
   Vec3 end_position_m{0, 0, 0};  // input coordinates: impact / rest / last position
   Vec3 end_velocity_mps{0, 0, 0};
   // First impact (terrain or building); without bounce it is also where the history ended.
-  double first_impact_time_s = -1.0;  // -1: no impact
+  double first_impact_time_s = -1.0;      // -1: no impact
   Vec3 first_impact_position_m{0, 0, 0};  // input coordinates
   Vec3 first_impact_velocity_mps{0, 0, 0};
   double impact_angle_deg = 0.0;  // first impact: between velocity and surface, 0 = grazing
@@ -66,10 +66,10 @@ struct FragmentRecord {
   std::int32_t surface = -1;      // SurfaceType of the building hit
   bool penetrated = false;
   double residual_ke_j = 0.0;
-  std::uint32_t bounces = 0;        // terrain impacts from flight (impulse model)
+  std::uint32_t bounces = 0;         // terrain impacts from flight (impulse model)
   std::uint32_t ground_impacts = 0;  // impulses at terrain edges while on the ground
-  std::uint32_t takeoffs = 0;       // times it left the ground again (crests, edge rebounds)
-  double ground_path_m = 0.0;       // distance travelled on the ground (all ground phases)
+  std::uint32_t takeoffs = 0;        // times it left the ground again (crests, edge rebounds)
+  double ground_path_m = 0.0;        // distance travelled on the ground (all ground phases)
 };
 
 // What a recorded trajectory point is.
@@ -80,7 +80,7 @@ enum class TrajectoryEvent : std::uint8_t {
   kTakeOff = 3,        // left the ground (a crest, an edge impact's rebound, lifted by the air)
   kGround = 4,         // end of a slide/roll piece
   kBuildingHit = 5,
-  kEnd = 6,            // the history's last point (rest, harmless, ...)
+  kEnd = 6,  // the history's last point (rest, harmless, ...)
 };
 inline constexpr int kTrajectoryEventCount = 7;
 const char* trajectory_event_name(TrajectoryEvent e);
@@ -102,7 +102,7 @@ struct Timing {
   double integration_s = 0.0;
   double geometry_s = 0.0;
   double tally_s = 0.0;
-  double fragments_per_s = 0.0;            // histories per wall second
+  double fragments_per_s = 0.0;  // histories per wall second
   double fragments_per_s_per_thread = 0.0;
 };
 
@@ -110,13 +110,13 @@ struct RunStats {
   std::int64_t rhs_evaluations = 0;
   std::int64_t integrator_steps = 0;
   std::int64_t chords = 0;
-  std::int64_t scene_queries = 0;       // Embree/analytic segment queries actually made
-  std::int64_t chords_skipped = 0;      // chords above everything: no query needed
+  std::int64_t scene_queries = 0;   // Embree/analytic segment queries actually made
+  std::int64_t chords_skipped = 0;  // chords above everything: no query needed
   std::int64_t ptn_triangle_tests = 0;
-  std::int64_t bounces = 0;        // terrain impacts resolved by the impulse model
-  std::int64_t ground_steps = 0;   // ground-phase integrator steps and events
-  std::int64_t ground_impacts = 0;  // impulses at terrain edges on the ground
-  std::int64_t takeoffs = 0;        // ground -> flight
+  std::int64_t bounces = 0;           // terrain impacts resolved by the impulse model
+  std::int64_t ground_steps = 0;      // ground-phase integrator steps and events
+  std::int64_t ground_impacts = 0;    // impulses at terrain edges on the ground
+  std::int64_t takeoffs = 0;          // ground -> flight
   std::int64_t ground_step_caps = 0;  // histories stopped by max_ground_steps (expected 0)
 };
 
@@ -141,7 +141,8 @@ struct RunResult {
   // Indicative band: HFD of the fields (mean - 1 se) and (mean + 1 se).
   double hfd_lower_m = 0.0;
   double hfd_upper_m = 0.0;
-  std::array<double, 36> hfd_by_sector_m{};  // sector k: azimuth [10k, 10k+10) deg from +x toward +y
+  std::array<double, 36>
+      hfd_by_sector_m{};  // sector k: azimuth [10k, 10k+10) deg from +x toward +y
 
   std::vector<BuildingResult> buildings;
 

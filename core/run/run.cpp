@@ -55,7 +55,7 @@ struct ChunkSpec {
 enum BuildingFigure : int {
   kImpacts = 0,
   kPenetrations = 1,
-  kImpactsBySurface = 2,                                         // + surface type
+  kImpactsBySurface = 2,                                                  // + surface type
   kPenetrationsBySurface = kImpactsBySurface + scene::kSurfaceTypeCount,  // + surface type
   kResidualKe = kPenetrationsBySurface + scene::kSurfaceTypeCount,
   kBuildingFigures = kResidualKe + 1,
@@ -136,8 +136,7 @@ class Reducer {
 // Largest horizontal distance from `origin` of a triangle centroid with density >= threshold,
 // overall and per 10-degree sector (azimuth from +x toward +y).
 double hazardous_distance(const scene::Site& site, const std::vector<double>& density,
-                          double threshold, const Vec3& origin,
-                          std::array<double, 36>* by_sector) {
+                          double threshold, const Vec3& origin, std::array<double, 36>* by_sector) {
   double best = 0.0;
   if (by_sector) by_sector->fill(0.0);
   for (std::uint32_t t = 0; t < density.size(); ++t) {
@@ -185,7 +184,8 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
 
   int threads = st.threads > 0 ? st.threads : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::clamp(threads, 1, 1024);
-  threads = static_cast<int>(std::min<std::int64_t>(threads, static_cast<std::int64_t>(chunks.size())));
+  threads =
+      static_cast<int>(std::min<std::int64_t>(threads, static_cast<std::int64_t>(chunks.size())));
   threads = std::max(threads, 1);
 
   Reducer reducer(sc, site);
@@ -224,8 +224,8 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
           stop.store(true);
           return;  // the unfinished chunk is dropped; folded chunks form a clean prefix
         }
-        const bool rec = st.record_trajectories &&
-                         group_offset[cs.group] + h < st.max_recorded_trajectories;
+        const bool rec =
+            st.record_trajectories && group_offset[cs.group] + h < st.max_recorded_trajectories;
         simulate_history(ctx, cs.group, h, rec, scratch, out);
       }
       sequencer.submit(k, std::move(out));
@@ -234,8 +234,7 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
         const std::int64_t now =
             std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t_start).count();
         std::int64_t last = last_report_ns.load();
-        if (now - last >= report_every_ns &&
-            last_report_ns.compare_exchange_strong(last, now)) {
+        if (now - last >= report_every_ns && last_report_ns.compare_exchange_strong(last, now)) {
           control.on_progress({done, total, static_cast<double>(now) * 1e-9});
         }
       }
@@ -264,8 +263,8 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
     }
   }
   if (r.max_ptn_triangle >= 0) {
-    r.max_ptn_location_m =
-        site.to_input(site.terrain_triangle_centroid(static_cast<std::uint32_t>(r.max_ptn_triangle)));
+    r.max_ptn_location_m = site.to_input(
+        site.terrain_triangle_centroid(static_cast<std::uint32_t>(r.max_ptn_triangle)));
   }
 
   const Vec3 hfd_origin_input =

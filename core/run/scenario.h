@@ -15,14 +15,14 @@ namespace fragsim::run {
 
 struct Settings {
   std::uint64_t seed = 1;
-  double person_height_m = 1.8;        // H_r of the PTN prisms (paper eq. 37)
-  double hazardous_ke_j = 79.0;        // 58 ft-lb (DDESB TP-16 / DoD 6055.09-M hazardous fragment)
+  double person_height_m = 1.8;  // H_r of the PTN prisms (paper eq. 37)
+  double hazardous_ke_j = 79.0;  // 58 ft-lb (DDESB TP-16 / DoD 6055.09-M hazardous fragment)
   double hfd_threshold_per_m2 = 1.0 / 55.74;  // 1 hazardous fragment per 600 ft^2
-  std::optional<Vec3> hfd_origin_m;    // input coordinates; default: first group's frame origin
+  std::optional<Vec3> hfd_origin_m;  // input coordinates; default: first group's frame origin
   double max_flight_time_s = 120.0;
-  double rtol = 1e-6;                  // integrator.rtol
-  double sagitta_m = 0.05;             // integrator.sagitta_m: chord sagitta tolerance
-  bool bounce = false;                 // ground impact ends the history when false
+  double rtol = 1e-6;       // integrator.rtol
+  double sagitta_m = 0.05;  // integrator.sagitta_m: chord sagitta tolerance
+  bool bounce = false;      // ground impact ends the history when false
   // Bounce limits (settings.bounce_limits): after a bounce whose centre-of-mass rebound speed
   // along the normal is below the floor, or after max_bounces, the fragment slides or rolls.
   double min_rebound_speed_mps = 0.5;  // hop height v^2 / 2g = 1.3 cm
@@ -33,7 +33,7 @@ struct Settings {
   bool record_fragments = false;       // per-history table in results.h5
   bool record_trajectories = false;    // sampled trajectory points in results.h5
   std::int64_t max_recorded_trajectories = 1000;
-  bool profile = false;                // time split integration / geometry / tally (costs a bit)
+  bool profile = false;  // time split integration / geometry / tally (costs a bit)
   // Stop tracking a fragment that provably can neither be hazardous again nor reach a building
   // (outcome `harmless`, docs/architecture.md). Not a scenario key: it never changes a tally,
   // only outcomes and cost, and tests compare runs with and without it.

@@ -70,7 +70,8 @@ double lowest_terrain_under(const Site& site, const std::vector<Vec2>& poly) {
       for (const double s : {s0, s1}) {
         const Vec2 x = a + s * (b - a);
         // Plane of the triangle: n . (X - v0) = 0 solved for z.
-        const double z = v0.z() - (nrm.x() * (x.x() - v0.x()) + nrm.y() * (x.y() - v0.y())) / nrm.z();
+        const double z =
+            v0.z() - (nrm.x() * (x.x() - v0.x()) + nrm.y() * (x.y() - v0.y())) / nrm.z();
         zmin = std::min(zmin, z);
       }
     });
@@ -105,7 +106,8 @@ double lowest_terrain_under(const Site& site, const std::vector<Vec2>& poly) {
 BuildingMesh extrude_footprint(const Site& site, const BuildingSpec& spec, const std::string& b) {
   const std::string ff = b + ".footprint_m";
   detail::require_positive(spec.height_m, b + ".height_m");
-  if (spec.base_elevation_m) detail::require_finite(*spec.base_elevation_m, b + ".base_elevation_m");
+  if (spec.base_elevation_m)
+    detail::require_finite(*spec.base_elevation_m, b + ".base_elevation_m");
   std::vector<Vec2> poly;
   poly.reserve(spec.footprint_m.size());
   const Vec3& o = site.local_origin();
@@ -124,8 +126,7 @@ BuildingMesh extrude_footprint(const Site& site, const BuildingSpec& spec, const
     base = *spec.base_elevation_m - o.z();
   } else {
     base = lowest_terrain_under(site, poly);
-    if (!std::isfinite(base))
-      fail(ff, "footprint lies outside the terrain; give base_elevation_m");
+    if (!std::isfinite(base)) fail(ff, "footprint lies outside the terrain; give base_elevation_m");
   }
   const double top = base + spec.height_m;
 
@@ -149,7 +150,8 @@ BuildingMesh extrude_footprint(const Site& site, const BuildingSpec& spec, const
     mesh.triangles.push_back({{k, n + k1, n + k}, SurfaceType::kWall});
   }
   // Roof: the ear-clipped triangles are counter-clockwise from above, normal +z (outward).
-  for (const auto& t : roof) mesh.triangles.push_back({{n + t[0], n + t[1], n + t[2]}, SurfaceType::kRoof});
+  for (const auto& t : roof)
+    mesh.triangles.push_back({{n + t[0], n + t[1], n + t[2]}, SurfaceType::kRoof});
   // Floor: the same triangulation reversed (normal -z), closing the mesh so that ray parity
   // (inside_building) is well defined. It rests on or in the ground, so no fragment reaches it
   // from outside; it is tagged as wall (wall material) and kept out of the exposed areas.
@@ -163,8 +165,8 @@ BuildingMesh explicit_mesh(const Site& site, const BuildingSpec& spec, const std
   const std::string f = b + ".mesh";
   detail::validate_mesh(in, f, f, "empty building mesh");
   if (in.surface.size() != in.triangles.size())
-    fail(f + ".surface", "has " + std::to_string(in.surface.size()) + " entries; triangles: " +
-                             std::to_string(in.triangles.size()));
+    fail(f + ".surface", "has " + std::to_string(in.surface.size()) +
+                             " entries; triangles: " + std::to_string(in.triangles.size()));
   for (std::size_t t = 0; t < in.surface.size(); ++t) {
     const auto s = static_cast<int>(in.surface[t]);
     if (in.surface[t] == SurfaceType::kTerrain || s < 0 || s >= kSurfaceTypeCount)
@@ -190,7 +192,8 @@ BuildingMesh explicit_mesh(const Site& site, const BuildingSpec& spec, const std
   }
   for (std::size_t t = 0; t < in.triangles.size(); ++t) {
     Tri tri{};
-    for (std::size_t k = 0; k < 3; ++k) tri.v[k] = remap[static_cast<std::size_t>(in.triangles[t][k])];
+    for (std::size_t k = 0; k < 3; ++k)
+      tri.v[k] = remap[static_cast<std::size_t>(in.triangles[t][k])];
     tri.surface = in.surface[t];
     mesh.triangles.push_back(tri);
   }
@@ -224,7 +227,8 @@ BuildingMesh explicit_mesh(const Site& site, const BuildingSpec& spec, const std
                   " triangles");
     if (edges[k].forward == edges[k + 1].forward)
       fail(f, "inconsistent winding: triangles " + std::to_string(edges[k].tri) + " and " +
-                  std::to_string(edges[k + 1].tri) + " run along " + edge + " in the same direction");
+                  std::to_string(edges[k + 1].tri) + " run along " + edge +
+                  " in the same direction");
     k = m;
   }
   // Orientation from the enclosed volume (divergence theorem: V = sum a.(b x c) / 6 over
@@ -261,8 +265,8 @@ void SiteBuilder::build_buildings(Site& site, const SiteSpec& spec, const Materi
     const std::string b = indexed("site.buildings", bi);
     if (bs.id.empty()) fail(b + ".id", "missing id");
     if (const auto [it, fresh] = seen.emplace(bs.id, bi); !fresh)
-      fail(b + ".id", "duplicate id \"" + bs.id + "\" (also " + indexed("site.buildings", it->second) +
-                          ")");
+      fail(b + ".id",
+           "duplicate id \"" + bs.id + "\" (also " + indexed("site.buildings", it->second) + ")");
     if (bs.mesh && !bs.footprint_m.empty()) fail(b, "give either footprint_m or mesh, not both");
 
     const BuildingMesh mesh = bs.mesh ? explicit_mesh(site, bs, b) : extrude_footprint(site, bs, b);
@@ -271,8 +275,9 @@ void SiteBuilder::build_buildings(Site& site, const SiteSpec& spec, const Materi
     bool used[kSurfaceTypeCount] = {};
     for (const Tri& t : mesh.triangles) used[static_cast<int>(t.surface)] = true;
     std::uint16_t material[kSurfaceTypeCount] = {};
-    const std::pair<SurfaceType, const std::string*> names[] = {
-        {SurfaceType::kWall, &bs.wall}, {SurfaceType::kRoof, &bs.roof}, {SurfaceType::kWindow, &bs.window}};
+    const std::pair<SurfaceType, const std::string*> names[] = {{SurfaceType::kWall, &bs.wall},
+                                                                {SurfaceType::kRoof, &bs.roof},
+                                                                {SurfaceType::kWindow, &bs.window}};
     for (const auto& [type, name] : names) {
       const int s = static_cast<int>(type);
       const std::string field = b + "." + surface_type_name(type);

@@ -90,7 +90,9 @@ void attach_triangles(RTCDeviceTy* device, RTCSceneTy* scene, unsigned id,
   rtcReleaseGeometry(geom);  // the scene holds its own reference
 }
 
-void commit(RTCSceneTy* scene) { rtcCommitScene(scene); }
+void commit(RTCSceneTy* scene) {
+  rtcCommitScene(scene);
+}
 
 void release(RTCDeviceTy* device, RTCSceneTy* scene) {
   if (scene) rtcReleaseScene(scene);

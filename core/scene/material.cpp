@@ -10,14 +10,10 @@ namespace fragsim::scene {
 
 const char* surface_type_name(SurfaceType s) {
   switch (s) {
-    case SurfaceType::kTerrain:
-      return "terrain";
-    case SurfaceType::kWall:
-      return "wall";
-    case SurfaceType::kRoof:
-      return "roof";
-    case SurfaceType::kWindow:
-      return "window";
+    case SurfaceType::kTerrain: return "terrain";
+    case SurfaceType::kWall: return "wall";
+    case SurfaceType::kRoof: return "roof";
+    case SurfaceType::kWindow: return "window";
   }
   return "unknown";
 }

@@ -9,7 +9,8 @@ double signed_area(const std::vector<Vec2>& poly) {
   // Shoelace about the first vertex: the products then involve coordinate differences, which
   // keeps the sum accurate when the polygon sits far from the coordinate origin.
   double twice = 0.0;
-  for (std::size_t k = 1; k + 1 < poly.size(); ++k) twice += orient2d(poly[0], poly[k], poly[k + 1]);
+  for (std::size_t k = 1; k + 1 < poly.size(); ++k)
+    twice += orient2d(poly[0], poly[k], poly[k + 1]);
   return 0.5 * twice;
 }
 
@@ -21,7 +22,9 @@ bool within_box(const Vec2& a, const Vec2& b, const Vec2& p) {
          std::min(a.y(), b.y()) <= p.y() && p.y() <= std::max(a.y(), b.y());
 }
 
-int sign(double v) { return (v > 0) - (v < 0); }
+int sign(double v) {
+  return (v > 0) - (v < 0);
+}
 
 }  // namespace
 

@@ -74,7 +74,9 @@ bool Site::below_terrain(const Vec3& p) const {
   return terrain_height(p.x(), p.y()) - p.z() > kBelowTolerance_m;  // false for NaN
 }
 
-Site::~Site() { embree::release(device_, scene_); }
+Site::~Site() {
+  embree::release(device_, scene_);
+}
 
 std::string Site::embree_error() const {
   return embree_log_ ? embree_log_->first_message() : std::string();
@@ -167,8 +169,8 @@ std::optional<SceneHit> Site::intersect_embree(const Vec3& org, const Vec3& dir,
   // and Embree wants tnear >= 0); the far end is rounded outward so the float interval covers
   // [tnear, t_limit].
   const Vec3 start = org + tnear * dir;
-  const float span = std::nextafter(static_cast<float>(t_limit - tnear),
-                                    std::numeric_limits<float>::infinity());
+  const float span =
+      std::nextafter(static_cast<float>(t_limit - tnear), std::numeric_limits<float>::infinity());
   embree::RayHit rh;
   if (!embree::intersect1(scene_, start, dir, 0.0f, span, mask, rh)) return best;
 
@@ -200,8 +202,8 @@ std::optional<SceneHit> Site::intersect_embree(const Vec3& org, const Vec3& dir,
   return best;
 }
 
-std::optional<SceneHit> Site::intersect(const Vec3& org, const Vec3& dir, double tnear,
-                                        double tfar, unsigned mask) const {
+std::optional<SceneHit> Site::intersect(const Vec3& org, const Vec3& dir, double tnear, double tfar,
+                                        unsigned mask) const {
   std::optional<SceneHit> best = intersect_embree(org, dir, tnear, tfar, mask);
   if (!(mask & kQueryTerrain) || terrain_is_plane_ || terrain_geom_ == ~0u) return best;
   if (!(tnear <= tfar) || !org.allFinite() || !dir.allFinite() || dir.squaredNorm() == 0.0)

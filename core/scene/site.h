@@ -41,8 +41,8 @@ struct Material {
 
 struct Building {
   std::string id;
-  Box3 bounds;                        // local coordinates
-  std::uint32_t first_triangle = 0;   // range in Site::building_triangles()
+  Box3 bounds;                       // local coordinates
+  std::uint32_t first_triangle = 0;  // range in Site::building_triangles()
   std::uint32_t triangle_count = 0;
   std::array<double, kSurfaceTypeCount> surface_area_m2{};  // by SurfaceType, exposed surface only
   // Footprint buildings end their triangle range with a floor (tagged kWall, wall material) that
@@ -133,7 +133,9 @@ class Site {
   }
   std::size_t terrain_triangle_count() const { return terrain_triangles_.size(); }
   double terrain_triangle_area(std::uint32_t t) const { return terrain_area_[t]; }
-  const Vec3& terrain_triangle_normal(std::uint32_t t) const { return terrain_facet_[t].normal; }  // up
+  const Vec3& terrain_triangle_normal(std::uint32_t t) const {
+    return terrain_facet_[t].normal;
+  }  // up
   Vec3 terrain_triangle_centroid(std::uint32_t t) const;
   bool terrain_is_plane() const { return terrain_is_plane_; }
   double plane_elevation() const { return plane_elevation_; }  // local z, when terrain_is_plane()
@@ -243,8 +245,8 @@ class Site {
   std::vector<double> terrain_area_;
   // Per triangle, together (the ground walk reads both at every triangle it enters).
   struct alignas(64) TerrainFacet {
-    Vec3 normal{0, 0, 1};             // unit, upward
-    std::array<double, 3> plane{};    // z = [0] x + [1] y + [2]
+    Vec3 normal{0, 0, 1};           // unit, upward
+    std::array<double, 3> plane{};  // z = [0] x + [1] y + [2]
   };
   std::vector<TerrainFacet> terrain_facet_;
   bool terrain_is_plane_ = false;

@@ -23,7 +23,9 @@ void validate_origin(const SiteOrigin& o) {
 
 }  // namespace
 
-std::shared_ptr<const Site> Site::build(const SiteSpec& spec) { return SiteBuilder::build(spec); }
+std::shared_ptr<const Site> Site::build(const SiteSpec& spec) {
+  return SiteBuilder::build(spec);
+}
 
 std::shared_ptr<const Site> SiteBuilder::build(const SiteSpec& spec) {
   std::unique_ptr<Site> site(new Site());  // ~Site releases whatever Embree objects exist

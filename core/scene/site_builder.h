@@ -31,6 +31,7 @@ class SiteBuilder {
 };
 
 // Looks up a material name; throws InputError(field, "unknown material ...") if absent.
-std::uint16_t material_id(const MaterialIds& ids, const std::string& name, const std::string& field);
+std::uint16_t material_id(const MaterialIds& ids, const std::string& name,
+                          const std::string& field);
 
 }  // namespace fragsim::scene

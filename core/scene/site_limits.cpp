@@ -54,7 +54,9 @@ void check_mesh_span(const MeshSpec& m, const std::string& field) {
     for (const std::int64_t v : tri) {
       if (v < 0 || v >= nv) continue;
       for (int k = 0; k < 2; ++k) {
-        const auto at = [&](std::int64_t i) { return m.vertices_m[static_cast<std::size_t>(i)][k]; };
+        const auto at = [&](std::int64_t i) {
+          return m.vertices_m[static_cast<std::size_t>(i)][k];
+        };
         if (lo[k] < 0 || at(v) < at(lo[k])) lo[k] = v;
         if (hi[k] < 0 || at(v) > at(hi[k])) hi[k] = v;
       }
@@ -89,8 +91,8 @@ void check_terrain(const TerrainSpec& terrain) {
       // (n - 1) spacing; a bad spacing or count is reported by the terrain builder.
       const double span = grid->spacing_m * static_cast<double>(n[k] - 1);
       if (std::isfinite(grid->spacing_m) && n[k] >= 2 && span > kMaxTerrainExtent_m)
-        fail(f + ".spacing_m", too_wide(span, k) + " ((n" + (k == 0 ? "x" : "y") +
-                                   " - 1) * spacing_m)");
+        fail(f + ".spacing_m",
+             too_wide(span, k) + " ((n" + (k == 0 ? "x" : "y") + " - 1) * spacing_m)");
     }
   } else {
     const auto& mesh = std::get<MeshSpec>(terrain.geometry);
@@ -136,8 +138,8 @@ void check_buildings(const std::vector<BuildingSpec>& buildings) {
     check_building(buildings[k], field);
     triangles += building_triangles(buildings[k]);
     if (triangles > kMaxBuildingTriangles)
-      fail(field, "brings the building triangles to " + std::to_string(triangles) +
-                      "; at most " + std::to_string(kMaxBuildingTriangles) + " in all");
+      fail(field, "brings the building triangles to " + std::to_string(triangles) + "; at most " +
+                      std::to_string(kMaxBuildingTriangles) + " in all");
   }
 }
 

@@ -88,7 +88,7 @@ struct BuildingSpec {
   std::string id;
   // Footprint form (used when `mesh` is empty):
   std::vector<std::array<double, 2>> footprint_m;  // simple polygon, either orientation
-  double height_m = 0.0;                            // above the base
+  double height_m = 0.0;                           // above the base
   std::optional<double> base_elevation_m;  // default: lowest terrain height under the footprint
   // Explicit form:
   std::optional<MeshSpec> mesh;

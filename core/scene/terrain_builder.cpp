@@ -20,7 +20,9 @@ constexpr double kMaxTerrainCells = 33554432.0;
 
 // Whole metres: the local origin only has to be near the terrain, and a round number keeps
 // local <-> input conversions exact for inputs given to the millimetre or coarser.
-Vec3 round_origin(const Vec3& p) { return Vec3(std::round(p.x()), std::round(p.y()), std::round(p.z())); }
+Vec3 round_origin(const Vec3& p) {
+  return Vec3(std::round(p.x()), std::round(p.y()), std::round(p.z()));
+}
 
 // A rectilinear vertex lattice xs x ys with heights z(i, j), two triangles per cell split along
 // the (i, j)-(i+1, j+1) diagonal, both counter-clockwise seen from above (normals up):
@@ -84,7 +86,8 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
     site.local_origin_ =
         round_origin(Vec3(0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]), plane->elevation_m));
     const Vec3& o = site.local_origin_;
-    std::vector<double> xs(static_cast<std::size_t>(ncx) + 1), ys(static_cast<std::size_t>(ncy) + 1);
+    std::vector<double> xs(static_cast<std::size_t>(ncx) + 1),
+        ys(static_cast<std::size_t>(ncy) + 1);
     // Subtract the origin first, then subdivide: local coordinates carry no UTM-sized rounding.
     const double x0 = e[0] - o.x(), x1 = e[2] - o.x(), y0 = e[1] - o.y(), y1 = e[3] - o.y();
     for (int i = 0; i <= ncx; ++i) xs[i] = i == ncx ? x1 : x0 + (x1 - x0) * i / ncx;
@@ -92,8 +95,9 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
     site.terrain_is_plane_ = true;
     site.plane_elevation_ = plane->elevation_m - o.z();
     const double zl = site.plane_elevation_;
-    mesh_lattice(xs, ys, [zl](std::size_t, std::size_t) { return zl; }, site.terrain_vertices_,
-                 site.terrain_triangles_);
+    mesh_lattice(
+        xs, ys, [zl](std::size_t, std::size_t) { return zl; }, site.terrain_vertices_,
+        site.terrain_triangles_);
     grid_origin = Vec2(x0, y0);
     cell_size = Vec2((x1 - x0) / ncx, (y1 - y0) / ncy);
   } else if (const auto* grid = std::get_if<GridTerrainSpec>(&terrain.geometry)) {
@@ -104,7 +108,8 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
     if (grid->ny < 2) fail(f + ".ny", "must be at least 2 (got " + std::to_string(grid->ny) + ")");
     if (static_cast<double>(grid->nx - 1) * static_cast<double>(grid->ny - 1) > kMaxTerrainCells)
       fail(f, "too many cells (more than 2^25)");
-    const std::size_t nvx = static_cast<std::size_t>(grid->nx), nvy = static_cast<std::size_t>(grid->ny);
+    const std::size_t nvx = static_cast<std::size_t>(grid->nx),
+                      nvy = static_cast<std::size_t>(grid->ny);
     if (grid->elevation_m.size() != nvx * nvy)
       fail(f + ".elevation_m", "has " + std::to_string(grid->elevation_m.size()) +
                                    " values; nx * ny = " + std::to_string(nvx * nvy));
@@ -114,16 +119,17 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
       zmin = std::min(zmin, grid->elevation_m[k]);
     }
     const double s = grid->spacing_m;
-    site.local_origin_ = round_origin(Vec3(grid->origin_m[0] + 0.5 * s * static_cast<double>(nvx - 1),
-                                           grid->origin_m[1] + 0.5 * s * static_cast<double>(nvy - 1),
-                                           zmin));
+    site.local_origin_ =
+        round_origin(Vec3(grid->origin_m[0] + 0.5 * s * static_cast<double>(nvx - 1),
+                          grid->origin_m[1] + 0.5 * s * static_cast<double>(nvy - 1), zmin));
     const Vec3& o = site.local_origin_;
     const double x0 = grid->origin_m[0] - o.x(), y0 = grid->origin_m[1] - o.y();
     std::vector<double> xs(nvx), ys(nvy);
     for (std::size_t i = 0; i < nvx; ++i) xs[i] = x0 + s * static_cast<double>(i);
     for (std::size_t j = 0; j < nvy; ++j) ys[j] = y0 + s * static_cast<double>(j);
     mesh_lattice(
-        xs, ys, [&](std::size_t i, std::size_t j) { return grid->elevation_m[j * nvx + i] - o.z(); },
+        xs, ys,
+        [&](std::size_t i, std::size_t j) { return grid->elevation_m[j * nvx + i] - o.z(); },
         site.terrain_vertices_, site.terrain_triangles_);
     ncx = grid->nx - 1;
     ncy = grid->ny - 1;
@@ -137,8 +143,8 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
     Box3 box;
     for (const auto& t : mesh.triangles)
       for (const auto v : t) box.extend(mesh.vertices_m[v]);
-    site.local_origin_ = round_origin(Vec3(0.5 * (box.lo.x() + box.hi.x()),
-                                           0.5 * (box.lo.y() + box.hi.y()), box.lo.z()));
+    site.local_origin_ = round_origin(
+        Vec3(0.5 * (box.lo.x() + box.hi.x()), 0.5 * (box.lo.y() + box.hi.y()), box.lo.z()));
     site.terrain_vertices_.resize(mesh.vertices_m.size());
     for (std::size_t v = 0; v < mesh.vertices_m.size(); ++v)
       site.terrain_vertices_[v] = mesh.vertices_m[v] - site.local_origin_;
@@ -174,7 +180,7 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
     site.terrain_facet_[t].normal = n / len;
     // Plane z = gx x + gy y + gz through the triangle (n_z > 0: not vertical).
     site.terrain_facet_[t].plane = {-n.x() / n.z(), -n.y() / n.z(),
-                              a.z() + (n.x() * a.x() + n.y() * a.y()) / n.z()};
+                                    a.z() + (n.x() * a.x() + n.y() * a.y()) / n.z()};
     site.terrain_bounds_.extend(a);
     site.terrain_bounds_.extend(b);
     site.terrain_bounds_.extend(c);

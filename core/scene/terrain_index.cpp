@@ -153,9 +153,9 @@ double mean_bucket_occupancy(const TerrainIndex2D& index) {
   std::size_t non_empty = 0;
   for (std::size_t b = 0; b + 1 < index.start.size(); ++b)
     if (index.start[b + 1] > index.start[b]) ++non_empty;
-  return non_empty == 0 ? 0.0
-                        : static_cast<double>(index.triangles.size()) /
-                              static_cast<double>(non_empty);
+  return non_empty == 0
+             ? 0.0
+             : static_cast<double>(index.triangles.size()) / static_cast<double>(non_empty);
 }
 
 }  // namespace fragsim::scene::detail

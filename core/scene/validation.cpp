@@ -15,26 +15,24 @@ std::string indexed(const std::string& base, std::size_t i) {
 }
 
 std::string material_field(const std::string& name) {
-  const bool identifier =
-      !name.empty() && std::all_of(name.begin(), name.end(), [](char ch) {
-        return std::isalnum(static_cast<unsigned char>(ch)) != 0 || ch == '_' || ch == '-';
-      });
+  const bool identifier = !name.empty() && std::all_of(name.begin(), name.end(), [](char ch) {
+    return std::isalnum(static_cast<unsigned char>(ch)) != 0 || ch == '_' || ch == '-';
+  });
   return identifier ? "site.materials." + name : "site.materials[\"" + name + "\"]";
 }
 
 std::string terrain_form_field(const TerrainSpec& terrain) {
   // The scenario nests the form under its name: {"terrain": {"grid": {...}, "material": ...}}.
   switch (terrain.geometry.index()) {
-    case 0:
-      return "site.terrain.plane";
-    case 1:
-      return "site.terrain.grid";
-    default:
-      return "site.terrain.mesh";
+    case 0: return "site.terrain.plane";
+    case 1: return "site.terrain.grid";
+    default: return "site.terrain.mesh";
   }
 }
 
-void fail(const std::string& field, const std::string& message) { throw InputError(field, message); }
+void fail(const std::string& field, const std::string& message) {
+  throw InputError(field, message);
+}
 
 void require_finite(double v, const std::string& field) {
   if (!std::isfinite(v)) fail(field, "not finite");
@@ -123,8 +121,8 @@ void validate_simple_polygon(const std::vector<Vec2>& poly, const std::string& f
     const Vec2& c = poly[(k + 2) % n];
     if (orient2d(a, b, c) == 0.0 && (b - a).dot(c - b) < 0.0) {
       const std::size_t e0 = k, e1 = (k + 1) % n;
-      fail(field, "self-crossing polygon (" + edge_name(std::min(e0, e1), std::max(e0, e1)) +
-                      " overlap)");
+      fail(field,
+           "self-crossing polygon (" + edge_name(std::min(e0, e1), std::max(e0, e1)) + " overlap)");
     }
   }
   // Non-adjacent edges must not meet at all. O(n^2): footprints have tens to hundreds of vertices.

@@ -25,8 +25,8 @@ PtnPrisms::PtnPrisms(const scene::Site& site, double person_height_m) : h_(perso
     pr.gz = p0.z() - pr.gx * p0.x() - pr.gy * p0.y();
     // Counter-clockwise order in xy so that (dy, -dx) of each edge points outward.
     const bool ccw = cross.z() >= 0;
-    const std::array<Vec3, 3> q = ccw ? std::array<Vec3, 3>{p0, p1, p2}
-                                      : std::array<Vec3, 3>{p0, p2, p1};
+    const std::array<Vec3, 3> q =
+        ccw ? std::array<Vec3, 3>{p0, p1, p2} : std::array<Vec3, 3>{p0, p2, p1};
     for (int k = 0; k < 3; ++k) {
       const Vec3& u = q[k];
       const Vec3& w = q[(k + 1) % 3];
@@ -55,7 +55,8 @@ bool PtnPrisms::clip(std::uint32_t triangle, const Vec3& a, const Vec3& b, doubl
   double lo = 0.0, hi = 1.0;
   // Liang-Barsky/Cyrus-Beck against the three side half-planes.
   for (int k = 0; k < 3; ++k) {
-    const double num = pr.edge_c[k] - (pr.edge_normal[k].x() * a.x() + pr.edge_normal[k].y() * a.y());
+    const double num =
+        pr.edge_c[k] - (pr.edge_normal[k].x() * a.x() + pr.edge_normal[k].y() * a.y());
     const double den = pr.edge_normal[k].x() * d.x() + pr.edge_normal[k].y() * d.y();
     if (den == 0.0) {
       if (num < 0.0) return false;  // parallel and outside

@@ -53,7 +53,7 @@ class StratifiedEstimator {
   }
 
  private:
-  std::vector<double> s_, q_;      // current group
+  std::vector<double> s_, q_;       // current group
   std::vector<double> mean_, var_;  // closed groups
 };
 

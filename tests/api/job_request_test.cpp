@@ -81,8 +81,8 @@ TEST(JobRequest, PriorityWithinRangeIsAccepted) {
 }
 
 TEST(JobRequest, PriorityOutOfRangeOrWrongTypeNamesPriority) {
-  for (const Json& bad : {Json(1001), Json(-1001), Json(1.5), Json("high"), Json(nullptr),
-                          Json(true)}) {
+  for (const Json& bad :
+       {Json(1001), Json(-1001), Json(1.5), Json("high"), Json(nullptr), Json(true)}) {
     Json body = minimal_example();
     body["priority"] = bad;
     EXPECT_EQ(request_error(body).first, "priority") << bad.dump();

@@ -1,8 +1,8 @@
 // Atomic output directories: files appear only at commit; failures leave nothing behind.
 #include "api/output_dir.h"
 
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <fstream>
@@ -17,9 +17,7 @@ namespace fs = std::filesystem;
 
 class OutputDirTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    root_ = testing::fresh_test_dir("fragsim_outdir_test_");
-  }
+  void SetUp() override { root_ = testing::fresh_test_dir("fragsim_outdir_test_"); }
   void TearDown() override { fs::remove_all(root_); }
 
   static std::vector<std::string> entries(const fs::path& dir) {
@@ -78,8 +76,8 @@ TEST_F(OutputDirTest, LeftoversOfAKilledRunWithTheSameProcessIdDoNotBlock) {
 TEST_F(OutputDirTest, StaleTemporariesAreRemovedAndNothingElse) {
   const fs::path dir = root_ / "job";
   fs::create_directories(dir / ".sub.tmp.dir");
-  for (const char* name : {".summary.json.tmp.1.0", ".results.h5.tmp.9f3a.2", "summary.json",
-                           ".hidden", "x.tmp.1"})
+  for (const char* name :
+       {".summary.json.tmp.1.0", ".results.h5.tmp.9f3a.2", "summary.json", ".hidden", "x.tmp.1"})
     std::ofstream(dir / name) << "x";
   EXPECT_EQ(remove_stale_temporaries(dir), 2u);
   EXPECT_EQ(entries(dir),

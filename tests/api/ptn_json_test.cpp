@@ -8,8 +8,8 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
-#include <memory>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 
 #include "api/output_dir.h"
@@ -80,8 +80,8 @@ class PtnJson : public ::testing::Test {
  protected:
   // One run per suite: the tests only read its files.
   static void SetUpTestSuite() {
-    const fs::path base = fs::temp_directory_path() /
-                          ("fragsim_ptn_test_" + std::to_string(::getpid()));
+    const fs::path base =
+        fs::temp_directory_path() / ("fragsim_ptn_test_" + std::to_string(::getpid()));
     fs::remove_all(base);
     with_origin_ = run_to_files(small_scenario(true), base / "origin").release();
     without_origin_ = run_to_files(small_scenario(false), base / "no_origin").release();
@@ -230,8 +230,8 @@ TEST_F(PtnJson, MinDensityKeepsExactlyTheTrianglesAtOrAboveIt) {
 TEST_F(PtnJson, MinDensityZeroKeepsAllAndAboveTheMaximumKeepsNone) {
   const RunFiles& f = run_a();
   EXPECT_EQ(geojson(f, 0.0)["features"].size(), f.site->terrain_triangle_count());
-  const double max = *std::max_element(f.result.ptn_density_per_m2.begin(),
-                                       f.result.ptn_density_per_m2.end());
+  const double max =
+      *std::max_element(f.result.ptn_density_per_m2.begin(), f.result.ptn_density_per_m2.end());
   const Json none = geojson(f, std::nextafter(max, 1e300));
   ASSERT_TRUE(none["features"].is_array());
   EXPECT_TRUE(none["features"].empty());

@@ -531,11 +531,14 @@ TEST(ScenarioJson, Embedment) {
   EXPECT_EQ(parse_error(with(minimal_example(), at, {{"model", "johnson_reid_1975"}})),
             (FieldMessage{"site.materials.soil.embedment.bulk_density_kg_m3", "is required"}));
   EXPECT_EQ(parse_error(with(minimal_example(), at,
-                             {{"model", "johnson_reid_1975"}, {"bulk_density_kg_m3", -5}})).first,
+                             {{"model", "johnson_reid_1975"}, {"bulk_density_kg_m3", -5}}))
+                .first,
             "site.materials.soil.embedment.bulk_density_kg_m3");
   EXPECT_EQ(parse_error(with(minimal_example(), at,
-                             {{"model", "johnson_reid_1975"}, {"bulk_density_kg_m3", 1700},
-                              {"min_speed_mps", -1}})).first,
+                             {{"model", "johnson_reid_1975"},
+                              {"bulk_density_kg_m3", 1700},
+                              {"min_speed_mps", -1}}))
+                .first,
             "site.materials.soil.embedment.min_speed_mps");
 }
 

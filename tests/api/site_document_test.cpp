@@ -73,7 +73,8 @@ TEST(SiteDocument, NormalisedIsWhatAScenarioSiteHolds) {
 }
 
 TEST(SiteDocument, SameSiteWithKeysInAnotherOrderAndOtherWhitespaceHasTheSameId) {
-  const std::string a = R"({"terrain": {"plane": {"elevation_m": 0, "extent_m": [-100, -100, 100, 100],
+  const std::string a =
+      R"({"terrain": {"plane": {"elevation_m": 0, "extent_m": [-100, -100, 100, 100],
       "cell_m": 10}, "material": "soil"}, "materials": {"soil": {"friction": 0.9,
       "restitution": 0.2}}})";
   const std::string b =
@@ -214,10 +215,10 @@ TEST(SiteDocument, BuildingOutsideTheTerrainIsSiteRelative) {
 TEST(SiteDocument, TerrainMeshErrorIsSiteRelative) {
   Json site = minimal_site();
   site["buildings"] = Json::array();
-  site["terrain"] = {{"mesh",
-                      {{"vertices_m", {{0, 0, 0}, {100, 0, 0}, {100, 100, 0}}},
-                       {"triangles", {{0, 1, 7}}}}},
-                     {"material", "soil"}};
+  site["terrain"] = {
+      {"mesh",
+       {{"vertices_m", {{0, 0, 0}, {100, 0, 0}, {100, 100, 0}}}, {"triangles", {{0, 1, 7}}}}},
+      {"material", "soil"}};
   const FieldMessage e = build_error(site);
   EXPECT_EQ(e.first.rfind("terrain.mesh.triangles[0]", 0), 0u) << e.first << ": " << e.second;
 

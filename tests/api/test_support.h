@@ -30,9 +30,9 @@ inline std::string read_text(const std::filesystem::path& path) {
 // in its name, so parallel test processes never share one). Removed first if a crashed run left it.
 inline std::filesystem::path fresh_test_dir(const std::string& prefix) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() /
-                       (prefix + std::to_string(::getpid()) + "_" +
-                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  const fs::path dir =
+      fs::temp_directory_path() / (prefix + std::to_string(::getpid()) + "_" +
+                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;

@@ -45,9 +45,7 @@ struct CliResult {
 
 class Cli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fragsim::api::testing::fresh_test_dir("fragsim_cli_test_");
-  }
+  void SetUp() override { dir_ = fragsim::api::testing::fresh_test_dir("fragsim_cli_test_"); }
   void TearDown() override { fs::remove_all(dir_); }
 
   // Starts the CLI with stdout/stderr going to files in the test directory.

@@ -81,12 +81,32 @@ TEST(ConfigCommandLine, Defaults) {
 }
 
 TEST(ConfigCommandLine, EveryFlag) {
-  const Invocation inv = parse_command_line(
-      {"--listen", "0.0.0.0:9090", "--data-dir", "/var/lib/fragsimd", "--threads", "4",
-       "--http-threads", "8", "--token-file", "/etc/fragsimd/tokens", "--max-body-bytes", "2048",
-       "--max-samples-per-job", "5000", "--max-sites", "7", "--max-queued-jobs", "9",
-       "--request-timeout-s", "2.5", "--port-file", "/tmp/port", "--log-level", "debug",
-       "--max-crashes", "5"});
+  const Invocation inv = parse_command_line({"--listen",
+                                             "0.0.0.0:9090",
+                                             "--data-dir",
+                                             "/var/lib/fragsimd",
+                                             "--threads",
+                                             "4",
+                                             "--http-threads",
+                                             "8",
+                                             "--token-file",
+                                             "/etc/fragsimd/tokens",
+                                             "--max-body-bytes",
+                                             "2048",
+                                             "--max-samples-per-job",
+                                             "5000",
+                                             "--max-sites",
+                                             "7",
+                                             "--max-queued-jobs",
+                                             "9",
+                                             "--request-timeout-s",
+                                             "2.5",
+                                             "--port-file",
+                                             "/tmp/port",
+                                             "--log-level",
+                                             "debug",
+                                             "--max-crashes",
+                                             "5"});
   const Config& c = inv.config;
   EXPECT_EQ(c.listen_host, "0.0.0.0");
   EXPECT_EQ(c.listen_port, 9090);
@@ -134,8 +154,8 @@ TEST(ConfigCommandLine, ListenForms) {
 }
 
 TEST(ConfigCommandLine, BadListenNamesTheFlag) {
-  for (const char* bad : {"localhost", ":8080", "127.0.0.1:", "127.0.0.1:65536",
-                          "127.0.0.1:-1", "127.0.0.1:http", "127.0.0.1:80x", "[::1]"}) {
+  for (const char* bad : {"localhost", ":8080", "127.0.0.1:", "127.0.0.1:65536", "127.0.0.1:-1",
+                          "127.0.0.1:http", "127.0.0.1:80x", "[::1]"}) {
     const std::string e = command_line_error({"--listen", bad});
     EXPECT_TRUE(starts_with(e, "--listen: ")) << bad << " -> " << e;
   }
@@ -175,8 +195,7 @@ TEST(ConfigCommandLine, RangeBoundsAreAccepted) {
   EXPECT_EQ(parse_command_line({"--threads", "1024"}).config.threads, 1024);
   EXPECT_EQ(parse_command_line({"--http-threads", "1"}).config.http_threads, 1);
   EXPECT_EQ(parse_command_line({"--max-body-bytes", "1024"}).config.max_body_bytes, 1024);
-  EXPECT_EQ(parse_command_line({"--request-timeout-s", "86400"}).config.request_timeout_s,
-            86400.0);
+  EXPECT_EQ(parse_command_line({"--request-timeout-s", "86400"}).config.request_timeout_s, 86400.0);
   EXPECT_EQ(parse_command_line({"--max-crashes", "1"}).config.max_crashes, 1);
   for (const char* level : {"debug", "info", "warn", "error"})
     EXPECT_EQ(parse_command_line({"--log-level", level}).config.log_level, level);
@@ -192,11 +211,10 @@ TEST(ConfigCommandLine, MissingValueAndUnknownFlag) {
 
 TEST(ConfigCommandLine, UsageMentionsEveryFlag) {
   const std::string usage = usage_text();
-  for (const char* flag :
-       {"--config", "--listen", "--data-dir", "--threads", "--http-threads", "--token-file",
-        "--no-auth", "--max-body-bytes", "--max-samples-per-job", "--max-sites",
-        "--max-queued-jobs", "--request-timeout-s", "--port-file", "--max-crashes",
-        "--log-level", "--version", "--help"})
+  for (const char* flag : {"--config", "--listen", "--data-dir", "--threads", "--http-threads",
+                           "--token-file", "--no-auth", "--max-body-bytes", "--max-samples-per-job",
+                           "--max-sites", "--max-queued-jobs", "--request-timeout-s", "--port-file",
+                           "--max-crashes", "--log-level", "--version", "--help"})
     EXPECT_NE(usage.find(flag), std::string::npos) << flag;
 }
 
@@ -265,11 +283,20 @@ TEST_F(ConfigFile, UnknownKeyWithSuggestion) {
 
 TEST_F(ConfigFile, BadValuesNameTheKey) {
   const std::vector<std::pair<std::string, std::string>> bad = {
-      {"threads", R"("4")"},          {"threads", "-1"},         {"http_threads", "0"},
-      {"auth", R"("no")"},            {"max_body_bytes", "10"},  {"max_sites", "0"},
-      {"request_timeout_s", "0"},     {"log_level", R"("loud")"}, {"max_crashes", "0"},
-      {"listen", R"("nowhere")"},     {"listen", "8080"},        {"data_dir", "1"},
-      {"max_samples_per_job", "1.5"}, {"token_file", "null"},
+      {"threads", R"("4")"},
+      {"threads", "-1"},
+      {"http_threads", "0"},
+      {"auth", R"("no")"},
+      {"max_body_bytes", "10"},
+      {"max_sites", "0"},
+      {"request_timeout_s", "0"},
+      {"log_level", R"("loud")"},
+      {"max_crashes", "0"},
+      {"listen", R"("nowhere")"},
+      {"listen", "8080"},
+      {"data_dir", "1"},
+      {"max_samples_per_job", "1.5"},
+      {"token_file", "null"},
   };
   for (const auto& [key, value] : bad) {
     const std::string e = file_error("{\"" + key + "\": " + value + "}");
@@ -289,10 +316,9 @@ TEST_F(ConfigFile, NotAnObjectOrNotJson) {
 TEST_F(ConfigFile, FlagsOverrideTheFileWhateverTheOrder) {
   const std::string path = write("c.json", R"({"threads": 7, "max_sites": 11, "listen":
       "10.0.0.1:1234", "auth": false, "log_level": "error"})");
-  for (const Args& args :
-       {Args{"--config", path, "--threads", "3", "--listen", "127.0.0.1:99"},
-        Args{"--threads", "3", "--listen", "127.0.0.1:99", "--config", path},
-        Args{"--threads", "3", "--config", path, "--listen", "127.0.0.1:99"}}) {
+  for (const Args& args : {Args{"--config", path, "--threads", "3", "--listen", "127.0.0.1:99"},
+                           Args{"--threads", "3", "--listen", "127.0.0.1:99", "--config", path},
+                           Args{"--threads", "3", "--config", path, "--listen", "127.0.0.1:99"}}) {
     const Config c = parse_command_line(args).config;
     EXPECT_EQ(c.threads, 3);
     EXPECT_EQ(c.listen_host, "127.0.0.1");

@@ -32,8 +32,9 @@ class LoopbackServer {
   explicit LoopbackServer(ConnectionLimits limits)
       : server_(limits, [](int status) {
           const std::string body = "{\"status\":" + std::to_string(status) + "}";
-          return "HTTP/1.1 " + std::to_string(status) + " Refused\r\nContent-Length: " +
-                 std::to_string(body.size()) + "\r\nConnection: close\r\n\r\n" + body;
+          return "HTTP/1.1 " + std::to_string(status) +
+                 " Refused\r\nContent-Length: " + std::to_string(body.size()) +
+                 "\r\nConnection: close\r\n\r\n" + body;
         }) {
     server_.Get("/hello", [](const httplib::Request&, httplib::Response& res) {
       res.set_content("hello", "text/plain");
@@ -177,7 +178,8 @@ TEST(ConnectionServer, ABodyTricklingInIsCutAtTheTotalDeadline) {
   LoopbackServer s(l);
   Socket c(s.port());
   const auto t0 = Clock::now();
-  c.send("POST /echo HTTP/1.1\r\nHost: t\r\nContent-Type: text/plain\r\nContent-Length: 100\r\n\r\n");
+  c.send(
+      "POST /echo HTTP/1.1\r\nHost: t\r\nContent-Type: text/plain\r\nContent-Length: 100\r\n\r\n");
   for (int n = 0; n < 60 && c.send("x"); ++n)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   c.read_all();

@@ -61,7 +61,8 @@ inline int run_process(const std::vector<std::string>& argv, const fs::path& log
 
 class Daemon {
  public:
-  // `extra`: more fragsimd flags. `dir` holds the data directory, the token file, the port file and the log.
+  // `extra`: more fragsimd flags. `dir` holds the data directory, the token file, the port file and
+  // the log.
   explicit Daemon(fs::path dir, std::vector<std::string> extra = {})
       : dir_(std::move(dir)), extra_(std::move(extra)) {
     // A server that answers before reading a whole body (413, 411) closes the connection under
@@ -81,18 +82,18 @@ class Daemon {
       (void)f;
       std::vector<std::string> argv = wrapper_;
       const std::vector<std::string> daemon = {FRAGSIMD,
-                                       "--listen",
-                                       "127.0.0.1:0",
-                                       "--data-dir",
-                                       (dir_ / "data").string(),
-                                       "--token-file",
-                                       (dir_ / "tokens").string(),
-                                       "--port-file",
-                                       (dir_ / "port").string(),
-                                       "--threads",
-                                       "2",
-                                       "--log-level",
-                                       "debug"};
+                                               "--listen",
+                                               "127.0.0.1:0",
+                                               "--data-dir",
+                                               (dir_ / "data").string(),
+                                               "--token-file",
+                                               (dir_ / "tokens").string(),
+                                               "--port-file",
+                                               (dir_ / "port").string(),
+                                               "--threads",
+                                               "2",
+                                               "--log-level",
+                                               "debug"};
       argv.insert(argv.end(), daemon.begin(), daemon.end());
       argv.insert(argv.end(), extra_.begin(), extra_.end());
       std::vector<char*> args;

@@ -1,8 +1,7 @@
 #pragma once
 // Loopback test support: the daemon process (daemon_process.h) plus the requests the tests repeat.
-#include <gtest/gtest.h>
-
 #include <arpa/inet.h>
+#include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/time.h>

@@ -165,9 +165,9 @@ TEST(Daemon, JobsSurviveKillNineAndRerunIdentically) {
   EXPECT_EQ(d.kill(SIGTERM), 0);
 
   sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open_v2((d.data() / "fragsimd.sqlite").c_str(), &db, SQLITE_OPEN_READONLY,
-                            nullptr),
-            SQLITE_OK);
+  ASSERT_EQ(
+      sqlite3_open_v2((d.data() / "fragsimd.sqlite").c_str(), &db, SQLITE_OPEN_READONLY, nullptr),
+      SQLITE_OK);
   sqlite3_stmt* stmt = nullptr;
   ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA integrity_check", -1, &stmt, nullptr), SQLITE_OK);
   ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
@@ -184,7 +184,8 @@ std::pair<pid_t, pid_t> inner_daemon_pid(pid_t wrapper) {
   std::istringstream status(read_text("/proc/" + std::to_string(here) + "/status"));
   pid_t inside = -1;
   for (std::string line; std::getline(status, line);)
-    if (line.rfind("NSpid:", 0) == 0) inside = static_cast<pid_t>(std::atol(line.c_str() + line.rfind('\t')));
+    if (line.rfind("NSpid:", 0) == 0)
+      inside = static_cast<pid_t>(std::atol(line.c_str() + line.rfind('\t')));
   return {inside, here};
 }
 
@@ -285,8 +286,8 @@ TEST(Daemon, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
        std::nullopt},
       {"wrong type", "POST", "/v1/jobs", wrong_type.dump(), json, kToken, 422, "invalid_input",
        "fragment_groups[0].mass_kg"},
-      {"unknown site", "POST", "/v1/jobs", unknown_site.dump(), json, kToken, 422,
-       "invalid_input", "site_id"},
+      {"unknown site", "POST", "/v1/jobs", unknown_site.dump(), json, kToken, 422, "invalid_input",
+       "site_id"},
       {"oversized body", "POST", "/v1/sites", std::string(300000, ' '), json, kToken, 413,
        "payload_too_large", std::nullopt},
       {"missing token", "GET", "/v1/jobs", "", "", "", 401, "unauthorized", std::nullopt},
@@ -311,11 +312,10 @@ TEST(Daemon, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
     httplib::Client raw("127.0.0.1", d.port());
     httplib::Headers headers;
     if (!bad.token.empty()) headers.emplace("Authorization", "Bearer " + bad.token);
-    httplib::Result r = bad.method == "GET"    ? raw.Get(bad.path, headers)
-                        : bad.method == "POST" ? raw.Post(bad.path, headers, bad.body,
-                                                          bad.content_type)
-                                               : raw.Put(bad.path, headers, bad.body,
-                                                         bad.content_type);
+    httplib::Result r = bad.method == "GET" ? raw.Get(bad.path, headers)
+                        : bad.method == "POST"
+                            ? raw.Post(bad.path, headers, bad.body, bad.content_type)
+                            : raw.Put(bad.path, headers, bad.body, bad.content_type);
     ASSERT_TRUE(r) << httplib::to_string(r.error());
     EXPECT_EQ(r->status, bad.status) << r->body;
     Json body;
@@ -427,9 +427,11 @@ TEST(Daemon, FiftyClientsPollWhileAJobRuns) {
   for (int k = 0; k < 50; ++k) {
     clients.emplace_back([&, k] {
       auto client = d.client();
-      const std::vector<std::string> paths = {"/v1/jobs/" + running, "/v1/jobs/" + done,
+      const std::vector<std::string> paths = {"/v1/jobs/" + running,
+                                              "/v1/jobs/" + done,
                                               "/v1/jobs/" + done + "/summary",
-                                              "/v1/jobs/" + done + "/buildings", "/v1/health",
+                                              "/v1/jobs/" + done + "/buildings",
+                                              "/v1/health",
                                               "/metrics"};
       std::size_t n = static_cast<std::size_t>(k);
       while (!stop.load()) {
@@ -438,8 +440,9 @@ TEST(Daemon, FiftyClientsPollWhileAJobRuns) {
         ++requests;
         if (!r || r->status != 200) {
           ++errors;
-          ADD_FAILURE() << path << ": " << (r ? std::to_string(r->status) + " " + r->body
-                                              : httplib::to_string(r.error()));
+          ADD_FAILURE() << path << ": "
+                        << (r ? std::to_string(r->status) + " " + r->body
+                              : httplib::to_string(r.error()));
         }
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
       }

@@ -115,8 +115,8 @@ class ServiceTest : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = api::testing::fresh_test_dir("fragsim_service_test_");
-    std::ofstream(dir_ / "tokens") << "# fragsimd test tokens\n\n" << kToken << "\n  "
-                                   << kOtherToken << "  \n";
+    std::ofstream(dir_ / "tokens") << "# fragsimd test tokens\n\n"
+                                   << kToken << "\n  " << kOtherToken << "  \n";
   }
   void TearDown() override {
     service_.reset();
@@ -196,7 +196,8 @@ class ServiceTest : public ::testing::Test {
     return j;
   }
   Json wait_for_state(const std::string& id, const std::string& state) {
-    return wait_for(id, [&](const Json& j) { return j["state"] == state || j["state"] == "failed"; });
+    return wait_for(id,
+                    [&](const Json& j) { return j["state"] == state || j["state"] == "failed"; });
   }
   std::string metrics_text() {
     const Response r = get("/metrics");
@@ -234,11 +235,12 @@ TEST_F(ServiceRouting, UnknownPathIs404WithAnErrorBody) {
 
 TEST_F(ServiceRouting, MalformedOrUnknownIdsAre404) {
   start();
-  for (const char* path : {"/v1/sites/abc", "/v1/sites/S_0123456789ABCDEF", "/v1/sites/j_0123456789abcdef",
-                           "/v1/sites/s_0000000000000000", "/v1/jobs/abc", "/v1/jobs/..",
-                           "/v1/jobs/s_0123456789abcdef", "/v1/jobs/j_0123456789abcdef",
-                           "/v1/jobs/j_0123456789abcdef/summary", "/v1/jobs/j_0123456789abcdef/ptn",
-                           "/v1/jobs/x/results.h5", "/v1/jobs/j_0123456789abcdef/buildings"}) {
+  for (const char* path :
+       {"/v1/sites/abc", "/v1/sites/S_0123456789ABCDEF", "/v1/sites/j_0123456789abcdef",
+        "/v1/sites/s_0000000000000000", "/v1/jobs/abc", "/v1/jobs/..",
+        "/v1/jobs/s_0123456789abcdef", "/v1/jobs/j_0123456789abcdef",
+        "/v1/jobs/j_0123456789abcdef/summary", "/v1/jobs/j_0123456789abcdef/ptn",
+        "/v1/jobs/x/results.h5", "/v1/jobs/j_0123456789abcdef/buildings"}) {
     SCOPED_TRACE(path);
     expect_error(get(path), 404, "not_found");
   }
@@ -341,10 +343,9 @@ TEST_F(ServiceAuth, WrongTokenIs401) {
 
 TEST_F(ServiceAuth, EveryTokenOfTheFileIsAcceptedAndTheSchemeIsCaseInsensitive) {
   start();
-  for (const std::string& value : {std::string("Bearer ") + kToken,
-                                   std::string("Bearer ") + kOtherToken,
-                                   std::string("bearer ") + kToken,
-                                   std::string("BEARER ") + kOtherToken}) {
+  for (const std::string& value :
+       {std::string("Bearer ") + kToken, std::string("Bearer ") + kOtherToken,
+        std::string("bearer ") + kToken, std::string("BEARER ") + kOtherToken}) {
     SCOPED_TRACE(value);
     EXPECT_EQ(call("GET", "/v1/sites", {}, {}, {{"authorization", value}}).status, 200);
   }
@@ -354,13 +355,19 @@ TEST_F(ServiceAuth, EveryPrivateRouteNeedsTheToken) {
   start();
   const std::string job = std::string("/v1/jobs/") + kUnknownJob;
   const std::vector<std::pair<std::string, std::string>> routes = {
-      {"GET", "/metrics"},          {"GET", "/v1/sites"},
-      {"POST", "/v1/sites"},        {"GET", "/v1/sites/s_0123456789abcdef"},
+      {"GET", "/metrics"},
+      {"GET", "/v1/sites"},
+      {"POST", "/v1/sites"},
+      {"GET", "/v1/sites/s_0123456789abcdef"},
       {"DELETE", "/v1/sites/s_0123456789abcdef"},
-      {"GET", "/v1/jobs"},          {"POST", "/v1/jobs"},
-      {"GET", job},                 {"DELETE", job},
-      {"GET", job + "/summary"},    {"GET", job + "/buildings"},
-      {"GET", job + "/ptn"},        {"GET", job + "/results.h5"},
+      {"GET", "/v1/jobs"},
+      {"POST", "/v1/jobs"},
+      {"GET", job},
+      {"DELETE", job},
+      {"GET", job + "/summary"},
+      {"GET", job + "/buildings"},
+      {"GET", job + "/ptn"},
+      {"GET", job + "/results.h5"},
       {"GET", "/v1/sites/not-an-id"}};
   for (const auto& [method, path] : routes) {
     SCOPED_TRACE(method + " " + path);
@@ -402,8 +409,8 @@ TEST_F(ServiceAuth, NoAuthNeedsNoToken) {
   EXPECT_EQ(get_anonymous("/metrics").status, 200);
   Json body = minimal_example();
   body["fragment_groups"][0]["samples"] = 10;
-  const Response r = call("POST", "/v1/jobs", {}, body.dump(),
-                          {{"content-type", "application/json"}}, false);
+  const Response r =
+      call("POST", "/v1/jobs", {}, body.dump(), {{"content-type", "application/json"}}, false);
   ASSERT_EQ(r.status, 202) << r.body;
   EXPECT_TRUE(body_of(r)["owner"].is_null()) << "no token, no owner";
 }
@@ -413,8 +420,8 @@ TEST_F(ServiceAuth, NoAuthNeedsNoToken) {
 TEST_F(ServiceInput, PostWithoutJsonContentTypeIs415) {
   start();
   const std::string site = minimal_site().dump();
-  for (const char* type : {"", "text/plain", "application/jsonx", "application/x-www-form-urlencoded",
-                           "application/geo+json"}) {
+  for (const char* type : {"", "text/plain", "application/jsonx",
+                           "application/x-www-form-urlencoded", "application/geo+json"}) {
     SCOPED_TRACE(type);
     expect_error(post_text("/v1/sites", site, type), 415, "unsupported_media_type");
     expect_error(post_text("/v1/jobs", job_on(kUnknownSite).dump(), type), 415,
@@ -437,8 +444,7 @@ TEST_F(ServiceInput, MalformedJsonIs400) {
     SCOPED_TRACE(path);
     const Response r = post_text(path, "{\"terrain\": ");
     expect_error(r, 400, "malformed_json");
-    EXPECT_NE(body_of(r)["message"].get<std::string>().find("line 1"), std::string::npos)
-        << r.body;
+    EXPECT_NE(body_of(r)["message"].get<std::string>().find("line 1"), std::string::npos) << r.body;
     expect_error(post_text(path, ""), 400, "malformed_json");
   }
 }
@@ -685,7 +691,8 @@ TEST_F(ServiceSites, ASiteBeingBuiltHoldsNoOtherRequest) {
   Json big = minimal_site();
   constexpr int n = 1001;
   std::vector<double> elevation(static_cast<std::size_t>(n) * n);
-  for (std::size_t k = 0; k < elevation.size(); ++k) elevation[k] = 0.001 * static_cast<double>(k % 97);
+  for (std::size_t k = 0; k < elevation.size(); ++k)
+    elevation[k] = 0.001 * static_cast<double>(k % 97);
   big["terrain"] = {{"grid",
                      {{"origin_m", {-500, -500}},
                       {"spacing_m", 1.0},
@@ -723,8 +730,9 @@ TEST_F(ServiceSites, ASiteBeingBuiltHoldsNoOtherRequest) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   poster.join();
-  std::printf("[ measured ] site build request %.2f s; %d other requests meanwhile, slowest %.3f s\n",
-              build_s, answered, slowest_s);
+  std::printf(
+      "[ measured ] site build request %.2f s; %d other requests meanwhile, slowest %.3f s\n",
+      build_s, answered, slowest_s);
   ASSERT_GT(build_s, 0.5) << "the site built too fast to show anything";
   EXPECT_TRUE(job_posted);
   EXPECT_LT(slowest_s, 0.25 * build_s);
@@ -756,10 +764,10 @@ TEST_F(ServiceJobs, PostJobIs202WithLocationAndJobStatus) {
   EXPECT_EQ(header(r, "Location"), "/v1/jobs/" + id);
 
   const std::vector<std::string> keys = {
-      "job_id",         "site_id",        "state",           "priority",  "idempotency_key",
-      "owner",          "created_utc",    "started_utc",     "finished_utc",
-      "histories_done", "histories_total", "progress",       "histories_per_s",
-      "eta_s",          "attempts",       "error",           "links"};
+      "job_id",          "site_id",     "state",           "priority",     "idempotency_key",
+      "owner",           "created_utc", "started_utc",     "finished_utc", "histories_done",
+      "histories_total", "progress",    "histories_per_s", "eta_s",        "attempts",
+      "error",           "links"};
   for (const auto& key : keys) EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j.size(), keys.size()) << j.dump();
   EXPECT_EQ(j["site_id"], site);
@@ -955,8 +963,7 @@ TEST_F(ServiceQueue, CancellingAQueuedJob) {
     SCOPED_TRACE(part);
     const Response results = get("/v1/jobs/" + id + part);
     expect_error(results, 409, "not_ready");
-    EXPECT_NE(body_of(results)["message"].get<std::string>().find("cancelled"),
-              std::string::npos);
+    EXPECT_NE(body_of(results)["message"].get<std::string>().find("cancelled"), std::string::npos);
   }
   // Cancelling again: already final.
   expect_error(del("/v1/jobs/" + id), 409, "conflict");
@@ -1106,8 +1113,8 @@ TEST_F(ServiceResults, SmallJobIsDoneAndItsResultsAreServed) {
   EXPECT_EQ(b["job_id"], id);
   ASSERT_EQ(b["buildings"].size(), 1u);
   EXPECT_EQ(b["buildings"][0]["id"], "B1");
-  for (const char* key : {"expected_impacts", "impacts_std_error", "expected_penetrations",
-                          "penetrations_std_error"})
+  for (const char* key :
+       {"expected_impacts", "impacts_std_error", "expected_penetrations", "penetrations_std_error"})
     EXPECT_TRUE(b["buildings"][0][key].is_number()) << key;
 
   // PTN as JSON: the same field as a direct run of the same scenario (bit for bit).
@@ -1130,12 +1137,12 @@ TEST_F(ServiceResults, SmallJobIsDoneAndItsResultsAreServed) {
   EXPECT_EQ(geo.content_type, "application/geo+json");
   EXPECT_EQ(body_of(geo)["features"].size(), 3200u);
   const double threshold = p["threshold_per_m2"];
-  const Response hazardous = get("/v1/jobs/" + id + "/ptn",
-                                 {{"format", "geojson"}, {"min_density_per_m2", "1e-9"}});
+  const Response hazardous =
+      get("/v1/jobs/" + id + "/ptn", {{"format", "geojson"}, {"min_density_per_m2", "1e-9"}});
   ASSERT_EQ(hazardous.status, 200) << hazardous.body;
-  const auto expected = static_cast<std::size_t>(
-      std::count_if(direct.ptn_density_per_m2.begin(), direct.ptn_density_per_m2.end(),
-                    [](double d) { return d >= 1e-9; }));
+  const auto expected = static_cast<std::size_t>(std::count_if(direct.ptn_density_per_m2.begin(),
+                                                               direct.ptn_density_per_m2.end(),
+                                                               [](double d) { return d >= 1e-9; }));
   EXPECT_EQ(body_of(hazardous)["features"].size(), expected);
   EXPECT_GT(threshold, 0.0);
 
@@ -1193,35 +1200,36 @@ TEST_F(ServiceMetrics, DocumentedMetricNames) {
   ASSERT_EQ(r.status, 200);
   EXPECT_EQ(r.content_type.rfind("text/plain", 0), 0u) << r.content_type;
   const std::string& m = r.body;
-  for (const char* line : {
-           "# TYPE fragsimd_jobs gauge\n",
-           "fragsimd_jobs{state=\"queued\"} 0\n",
-           "fragsimd_jobs{state=\"running\"} 0\n",
-           "fragsimd_jobs{state=\"done\"} 0\n",
-           "fragsimd_jobs{state=\"failed\"} 0\n",
-           "fragsimd_jobs{state=\"cancelled\"} 0\n",
-           "# TYPE fragsimd_queue_length gauge\n",
-           "fragsimd_queue_length 0\n",
-           "# TYPE fragsimd_histories_total counter\n",
-           "fragsimd_histories_total 0\n",
-           "# TYPE fragsimd_histories_per_second gauge\n",
-           "fragsimd_histories_per_second 0\n",
-           "# TYPE fragsimd_sites gauge\n",
-           "fragsimd_sites 0\n",
-           "# TYPE fragsimd_uptime_seconds gauge\n",
-           "# TYPE fragsimd_http_requests_total counter\n",
-           "fragsimd_http_requests_total{method=\"GET\",route=\"/v1/jobs/{id}\",status=\"200\"} 2\n",
-           "fragsimd_http_requests_total{method=\"POST\",route=\"/v1/jobs\",status=\"422\"} 1\n",
-           "# TYPE fragsimd_http_request_duration_seconds histogram\n",
-           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.001\"} 0\n",
-           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.005\"} 1\n",
-           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.1\"} 1\n",
-           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.5\"} 2\n",
-           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"+Inf\"} 2\n",
-           "fragsimd_http_request_duration_seconds_count{route=\"/v1/jobs/{id}\"} 2\n",
-           "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs\",le=\"0.001\"} 1\n",
-           "fragsimd_http_request_duration_seconds_count{route=\"/v1/jobs\"} 1\n",
-       }) {
+  for (
+      const char* line : {
+          "# TYPE fragsimd_jobs gauge\n",
+          "fragsimd_jobs{state=\"queued\"} 0\n",
+          "fragsimd_jobs{state=\"running\"} 0\n",
+          "fragsimd_jobs{state=\"done\"} 0\n",
+          "fragsimd_jobs{state=\"failed\"} 0\n",
+          "fragsimd_jobs{state=\"cancelled\"} 0\n",
+          "# TYPE fragsimd_queue_length gauge\n",
+          "fragsimd_queue_length 0\n",
+          "# TYPE fragsimd_histories_total counter\n",
+          "fragsimd_histories_total 0\n",
+          "# TYPE fragsimd_histories_per_second gauge\n",
+          "fragsimd_histories_per_second 0\n",
+          "# TYPE fragsimd_sites gauge\n",
+          "fragsimd_sites 0\n",
+          "# TYPE fragsimd_uptime_seconds gauge\n",
+          "# TYPE fragsimd_http_requests_total counter\n",
+          "fragsimd_http_requests_total{method=\"GET\",route=\"/v1/jobs/{id}\",status=\"200\"} 2\n",
+          "fragsimd_http_requests_total{method=\"POST\",route=\"/v1/jobs\",status=\"422\"} 1\n",
+          "# TYPE fragsimd_http_request_duration_seconds histogram\n",
+          "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.001\"} 0\n",
+          "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.005\"} 1\n",
+          "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.1\"} 1\n",
+          "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"0.5\"} 2\n",
+          "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs/{id}\",le=\"+Inf\"} 2\n",
+          "fragsimd_http_request_duration_seconds_count{route=\"/v1/jobs/{id}\"} 2\n",
+          "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs\",le=\"0.001\"} 1\n",
+          "fragsimd_http_request_duration_seconds_count{route=\"/v1/jobs\"} 1\n",
+      }) {
     EXPECT_EQ(count_occurrences(m, line), 1u) << line << "\n" << m;
   }
   EXPECT_NE(m.find("fragsimd_uptime_seconds "), std::string::npos);
@@ -1229,8 +1237,9 @@ TEST_F(ServiceMetrics, DocumentedMetricNames) {
             std::string::npos)
       << m;
   // Buckets: the eight documented bounds and +Inf per route.
-  EXPECT_EQ(count_occurrences(m, "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs\","),
-            9u);
+  EXPECT_EQ(
+      count_occurrences(m, "fragsimd_http_request_duration_seconds_bucket{route=\"/v1/jobs\","),
+      9u);
 }
 
 TEST_F(ServiceMetrics, HandleAloneRecordsNoRequests) {

@@ -19,13 +19,15 @@ TEST(Utf8, ValidTextIsKeptAsItIs) {
 TEST(Utf8, InvalidBytesAreWrittenAsHexEscapes) {
   const std::pair<std::string, std::string> cases[] = {
       {"\x80", "\\x80"},
-      {"a\xff" "b", "a\\xffb"},
-      {"\xc0\xaf", "\\xc0\\xaf"},              // overlong '/'
-      {"\xe0\x80\xaf", "\\xe0\\x80\\xaf"},     // overlong
-      {"\xed\xa0\x80", "\\xed\\xa0\\x80"},     // surrogate U+D800
+      {"a\xff"
+       "b",
+       "a\\xffb"},
+      {"\xc0\xaf", "\\xc0\\xaf"},                    // overlong '/'
+      {"\xe0\x80\xaf", "\\xe0\\x80\\xaf"},           // overlong
+      {"\xed\xa0\x80", "\\xed\\xa0\\x80"},           // surrogate U+D800
       {"\xf4\x90\x80\x80", "\\xf4\\x90\\x80\\x80"},  // above U+10FFFF
-      {"\xe2\x82", "\\xe2\\x82"},              // truncated
-      {"ok \xc3\xa9 \xfe", "ok \xc3\xa9 \\xfe"},  // valid non-ASCII kept next to an invalid byte
+      {"\xe2\x82", "\\xe2\\x82"},                    // truncated
+      {"ok \xc3\xa9 \xfe", "ok \xc3\xa9 \\xfe"},     // valid non-ASCII kept next to an invalid byte
   };
   for (const auto& [in, out] : cases) {
     EXPECT_FALSE(is_valid_utf8(in)) << out;

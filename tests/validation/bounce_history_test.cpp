@@ -201,8 +201,8 @@ TEST(BounceHistory, ResultsDoNotDependOnTerrainVertexOrder) {
       run::Scenario sc = bounce_scenario(100.0, 0.3, 0.6);
       scene::MeshSpec mesh;
       mesh.vertices_m.assign(corner.begin(), corner.end());
-      for (std::array<std::int64_t, 3> t : {std::array<std::int64_t, 3>{0, 1, 2},
-                                            std::array<std::int64_t, 3>{0, 2, 3}}) {
+      for (std::array<std::int64_t, 3> t :
+           {std::array<std::int64_t, 3>{0, 1, 2}, std::array<std::int64_t, 3>{0, 2, 3}}) {
         std::rotate(t.begin(), t.begin() + rot, t.end());
         if (flip) std::swap(t[1], t[2]);
         mesh.triangles.push_back(t);
@@ -241,7 +241,8 @@ TEST(BounceHistory, HarmlessCutOffChangesNoTally) {
     grid.nx = grid.ny = 61;
     for (int j = 0; j < grid.ny; ++j)
       for (int i = 0; i < grid.nx; ++i)
-        grid.elevation_m.push_back(-0.03 * (10.0 * i - 300.0) + std::sin(0.3 * i) * std::cos(0.2 * j));
+        grid.elevation_m.push_back(-0.03 * (10.0 * i - 300.0) +
+                                   std::sin(0.3 * i) * std::cos(0.2 * j));
     sc.site.terrain.geometry = grid;
     sc.site.materials["soil"].rolling_resistance = 0.2;
     auto grp = sphere_group(Vec3(0, 0, 1.5), 0.05, 70.0, 400.0, 400);

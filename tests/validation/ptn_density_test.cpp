@@ -101,7 +101,8 @@ TEST(PtnDensity, HorizontalFanGivesInverseRadiusDensity) {
   for (std::uint32_t t = 0; t < r.ptn_density_per_m2.size(); ++t) {
     std::array<Vec2, 3> v;
     for (int k = 0; k < 3; ++k) {
-      const Vec3& p = site->terrain_vertices()[site->terrain_triangles()[t][static_cast<std::size_t>(k)]];
+      const Vec3& p =
+          site->terrain_vertices()[site->terrain_triangles()[t][static_cast<std::size_t>(k)]];
       v[static_cast<std::size_t>(k)] = Vec2(p.x() - o.x(), p.y() - o.y());
     }
     double a_lo = 1e9, a_hi = -1e9, r_min = 1e9;

@@ -26,12 +26,14 @@ std::vector<Vec3> surface_points(const ContactBody& b) {
   switch (b.type) {
     case ShapeType::kCuboid:
       for (int k = 0; k < 8; ++k)
-        pts.emplace_back((k & 1 ? 1 : -1) * a.x(), (k & 2 ? 1 : -1) * a.y(), (k & 4 ? 1 : -1) * a.z());
+        pts.emplace_back((k & 1 ? 1 : -1) * a.x(), (k & 2 ? 1 : -1) * a.y(),
+                         (k & 4 ? 1 : -1) * a.z());
       break;
     case ShapeType::kCylinder:
       for (int k = 0; k < n; ++k) {
         const double phi = 2 * kPi * k / n;
-        for (double z : {-a.z(), a.z()}) pts.emplace_back(a.x() * std::cos(phi), a.x() * std::sin(phi), z);
+        for (double z : {-a.z(), a.z()})
+          pts.emplace_back(a.x() * std::cos(phi), a.x() * std::sin(phi), z);
       }
       break;
     default:  // sphere, ellipsoid
@@ -39,8 +41,8 @@ std::vector<Vec3> surface_points(const ContactBody& b) {
         const double th = kPi * i / n;
         for (int k = 0; k < 2 * n; ++k) {
           const double phi = kPi * k / n;
-          pts.emplace_back(a.x() * std::sin(th) * std::cos(phi), a.y() * std::sin(th) * std::sin(phi),
-                           a.z() * std::cos(th));
+          pts.emplace_back(a.x() * std::sin(th) * std::cos(phi),
+                           a.y() * std::sin(th) * std::sin(phi), a.z() * std::cos(th));
         }
       }
   }

@@ -50,12 +50,12 @@ TEST(Bounce, RestitutionFromTheTableAtTheNormalSpeed) {
   m.restitution.e = {0.6, 0.2};
   const TerrainBounce r = bounce_on_terrain(sphere, 1.0, Quat::Identity(), Vec3(3.0, 0.0, -5.0),
                                             Vec3::Zero(), Vec3::UnitZ(), m, 1e-9);
-  EXPECT_NEAR(r.restitution, 0.4, 1e-12);  // halfway along the table
+  EXPECT_NEAR(r.restitution, 0.4, 1e-12);                      // halfway along the table
   EXPECT_NEAR(r.collision.velocity_mps.z(), 0.4 * 5.0, 1e-9);  // Newton's law for a sphere
   // Tilted terrain: the normal is what counts, not the vertical.
   const Vec3 n = Vec3(0.3, 0.0, 1.0).normalized();
-  const TerrainBounce t = bounce_on_terrain(sphere, 1.0, Quat::Identity(), -5.0 * n,
-                                            Vec3::Zero(), n, m, 1e-9);
+  const TerrainBounce t =
+      bounce_on_terrain(sphere, 1.0, Quat::Identity(), -5.0 * n, Vec3::Zero(), n, m, 1e-9);
   EXPECT_NEAR(t.collision.velocity_mps.dot(n), 0.4 * 5.0, 1e-9);
   EXPECT_NEAR((t.r_m + 0.05 * n).norm(), 0.0, 1e-15);
 }

@@ -128,7 +128,8 @@ TEST(SolidSphere, ObliqueImpactRollsIffSlipIsBelowThreshold) {
   // Sliding decelerates the slip at 3.5 mu per unit normal velocity change; the normal change is
   // (1 + e)|u_z0|. It ends rolling (u_t = 0, i.e. v_t = omega x R) iff
   // |u_t0| <= 3.5 mu (1 + e)|u_z0|, else u_t' = u_t0 - 3.5 mu (1 + e)|u_z0| along u_t0.
-  // Tolerance 1e-9 |u0| (the bounce issue allowed 1e-6). Initial spin included (u_t0 = v_t + w x r).
+  // Tolerance 1e-9 |u0| (the bounce issue allowed 1e-6). Initial spin included (u_t0 = v_t + w x
+  // r).
   const double m = 0.7, R = 0.12;
   const Body b = sphere(m, R);
   std::mt19937_64 rng(11);
@@ -201,8 +202,8 @@ RandomCase random_case(std::mt19937_64& rng, double e, double mu) {
 }
 
 TEST(RandomBodies, FrictionlessElasticImpactKeepsKineticEnergy) {
-  // e = 1, mu = 0: the normal impulse does zero net work; relative tolerance 1e-6 (the bounce issue),
-  // observed ~1e-15.
+  // e = 1, mu = 0: the normal impulse does zero net work; relative tolerance 1e-6 (the bounce
+  // issue), observed ~1e-15.
   std::mt19937_64 rng(2024);
   double worst = 0.0;
   for (int i = 0; i < 2000; ++i) {

@@ -39,7 +39,8 @@ TEST(RefinePlaneCrossing, FindsTheCrossingOfAParabolaToMachinePrecision) {
   const double t = refine_plane_crossing(pos, Vec3(0, 0, 1), Vec3(0, 0, 0), 3.0, 6.0);
   EXPECT_NEAR(t, exact, 1e-12);
   // Slanted plane through (50, 0, 0) with normal (1, 0, 1)/sqrt 2: x - 50 + z = 0.
-  const double t2 = refine_plane_crossing(pos, Vec3(1, 0, 1).normalized(), Vec3(50, 0, 0), 0.0, 6.0);
+  const double t2 =
+      refine_plane_crossing(pos, Vec3(1, 0, 1).normalized(), Vec3(50, 0, 0), 0.0, 6.0);
   EXPECT_NEAR(pos(t2).x() - 50 + pos(t2).z(), 0.0, 1e-9);
   // No sign change -> NaN.
   EXPECT_TRUE(std::isnan(refine_plane_crossing(pos, Vec3(0, 0, 1), Vec3(0, 0, -100), 0.0, 1.0)));

@@ -56,9 +56,11 @@ TEST(Determinism, ThreadCountAndChunkSizeDoNotChangeAnyBit) {
     EXPECT_TRUE(same_bits(a.ptn_std_error_per_m2, x->ptn_std_error_per_m2));
     ASSERT_EQ(a.buildings.size(), x->buildings.size());
     for (std::size_t i = 0; i < a.buildings.size(); ++i) {
-      EXPECT_EQ(std::memcmp(&a.buildings[i].impacts, &x->buildings[i].impacts, sizeof(Estimate)), 0);
+      EXPECT_EQ(std::memcmp(&a.buildings[i].impacts, &x->buildings[i].impacts, sizeof(Estimate)),
+                0);
       EXPECT_EQ(std::memcmp(&a.buildings[i].penetrations, &x->buildings[i].penetrations,
-                            sizeof(Estimate)), 0);
+                            sizeof(Estimate)),
+                0);
     }
     EXPECT_EQ(a.hazardous_fragment_distance_m, x->hazardous_fragment_distance_m);
     ASSERT_EQ(a.fragments.size(), x->fragments.size());

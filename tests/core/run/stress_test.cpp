@@ -41,8 +41,7 @@ Scenario hilly_scenario(double x0, double y0, double z0) {
   grid.nx = grid.ny = 101;
   for (int j = 0; j < grid.ny; ++j)
     for (int i = 0; i < grid.nx; ++i)
-      grid.elevation_m.push_back(z0 + 8.0 * std::sin(i * 0.13) * std::cos(j * 0.11) +
-                                 0.02 * i);
+      grid.elevation_m.push_back(z0 + 8.0 * std::sin(i * 0.13) * std::cos(j * 0.11) + 0.02 * i);
   sc.site.terrain.geometry = grid;
   sc.site.terrain.material = "soil";
   sc.site.materials["soil"] = scene::MaterialSpec{};
@@ -63,7 +62,7 @@ Scenario hilly_scenario(double x0, double y0, double z0) {
 
 TEST(Stress, LaunchBelowTerrainOrInsideABuildingIsNotFlown) {
   Scenario sc = hilly_scenario(0, 0, 100);
-  auto below = validation::sphere_group(Vec3(0, 0, 50), 0.1, 300, 10, 20);  // terrain ~100 m
+  auto below = validation::sphere_group(Vec3(0, 0, 50), 0.1, 300, 10, 20);     // terrain ~100 m
   auto inside = validation::sphere_group(Vec3(70, 0, 103), 0.1, 300, 10, 20);  // inside b1
   sc.groups = {below, inside};
   const RunResult r = run(sc);
@@ -78,8 +77,8 @@ TEST(Stress, LaunchFromGroundLevelFliesAwayFromTheSurface) {
   auto site = scene::Site::build(sc.site);
   const Vec3 local = site->to_local(Vec3(-300, -300, 0));
   const double h = site->terrain_height(local.x(), local.y());
-  auto g = validation::sphere_group(site->to_input(Vec3(local.x(), local.y(), h)), 0.1, 100, 10,
-                                    200);
+  auto g =
+      validation::sphere_group(site->to_input(Vec3(local.x(), local.y(), h)), 0.1, 100, 10, 200);
   g.direction.elevation_min_deg = 10.0;
   g.direction.elevation_max_deg = 60.0;
   g.cd.constant = 0.5;
@@ -161,8 +160,8 @@ Scenario random_scenario(std::mt19937_64& rng, int trial) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   {
     Scenario sc = hilly_scenario(0, 0, 100);
-    sc.atmosphere.model = trial % 2 ? flight::AtmosphereSpec::Model::kIsa
-                                    : flight::AtmosphereSpec::Model::kConstant;
+    sc.atmosphere.model =
+        trial % 2 ? flight::AtmosphereSpec::Model::kIsa : flight::AtmosphereSpec::Model::kConstant;
     sc.atmosphere.wind_mps = Vec3(20 * u(rng) - 10, 20 * u(rng) - 10, -2 * u(rng));
     sc.settings.max_flight_time_s = 60.0;
     for (int gi = 0; gi < 3; ++gi) {

@@ -74,8 +74,10 @@ TEST(Buildings, BoxMeshIsClosedAndOutward) {
     for (std::uint32_t t = b.first_triangle; t < b.first_triangle + b.triangle_count; ++t) {
       const auto& v = site->building_triangles()[t].v;
       const Vec3 c = (site->building_vertices()[v[0]] + site->building_vertices()[v[1]] +
-                      site->building_vertices()[v[2]]) / 3.0;
-      EXPECT_GT((c - centre).dot(site->building_triangle_normal(t)), 0) << "cw " << cw << " t " << t;
+                      site->building_vertices()[v[2]]) /
+                     3.0;
+      EXPECT_GT((c - centre).dot(site->building_triangle_normal(t)), 0)
+          << "cw " << cw << " t " << t;
     }
     // Closed: every directed edge has its reverse.
     std::multiset<std::pair<std::uint32_t, std::uint32_t>> edges;
@@ -149,7 +151,8 @@ TEST(Buildings, BaseIsTheLowestGroundUnderTheFootprint) {
       for (int q = 0; q <= 100; ++q) {
         const double x = fp[k][0] + (fp[(k + 1) % 4][0] - fp[k][0]) * q / 100.0;
         const double y = fp[k][1] + (fp[(k + 1) % 4][1] - fp[k][1]) * q / 100.0;
-        EXPECT_GE(site->terrain_height(x - o.x(), y - o.y()), site->buildings()[0].bounds.lo.z() - 1e-12);
+        EXPECT_GE(site->terrain_height(x - o.x(), y - o.y()),
+                  site->buildings()[0].bounds.lo.z() - 1e-12);
       }
   }
   // An explicit base overrides the terrain.
@@ -181,12 +184,14 @@ TEST(Buildings, ExplicitMeshWoundInwardIsFlipped) {
   const auto site = Site::build(spec);
   const Building& out = site->buildings()[0];
   EXPECT_EQ(out.floor_triangle_count, 0u);
-  const Vec3 centre = (Vec3(100, 100, 0) + Vec3(110, 100, 0) + Vec3(100, 110, 0) + Vec3(100, 100, 10)) / 4 -
-                      site->local_origin();
+  const Vec3 centre =
+      (Vec3(100, 100, 0) + Vec3(110, 100, 0) + Vec3(100, 110, 0) + Vec3(100, 100, 10)) / 4 -
+      site->local_origin();
   for (std::uint32_t t = 0; t < 4; ++t) {
     const auto& bt = site->building_triangles()[t];
     const Vec3 c = (site->building_vertices()[bt.v[0]] + site->building_vertices()[bt.v[1]] +
-                    site->building_vertices()[bt.v[2]]) / 3.0;
+                    site->building_vertices()[bt.v[2]]) /
+                   3.0;
     EXPECT_GT((c - centre).dot(site->building_triangle_normal(t)), 0) << t;
     EXPECT_EQ(bt.surface, m.surface[t]);
   }
@@ -227,14 +232,16 @@ TEST(Buildings, InsideBuilding) {
   std::mt19937_64 trng(6);
   std::uniform_real_distribution<double> nxy(10.5, 29.5), nz(0.5, 20);
   for (int k = 0; k < 200; ++k)
-    ASSERT_FALSE(tall_site->inside_building(tall_site->to_local(Vec3(nxy(trng), nxy(trng), nz(trng)))));
+    ASSERT_FALSE(
+        tall_site->inside_building(tall_site->to_local(Vec3(nxy(trng), nxy(trng), nz(trng)))));
   EXPECT_TRUE(tall_site->inside_building(tall_site->to_local(Vec3(40, 40, 50))));
   std::mt19937_64 rng(4);
   std::uniform_real_distribution<double> ux(5, 45), uy(5, 55), uz(-1, 10);
   for (int k = 0; k < 2000; ++k) {
     const double x = ux(rng), y = uy(rng), z = uz(rng);
-    const bool in_l = z > 0 && z < 9 &&
-                      ((x > 10 && x < 40 && y > 10 && y < 20) || (x > 10 && x < 20 && y > 10 && y < 50));
+    const bool in_l =
+        z > 0 && z < 9 &&
+        ((x > 10 && x < 40 && y > 10 && y < 20) || (x > 10 && x < 20 && y > 10 && y < 50));
     ASSERT_EQ(inside(x, y, z), in_l) << x << " " << y << " " << z;
   }
 }

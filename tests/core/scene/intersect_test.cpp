@@ -5,8 +5,8 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
-#include <random>
 #include <map>
+#include <random>
 #include <set>
 #include <thread>
 
@@ -59,9 +59,9 @@ TEST(Intersect, PlaneIsAnalytic) {
   }
   const Vec3 down(0, 0, -1);
   const Vec3 above(10, 20, zp + 10);
-  EXPECT_FALSE(site->intersect(above, down, 0, 9.999));             // ends short of the plane
-  EXPECT_TRUE(site->intersect(above, down, 0, 10.0));               // ends on it
-  EXPECT_FALSE(site->intersect(above, down, 10.001, 20));           // starts past it
+  EXPECT_FALSE(site->intersect(above, down, 0, 9.999));    // ends short of the plane
+  EXPECT_TRUE(site->intersect(above, down, 0, 10.0));      // ends on it
+  EXPECT_FALSE(site->intersect(above, down, 10.001, 20));  // starts past it
   EXPECT_FALSE(site->intersect(above, down, 0, 20, kQueryBuildings));
   EXPECT_FALSE(site->intersect(Vec3(300, 0, zp + 1), down, 0, 10));  // outside the extent
   const auto below = site->intersect(Vec3(0, 0, zp - 5), Vec3(0, 0, 1), 0, 10);  // from below
@@ -98,8 +98,9 @@ TEST(Intersect, GrazingRays) {
 
 // Smooth hills: Embree (float) against a double brute force over all triangles.
 TEST(Intersect, GridHitsTheKnownPoint) {
-  const auto g = make_grid(-250, -250, 5, 101, 101,
-                           [](double x, double y) { return 5 * std::sin(x / 50) * std::cos(y / 70); });
+  const auto g = make_grid(-250, -250, 5, 101, 101, [](double x, double y) {
+    return 5 * std::sin(x / 50) * std::cos(y / 70);
+  });
   const auto site = Site::build(grid_site(g));
   std::mt19937_64 rng(2);
   std::uniform_real_distribution<double> xy(-240, 240), slant(-0.7, 0.7);
@@ -175,8 +176,8 @@ int check_rays_through_vertices_and_edges(const Site& site, std::uint64_t seed, 
       if (hit->t > 9.99) worst = std::max(worst, std::abs(hit->t - 10) * d.norm());
     }
   }
-  std::cout << rays << " rays through vertices and edge midpoints (" << vertical
-            << " vertical), " << misses << " slipped through; worst error " << worst << " m\n";
+  std::cout << rays << " rays through vertices and edge midpoints (" << vertical << " vertical), "
+            << misses << " slipped through; worst error " << worst << " m\n";
   EXPECT_EQ(misses, 0);
   EXPECT_LT(worst, 1e-4);
   EXPECT_EQ(vertical, static_cast<int>(targets.size()));  // a vertical ray always crosses
@@ -296,11 +297,13 @@ void check_box_hits(const Site& site, double zb) {
     EXPECT_EQ(site.building_triangles()[hit->triangle].building, 0u);
   }
   // Terrain only: the roof ray passes through the building to the ground at the base.
-  const auto ground = site.intersect(site.to_local(Vec3(70, 0, 20 + zb)), Vec3(0, 0, -1), 0, 100, kQueryTerrain);
+  const auto ground =
+      site.intersect(site.to_local(Vec3(70, 0, 20 + zb)), Vec3(0, 0, -1), 0, 100, kQueryTerrain);
   ASSERT_TRUE(ground);
   EXPECT_TRUE(ground->terrain);
   EXPECT_NEAR(ground->t, 20, 1e-9);
-  EXPECT_FALSE(site.intersect(site.to_local(Vec3(30, 0, 3 + zb)), Vec3(1, 0, 0), 0, 20, kQueryBuildings));
+  EXPECT_FALSE(
+      site.intersect(site.to_local(Vec3(30, 0, 3 + zb)), Vec3(1, 0, 0), 0, 20, kQueryBuildings));
   EXPECT_FALSE(site.intersect(site.to_local(Vec3(50, 0, 3 + zb)), Vec3(1, 0, 0), 0, 9.99));
   const auto beside = site.intersect(site.to_local(Vec3(50, 0, 10 + zb)), Vec3(0, 0, -1), 0, 100);
   ASSERT_TRUE(beside);
@@ -334,13 +337,15 @@ std::vector<Query> random_queries(std::uint64_t seed, int n, double half, double
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> xy(-half, half), z(0, zmax), d(-1, 1), len(1, 30);
   std::vector<Query> q(n);
-  for (auto& x : q) x = {Vec3(xy(rng), xy(rng), z(rng)), Vec3(d(rng), d(rng), d(rng) - 0.3), len(rng)};
+  for (auto& x : q)
+    x = {Vec3(xy(rng), xy(rng), z(rng)), Vec3(d(rng), d(rng), d(rng) - 0.3), len(rng)};
   return q;
 }
 
 TEST(Intersect, ConcurrentQueriesMatchSequential) {
-  const auto g = make_grid(-250, -250, 5, 101, 101,
-                           [](double x, double y) { return 5 * std::sin(x / 50) * std::cos(y / 70); });
+  const auto g = make_grid(-250, -250, 5, 101, 101, [](double x, double y) {
+    return 5 * std::sin(x / 50) * std::cos(y / 70);
+  });
   auto spec = grid_site(g);
   spec.buildings.push_back(box_building("A", 0, 0, 30, 20, 12));
   spec.buildings.push_back(box_building("B", -100, 50, -60, 90, 25));
@@ -391,7 +396,8 @@ TEST(Intersect, CostOnAnEightyThousandTriangleGrid) {
     const auto t0 = std::chrono::steady_clock::now();
     for (const Query& x : q) hits += site->intersect(x.org, x.dir, 0, x.tfar).has_value();
     const auto t1 = std::chrono::steady_clock::now();
-    return std::chrono::duration<double, std::nano>(t1 - t0).count() / static_cast<double>(q.size());
+    return std::chrono::duration<double, std::nano>(t1 - t0).count() /
+           static_cast<double>(q.size());
   };
   int hits_chords = 0, hits_long = 0;
   // Flight chords: 1-30 m segments in random directions starting 0-50 m above the ground

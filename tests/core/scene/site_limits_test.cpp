@@ -1,13 +1,14 @@
 // Site limits (core/scene/site_limits.h) and the build's robustness against extreme but finite
 // coordinates (issue 10, found by fuzzing): no hang, no out-of-range double -> int conversion,
 // no NaN geometry.
+#include "core/scene/site_limits.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 #include <set>
 
-#include "core/scene/site_limits.h"
 #include "core/scene/terrain_index.h"
 #include "scene_test_util.h"
 
@@ -15,8 +16,8 @@ namespace fragsim::scene {
 namespace {
 
 using testing::box_building;
-using testing::grid_site;
 using testing::expect_input_error;
+using testing::grid_site;
 using testing::make_grid;
 using testing::plane_site;
 
@@ -61,8 +62,9 @@ TEST(SiteLimits, PlaneExtentNearTheLargestDoublesIsRefused) {
 TEST(SiteLimits, TerrainExtentAndCountsAreBounded) {
   MeshSpec wide = triangle_at(100);
   wide.vertices_m[1].x() = 2.5e5;
-  expect_input_error(mesh_site(wide), "site.terrain.mesh.vertices_m[1]",
-                     "spans 250100 m in x; a terrain may span at most 2e+05 m (from vertices_m[0])");
+  expect_input_error(
+      mesh_site(wide), "site.terrain.mesh.vertices_m[1]",
+      "spans 250100 m in x; a terrain may span at most 2e+05 m (from vertices_m[0])");
   expect_input_error(grid_site(make_grid(0, 0, 1e5, 4, 2, [](double, double) { return 0.0; })),
                      "site.terrain.grid.spacing_m", "spans 3e+05 m in x");
   SiteSpec many = plane_site();

@@ -1,4 +1,6 @@
 // TerrainIndex2D: bucket contents, max_z, and the segment traversal against brute force.
+#include "core/scene/terrain_index.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -6,15 +8,14 @@
 #include <set>
 
 #include "core/scene/polygon.h"
-#include "core/scene/terrain_index.h"
 #include "scene_test_util.h"
 
 namespace fragsim::scene {
 namespace {
 
 using testing::grid_site;
-using testing::make_grid;
 using testing::jittered_mesh;
+using testing::make_grid;
 using testing::plane_site;
 
 // Triangle t's xy-projection shrunk towards its centroid by a relative 1e-7: a segment meeting
@@ -30,8 +31,8 @@ std::array<Vec2, 3> shrunk(const Site& s, std::uint32_t t) {
 
 bool in_triangle(const std::array<Vec2, 3>& p, const Vec2& x, double tol = 0) {
   const double a = detail::orient2d(p[0], p[1], p[2]);
-  return detail::orient2d(p[0], p[1], x) >= -tol * a && detail::orient2d(p[1], p[2], x) >= -tol * a &&
-         detail::orient2d(p[2], p[0], x) >= -tol * a;
+  return detail::orient2d(p[0], p[1], x) >= -tol * a &&
+         detail::orient2d(p[1], p[2], x) >= -tol * a && detail::orient2d(p[2], p[0], x) >= -tol * a;
 }
 
 bool segment_meets_triangle(const std::array<Vec2, 3>& p, const Vec2& a, const Vec2& b) {
@@ -60,7 +61,8 @@ std::size_t check_segment(const Site& s, const Vec2& a, const Vec2& b) {
     bool covered = false;
     for (const std::uint32_t t : reported) {
       std::array<Vec2, 3> p;
-      for (int q = 0; q < 3; ++q) p[q] = s.terrain_vertices()[s.terrain_triangles()[t][q]].head<2>();
+      for (int q = 0; q < 3; ++q)
+        p[q] = s.terrain_vertices()[s.terrain_triangles()[t][q]].head<2>();
       covered = covered || in_triangle(p, x, 1e-9);
     }
     EXPECT_TRUE(covered) << "point " << x.transpose() << " of segment not covered";
@@ -83,13 +85,22 @@ void check_random_segments(const Site& s, std::uint64_t seed, int count) {
   for (int k = 0; k < count; ++k) {
     Vec2 a = point(), b = point();
     switch (k % 8) {
-      case 1: b.y() = a.y(); break;                       // parallel to x
-      case 2: b.x() = a.x(); break;                       // parallel to y
-      case 3: b = a; break;                               // zero length
-      case 4: b = a + 0.01 * (b - a); break;              // short chord
-      case 5: a = node(); b = node(); break;              // corner to corner (through corners)
-      case 6: a = node(); b = Vec2(a.x() + (unit(rng) - 0.5) * size.x(), a.y()); break;  // on a bucket edge
-      case 7: a = node(); b = Vec2(a.x(), a.y() + (unit(rng) - 0.5) * size.y()); break;
+      case 1: b.y() = a.y(); break;           // parallel to x
+      case 2: b.x() = a.x(); break;           // parallel to y
+      case 3: b = a; break;                   // zero length
+      case 4: b = a + 0.01 * (b - a); break;  // short chord
+      case 5:
+        a = node();
+        b = node();
+        break;  // corner to corner (through corners)
+      case 6:
+        a = node();
+        b = Vec2(a.x() + (unit(rng) - 0.5) * size.x(), a.y());
+        break;  // on a bucket edge
+      case 7:
+        a = node();
+        b = Vec2(a.x(), a.y() + (unit(rng) - 0.5) * size.y());
+        break;
       default: break;
     }
     crossed += check_segment(s, a, b);
@@ -124,9 +135,11 @@ TEST(TerrainIndex, GridBucketsAndMaxZ) {
     for (int i = 0; i < ix.nx; ++i) {
       const std::size_t b = static_cast<std::size_t>(j) * ix.nx + i;
       ASSERT_EQ(ix.start[b + 1] - ix.start[b], 2u);
-      const auto z = [&](int a, int c) { return g.elevation_m[static_cast<std::size_t>(c) * 30 + a] - oz; };
+      const auto z = [&](int a, int c) {
+        return g.elevation_m[static_cast<std::size_t>(c) * 30 + a] - oz;
+      };
       const double zmax = std::max({z(i, j), z(i + 1, j), z(i, j + 1), z(i + 1, j + 1)});
-      EXPECT_GE(static_cast<double>(ix.max_z[b]), zmax);  // an upper bound...
+      EXPECT_GE(static_cast<double>(ix.max_z[b]), zmax);         // an upper bound...
       EXPECT_LE(static_cast<double>(ix.max_z[b]), zmax + 1e-5);  // ...and a tight one
     }
   }
@@ -140,8 +153,8 @@ TEST(TerrainIndex, MeshTraversalMatchesBruteForce) {
   const TerrainIndex2D& ix = s->terrain_index();
   const double occupancy = detail::mean_bucket_occupancy(ix);
   std::cout << "mesh index: " << ix.nx << " x " << ix.ny << " buckets of " << ix.cell.x()
-            << " m for " << s->terrain_triangle_count() << " triangles; mean "
-            << occupancy << " triangles per non-empty bucket\n";
+            << " m for " << s->terrain_triangle_count() << " triangles; mean " << occupancy
+            << " triangles per non-empty bucket\n";
   EXPECT_LT(occupancy, 4.0);
   EXPECT_GT(occupancy, 1.0);
   // max_z bounds every listed triangle.

@@ -104,18 +104,24 @@ TEST(GridTerrain, RandomHeightsMatchTheTriangleFormula) {
   for (int k = 0; k < 2000; ++k) {
     const int i = static_cast<int>(ud(rng) * (nx - 1)), j = static_cast<int>(ud(rng) * (ny - 1));
     const double u = ud(rng), v = ud(rng);
-    const auto z = [&](int a, int b) { return g.elevation_m[static_cast<std::size_t>(b) * nx + a]; };
-    const double expected = u >= v ? z(i, j) + u * (z(i + 1, j) - z(i, j)) + v * (z(i + 1, j + 1) - z(i + 1, j))
-                                   : z(i, j) + u * (z(i + 1, j + 1) - z(i, j + 1)) + v * (z(i, j + 1) - z(i, j));
+    const auto z = [&](int a, int b) {
+      return g.elevation_m[static_cast<std::size_t>(b) * nx + a];
+    };
+    const double expected =
+        u >= v ? z(i, j) + u * (z(i + 1, j) - z(i, j)) + v * (z(i + 1, j + 1) - z(i + 1, j))
+               : z(i, j) + u * (z(i + 1, j + 1) - z(i, j + 1)) + v * (z(i, j + 1) - z(i, j));
     const double x = g.origin_m[0] + (i + u) * s - o.x(), y = g.origin_m[1] + (j + v) * s - o.y();
     ASSERT_NEAR(site->terrain_height(x, y) + o.z(), expected, 1e-9) << i << " " << j;
   }
   // Exactly at every vertex.
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i)
-      ASSERT_NEAR(site->terrain_height(g.origin_m[0] + i * s - o.x(), g.origin_m[1] + j * s - o.y()) + o.z(),
-                  g.elevation_m[static_cast<std::size_t>(j) * nx + i], 1e-12);
-  EXPECT_TRUE(std::isnan(site->terrain_height(g.origin_m[0] - 0.01 - o.x(), g.origin_m[1] - o.y())));
+      ASSERT_NEAR(
+          site->terrain_height(g.origin_m[0] + i * s - o.x(), g.origin_m[1] + j * s - o.y()) +
+              o.z(),
+          g.elevation_m[static_cast<std::size_t>(j) * nx + i], 1e-12);
+  EXPECT_TRUE(
+      std::isnan(site->terrain_height(g.origin_m[0] - 0.01 - o.x(), g.origin_m[1] - o.y())));
   // Normals up and unit; areas positive.
   for (std::uint32_t t = 0; t < site->terrain_triangle_count(); ++t) {
     EXPECT_GT(site->terrain_triangle_normal(t).z(), 0);
@@ -171,7 +177,8 @@ TEST(LocalFrame, UtmCoordinatesGiveTheSameLocalGeometry) {
   ASSERT_EQ(a->terrain_vertices().size(), b->terrain_vertices().size());
   for (std::size_t v = 0; v < a->terrain_vertices().size(); ++v)
     ASSERT_LE((a->terrain_vertices()[v] - b->terrain_vertices()[v]).norm(), 1e-9) << v;
-  EXPECT_LE((b->to_input(b->terrain_vertices()[5]) - Vec3(500000.0 - 150, 5.0e6 - 150, z[5] + 1200)).norm(),
+  EXPECT_LE((b->to_input(b->terrain_vertices()[5]) - Vec3(500000.0 - 150, 5.0e6 - 150, z[5] + 1200))
+                .norm(),
             1e-9);
 }
 
@@ -185,13 +192,13 @@ TEST(Materials, RestitutionTableAndNames) {
   EXPECT_EQ(mats[2].name, "metal_roof");
   EXPECT_EQ(mats[3].name, "soil");
   EXPECT_EQ(site->terrain_material(), 3);
-  const Material& c = mats[0];  // speeds {3, 30, 300}, e {0.5, 0.3, 0.1}
-  EXPECT_DOUBLE_EQ(c.restitution_at(0.0), 0.5);   // clamped below
+  const Material& c = mats[0];                   // speeds {3, 30, 300}, e {0.5, 0.3, 0.1}
+  EXPECT_DOUBLE_EQ(c.restitution_at(0.0), 0.5);  // clamped below
   EXPECT_DOUBLE_EQ(c.restitution_at(3.0), 0.5);
   EXPECT_DOUBLE_EQ(c.restitution_at(16.5), 0.4);  // halfway between 3 and 30
   EXPECT_DOUBLE_EQ(c.restitution_at(30.0), 0.3);
   EXPECT_DOUBLE_EQ(c.restitution_at(165.0), 0.2);
-  EXPECT_DOUBLE_EQ(c.restitution_at(1e4), 0.1);   // clamped above
+  EXPECT_DOUBLE_EQ(c.restitution_at(1e4), 0.1);  // clamped above
   EXPECT_DOUBLE_EQ(mats[3].restitution_at(123.0), 0.2);
   EXPECT_DOUBLE_EQ(mats[2].penetration_ke_per_area_j_per_m2, 1.5e5);
   EXPECT_TRUE(std::isinf(mats[3].penetration_ke_per_area_j_per_m2));
@@ -218,15 +225,15 @@ TEST(Materials, EmbedmentFollowsTheCriticalGrazingAngle) {
   };
   EXPECT_TRUE(soil.embeds(v(300.0, theta_c + 0.01), n, 7850.0));
   EXPECT_FALSE(soil.embeds(v(300.0, theta_c - 0.01), n, 7850.0));
-  EXPECT_TRUE(soil.embeds(v(20.0, 60.0), n, 7850.0));    // min_speed 20: included
-  EXPECT_FALSE(soil.embeds(v(19.9, 60.0), n, 7850.0));   // slower: a rigid contact
+  EXPECT_TRUE(soil.embeds(v(20.0, 60.0), n, 7850.0));     // min_speed 20: included
+  EXPECT_FALSE(soil.embeds(v(19.9, 60.0), n, 7850.0));    // slower: a rigid contact
   EXPECT_FALSE(soil.embeds(-v(300.0, 60.0), n, 7850.0));  // moving away
   // Lighter fragments have a larger critical angle: aluminium (2700) 15.2 deg.
   EXPECT_FALSE(soil.embeds(v(300.0, 14.0), n, 2700.0));
   EXPECT_TRUE(soil.embeds(v(300.0, 16.0), n, 2700.0));
   // On a tilted surface the angle is taken to that surface.
   const Vec3 tilted = Vec3(-std::sin(0.2), 0.0, std::cos(0.2));
-  EXPECT_TRUE(soil.embeds(Vec3(300.0, 0.0, 0.0), tilted, 7850.0));  // 11.5 deg into it
+  EXPECT_TRUE(soil.embeds(Vec3(300.0, 0.0, 0.0), tilted, 7850.0));       // 11.5 deg into it
   EXPECT_FALSE(site->materials()[0].embeds(v(300.0, 80.0), n, 7850.0));  // no model: never
   // Bad values are refused with the field named.
   spec.materials["soil"].embedment->bulk_density_kg_m3 = 0.0;

@@ -1,10 +1,11 @@
 // Every class of site input error, with the exact field path the user sees.
+#include "core/scene/validation.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 
-#include "core/scene/validation.h"
 #include "scene_test_util.h"
 
 namespace fragsim::scene {
@@ -84,10 +85,8 @@ TEST(SiteValidation, PlaneShape) {
   expect_input_error(plane_site({0, 5, 10, -5}), "site.terrain.plane.extent_m",
                      "ymax must be greater than ymin");
   expect_input_error(plane_site({0, 0, kNaN, 5}), "site.terrain.plane.extent_m[2]", "not finite");
-  expect_input_error(plane_site({0, 0, 10, 10}, 0.0), "site.terrain.plane.cell_m",
-                     "must be > 0");
-  expect_input_error(plane_site({0, 0, 10, 10}, -1.0), "site.terrain.plane.cell_m",
-                     "must be > 0");
+  expect_input_error(plane_site({0, 0, 10, 10}, 0.0), "site.terrain.plane.cell_m", "must be > 0");
+  expect_input_error(plane_site({0, 0, 10, 10}, -1.0), "site.terrain.plane.cell_m", "must be > 0");
   expect_input_error(plane_site({0, 0, 1e5, 1e5}, 1e-2), "site.terrain.plane.cell_m",
                      "too small for the extent");
   expect_input_error(plane_site({0, 0, 10, 10}, 1.0, kNaN), "site.terrain.plane.elevation_m",
@@ -218,13 +217,16 @@ TEST(SiteValidation, FootprintSelfCrossing) {
   s.buildings.push_back(box_building("C", 40, 0, 50, 10, 3));
   // Bow tie: edge 1 (10,0)->(0,10) crosses edge 3 (10,10)->(0,0).
   s.buildings[2].footprint_m = {{40, 0}, {50, 0}, {40, 10}, {50, 10}};
-  expect_input_error(s, "site.buildings[2].footprint_m", "self-crossing polygon (edges 1 and 3 cross)");
+  expect_input_error(s, "site.buildings[2].footprint_m",
+                     "self-crossing polygon (edges 1 and 3 cross)");
   // A vertex touching a non-adjacent edge also makes the polygon non-simple.
   s.buildings[2].footprint_m = {{40, 0}, {50, 0}, {50, 10}, {45, 0}, {40, 10}};
-  expect_input_error(s, "site.buildings[2].footprint_m", "self-crossing polygon (edges 0 and 2 cross)");
+  expect_input_error(s, "site.buildings[2].footprint_m",
+                     "self-crossing polygon (edges 0 and 2 cross)");
   // Folding back along an edge.
   s.buildings[2].footprint_m = {{40, 0}, {50, 0}, {45, 0}, {45, 5}};
-  expect_input_error(s, "site.buildings[2].footprint_m", "self-crossing polygon (edges 0 and 1 overlap)");
+  expect_input_error(s, "site.buildings[2].footprint_m",
+                     "self-crossing polygon (edges 0 and 1 overlap)");
 }
 
 TEST(SiteValidation, FootprintShape) {
@@ -242,7 +244,8 @@ TEST(SiteValidation, FootprintShape) {
   expect_input_error(s, "site.buildings[0].footprint_m", "zero-area footprint");
   // Collinear vertices fold back on themselves.
   s.buildings[0].footprint_m = {{0, 0}, {5, 0}, {10, 0}};
-  expect_input_error(s, "site.buildings[0].footprint_m", "self-crossing polygon (edges 1 and 2 overlap)");
+  expect_input_error(s, "site.buildings[0].footprint_m",
+                     "self-crossing polygon (edges 1 and 2 overlap)");
   s = plane_site();
   s.buildings.push_back(box_building("A", 0, 0, 5, 5, 0.0));
   expect_input_error(s, "site.buildings[0].height_m", "must be > 0");
@@ -270,11 +273,11 @@ MeshSpec cube_mesh(double x0, double y0, double z0, double size) {
   for (int k = 0; k < 8; ++k)
     m.vertices_m.emplace_back(x0 + size * (k & 1), y0 + size * ((k >> 1) & 1),
                               z0 + size * ((k >> 2) & 1));
-  m.triangles = {{0, 2, 3}, {0, 3, 1},  // bottom (-z)
-                 {4, 5, 7}, {4, 7, 6},  // top (+z)
-                 {0, 1, 5}, {0, 5, 4},  // y = 0 (-y)
-                 {2, 6, 7}, {2, 7, 3},  // y = 1 (+y)
-                 {0, 4, 6}, {0, 6, 2},  // x = 0 (-x)
+  m.triangles = {{0, 2, 3}, {0, 3, 1},   // bottom (-z)
+                 {4, 5, 7}, {4, 7, 6},   // top (+z)
+                 {0, 1, 5}, {0, 5, 4},   // y = 0 (-y)
+                 {2, 6, 7}, {2, 7, 3},   // y = 1 (+y)
+                 {0, 4, 6}, {0, 6, 2},   // x = 0 (-x)
                  {1, 3, 7}, {1, 7, 5}};  // x = 1 (+x)
   m.surface.assign(12, SurfaceType::kWall);
   m.surface[2] = m.surface[3] = SurfaceType::kRoof;

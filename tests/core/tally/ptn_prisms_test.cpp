@@ -55,9 +55,9 @@ TEST(PtnPrisms, ProjectedAreaEqualsHalfTheSumOfAbsoluteFaceProjections) {
     d.normalize();
     // Faces: top/bottom area 6 normal z; sides: y=0 (len 4, normal -y), x=0 (len 3, normal -x),
     // hypotenuse (len 5, normal (3,4)/5).
-    const double half_abs = 0.5 * (2 * 6 * std::abs(d.z()) + h * 4 * std::abs(d.y()) +
-                                   h * 3 * std::abs(d.x()) +
-                                   h * 5 * std::abs(0.6 * d.x() + 0.8 * d.y()));
+    const double half_abs =
+        0.5 * (2 * 6 * std::abs(d.z()) + h * 4 * std::abs(d.y()) + h * 3 * std::abs(d.x()) +
+               h * 5 * std::abs(0.6 * d.x() + 0.8 * d.y()));
     EXPECT_NEAR(p.projected_area(0, d), half_abs, 1e-12);
   }
 }
