@@ -226,6 +226,10 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  if (!skip_wrk && std::system("command -v wrk > /dev/null 2>&1") != 0) {
+    std::cerr << "bench_daemon_load: wrk not found (apt-get install wrk), or pass --skip-wrk\n";
+    return 2;
+  }
   const fs::path dir = fs::temp_directory_path() / ("bench_load_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
