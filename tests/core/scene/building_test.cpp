@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
+#include <string>
 
 #include "core/scene/polygon.h"
 #include "scene_test_util.h"
@@ -243,6 +245,54 @@ TEST(Buildings, InsideBuilding) {
         z > 0 && z < 9 &&
         ((x > 10 && x < 40 && y > 10 && y < 20) || (x > 10 && x < 20 && y > 10 && y < 50));
     ASSERT_EQ(inside(x, y, z), in_l) << x << " " << y << " " << z;
+  }
+}
+
+// The building's triangles as "a b c s" (vertex indices relative to the building's first vertex,
+// surface type number), one per triangle in order, joined by ';'.
+std::string triangles_text(const Site& site, std::size_t building) {
+  const Building& b = site.buildings()[building];
+  std::uint32_t v0 = std::numeric_limits<std::uint32_t>::max();
+  for (std::uint32_t t = b.first_triangle; t < b.first_triangle + b.triangle_count; ++t)
+    for (const std::uint32_t v : site.building_triangles()[t].v) v0 = std::min(v0, v);
+  std::string out;
+  for (std::uint32_t t = b.first_triangle; t < b.first_triangle + b.triangle_count; ++t) {
+    const BuildingTriangle& bt = site.building_triangles()[t];
+    if (!out.empty()) out += ';';
+    out += std::to_string(bt.v[0] - v0) + ' ' + std::to_string(bt.v[1] - v0) + ' ' +
+           std::to_string(bt.v[2] - v0) + ' ' + std::to_string(static_cast<int>(bt.surface));
+  }
+  return out;
+}
+
+TEST(Buildings, FootprintWithoutHolesIsUnchanged) {
+  // Recorded before holes_m existed: a building without holes keeps its vertices and its
+  // triangles, in the same order (results and exposed areas do not move).
+  auto spec = plane_site();
+  BuildingSpec l = box_building("L", 0, 0, 1, 1, 9, /*clockwise=*/false);
+  l.footprint_m = {{10, 50}, {20, 50}, {20, 20}, {40, 20}, {40, 10}, {10, 10}};  // clockwise
+  spec.buildings.push_back(l);
+  BuildingSpec comb = box_building("C", 0, 0, 1, 1, 4);
+  comb.footprint_m = {{60, 0}, {70, 0}, {80, 0}, {80, 5}, {75, 5}, {75, 2},
+                      {70, 2}, {70, 5}, {60, 5}, {60, 0}};  // collinear vertex, GIS closing vertex
+  spec.buildings.push_back(comb);
+  const auto site = Site::build(spec);
+  EXPECT_EQ(triangles_text(*site, 0),
+            "0 1 7 1;0 7 6 1;1 2 8 1;1 8 7 1;2 3 9 1;2 9 8 1;3 4 10 1;3 10 9 1;4 5 11 1;4 11 10 1;"
+            "5 0 6 1;5 6 11 1;6 7 8 2;6 8 9 2;6 9 10 2;6 10 11 2;0 2 1 1;0 3 2 1;0 4 3 1;0 5 4 1");
+  EXPECT_EQ(triangles_text(*site, 1),
+            "0 1 10 1;0 10 9 1;1 2 11 1;1 11 10 1;2 3 12 1;2 12 11 1;3 4 13 1;3 13 12 1;4 5 14 1;"
+            "4 14 13 1;5 6 15 1;5 15 14 1;6 7 16 1;6 16 15 1;7 8 17 1;7 17 16 1;8 0 9 1;8 9 17 1;"
+            "17 9 10 2;11 12 13 2;11 13 14 2;11 14 15 2;15 16 17 2;15 17 10 2;15 10 11 2;8 1 0 1;"
+            "2 4 3 1;2 5 4 1;2 6 5 1;6 8 7 1;6 1 8 1;6 2 1 1");
+  // Vertices: the footprint made counter-clockwise (the L reversed), at the base then the top.
+  const std::vector<std::array<double, 2>> ccw_l = {{10, 10}, {40, 10}, {40, 20},
+                                                    {20, 20}, {20, 50}, {10, 50}};
+  const Vec3 o = site->local_origin();
+  ASSERT_EQ(site->building_vertices().size(), 2 * ccw_l.size() + 2 * 9);
+  for (std::size_t k = 0; k < 2 * ccw_l.size(); ++k) {
+    const auto& p = ccw_l[k % ccw_l.size()];
+    EXPECT_EQ(site->building_vertices()[k], Vec3(p[0], p[1], k < ccw_l.size() ? 0 : 9) - o) << k;
   }
 }
 
