@@ -1,6 +1,6 @@
 #pragma once
 // Plane polygon geometry for building footprints (internal to core/scene): orientation
-// predicates, segment crossing, point in polygon, and ear-clipping triangulation.
+// predicates, segment crossing, point in polygon, and ear-clipping triangulation (with holes).
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -30,5 +30,16 @@ bool point_in_polygon(const std::vector<Vec2>& poly, const Vec2& p);
 // `poly`, whose areas sum to the polygon's. Throws std::runtime_error if no ear is found, which
 // for a validated simple polygon only numerical near-degeneracy can cause.
 std::vector<std::array<std::uint32_t, 3>> triangulate_polygon(const std::vector<Vec2>& poly);
+
+// Triangulates a polygon with holes: `outer` counter-clockwise, each of `holes` clockwise, every
+// hole strictly inside `outer` and the holes pairwise disjoint (validated footprints). Each hole,
+// by decreasing largest x, is joined to a mutually visible vertex of the boundary built so far by
+// a bridge (a zero-width cut traversed both ways; Eberly 2002, "Triangulation by ear clipping",
+// §3-4), and the resulting weakly simple polygon is ear clipped. The triangles are counter-
+// clockwise and index the rings concatenated: outer vertices 0..n0-1, then hole 0, hole 1, ...
+// Their areas sum to area(outer) - sum of area(holes). With no holes, the same triangles as
+// triangulate_polygon(outer). Throws std::runtime_error as triangulate_polygon does.
+std::vector<std::array<std::uint32_t, 3>> triangulate_polygon_with_holes(
+    const std::vector<Vec2>& outer, const std::vector<std::vector<Vec2>>& holes);
 
 }  // namespace fragsim::scene::detail
