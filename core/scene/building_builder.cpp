@@ -1,5 +1,5 @@
-// Buildings: footprint extrusion (walls, ear-clipped roof, floor), explicit closed meshes,
-// validation, and the default base elevation from the terrain.
+// Buildings: footprint extrusion (walls, ear-clipped roof, floor; courtyards), explicit closed
+// meshes, validation, and the default base elevation from the terrain.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -31,17 +31,28 @@ struct BuildingMesh {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// Lowest terrain height over a footprint (local coordinates). The terrain is piecewise planar,
-// so over the footprint region its minimum is attained at a terrain vertex inside the footprint
-// or on the footprint boundary; along a boundary edge, at a footprint vertex or where the edge
-// enters or leaves a terrain triangle. All three sets are visited, so the walls reach down to
-// the ground everywhere (no gap under any wall). Returns +inf when the footprint misses the
-// terrain entirely.
-double lowest_terrain_under(const Site& site, const std::vector<Vec2>& poly) {
+// A footprint ring in local coordinates, its input field's path, each coordinate checked finite.
+// GIS rings often repeat the first vertex at the end; that copy is dropped.
+std::vector<Vec2> local_ring(const Site& site, const std::vector<std::array<double, 2>>& ring,
+                             const std::string& field) {
+  std::vector<Vec2> poly;
+  poly.reserve(ring.size());
+  const Vec3& o = site.local_origin();
+  for (std::size_t k = 0; k < ring.size(); ++k) {
+    detail::require_finite(ring[k][0], indexed(indexed(field, k), 0));
+    detail::require_finite(ring[k][1], indexed(indexed(field, k), 1));
+    poly.emplace_back(ring[k][0] - o.x(), ring[k][1] - o.y());
+  }
+  if (poly.size() >= 4 && ring.front() == ring.back()) poly.pop_back();
+  return poly;
+}
+
+// Lowest terrain height along a closed ring: at its vertices and where its edges enter or leave
+// terrain triangles (the terrain is planar in between).
+double lowest_terrain_along(const Site& site, const std::vector<Vec2>& poly) {
   double zmin = kInf;
   const auto& verts = site.terrain_vertices();
   const auto& tris = site.terrain_triangles();
-  const TerrainIndex2D& index = site.terrain_index();
   for (const Vec2& p : poly) {
     const double h = site.terrain_height(p.x(), p.y());
     if (std::isfinite(h)) zmin = std::min(zmin, h);
@@ -50,7 +61,7 @@ double lowest_terrain_under(const Site& site, const std::vector<Vec2>& poly) {
   for (std::size_t k = 0; k < n; ++k) {
     const Vec2& a = poly[k];
     const Vec2& b = poly[(k + 1) % n];
-    index.for_each_candidate(a, b, [&](std::uint32_t t) {
+    site.terrain_index().for_each_candidate(a, b, [&](std::uint32_t t) {
       const Vec3& v0 = verts[tris[t][0]];
       const Vec3& v1 = verts[tris[t][1]];
       const Vec3& v2 = verts[tris[t][2]];
@@ -76,7 +87,24 @@ double lowest_terrain_under(const Site& site, const std::vector<Vec2>& poly) {
       }
     });
   }
-  // Terrain vertices inside the footprint: visit the buckets under its bounding box.
+  return zmin;
+}
+
+// Lowest terrain vertex strictly under the building: inside the footprint rings[0] and outside
+// its holes rings[1..] (a courtyard's ground is not under the building).
+double lowest_terrain_vertex_inside(const Site& site, const std::vector<std::vector<Vec2>>& rings) {
+  double zmin = kInf;
+  const auto& verts = site.terrain_vertices();
+  const auto& tris = site.terrain_triangles();
+  const TerrainIndex2D& index = site.terrain_index();
+  const std::vector<Vec2>& poly = rings[0];
+  const auto under = [&](const Vec2& p) {
+    if (!detail::point_in_polygon(poly, p)) return false;
+    for (std::size_t h = 1; h < rings.size(); ++h)
+      if (detail::point_in_polygon(rings[h], p)) return false;
+    return true;
+  };
+  // Visit the buckets under the footprint's bounding box.
   Vec2 lo = poly[0], hi = poly[0];
   for (const Vec2& p : poly) {
     lo = lo.cwiseMin(p);
@@ -94,8 +122,7 @@ double lowest_terrain_under(const Site& site, const std::vector<Vec2>& poly) {
       const std::size_t bucket = static_cast<std::size_t>(j) * index.nx + i;
       for (std::uint32_t k = index.start[bucket]; k < index.start[bucket + 1]; ++k) {
         for (const std::uint32_t v : tris[index.triangles[k]]) {
-          if (verts[v].z() < zmin && detail::point_in_polygon(poly, verts[v].head<2>()))
-            zmin = verts[v].z();
+          if (verts[v].z() < zmin && under(verts[v].head<2>())) zmin = verts[v].z();
         }
       }
     }
@@ -103,51 +130,80 @@ double lowest_terrain_under(const Site& site, const std::vector<Vec2>& poly) {
   return zmin;
 }
 
+// Lowest terrain height under a footprint with holes (local coordinates; rings[0] the outline,
+// rings[1..] the holes). The terrain is piecewise planar, so over the region its minimum is
+// attained at a terrain vertex inside the region or on its boundary; along a boundary edge, at
+// a ring vertex or where the edge enters or leaves a terrain triangle. All three sets are
+// visited, so the walls, courtyard walls included, reach down to the ground everywhere (no gap
+// under any wall). Returns +inf when the footprint misses the terrain entirely.
+double lowest_terrain_under(const Site& site, const std::vector<std::vector<Vec2>>& rings) {
+  double zmin = lowest_terrain_vertex_inside(site, rings);
+  for (const auto& ring : rings) zmin = std::min(zmin, lowest_terrain_along(site, ring));
+  return zmin;
+}
+
+// The rings in local coordinates, validated and oriented: rings[0] the footprint,
+// counter-clockwise; rings[1..] the holes, clockwise (the solid on the left of every edge).
+std::vector<std::vector<Vec2>> footprint_rings(const Site& site, const BuildingSpec& spec,
+                                               const std::string& b) {
+  const std::string ff = b + ".footprint_m";
+  std::vector<std::vector<Vec2>> rings;
+  rings.push_back(local_ring(site, spec.footprint_m, ff));
+  detail::validate_simple_polygon(rings[0], ff);
+  if (detail::signed_area(rings[0]) < 0) std::reverse(rings[0].begin(), rings[0].end());
+  for (std::size_t h = 0; h < spec.holes_m.size(); ++h)
+    rings.push_back(local_ring(site, spec.holes_m[h], indexed(b + ".holes_m", h)));
+  const std::vector<std::vector<Vec2>> holes(rings.begin() + 1, rings.end());
+  detail::validate_holes(rings[0], holes, b + ".holes_m");
+  for (std::size_t h = 1; h < rings.size(); ++h)
+    if (detail::signed_area(rings[h]) > 0) std::reverse(rings[h].begin(), rings[h].end());
+  return rings;
+}
+
 BuildingMesh extrude_footprint(const Site& site, const BuildingSpec& spec, const std::string& b) {
   const std::string ff = b + ".footprint_m";
   detail::require_positive(spec.height_m, b + ".height_m");
   if (spec.base_elevation_m)
     detail::require_finite(*spec.base_elevation_m, b + ".base_elevation_m");
-  std::vector<Vec2> poly;
-  poly.reserve(spec.footprint_m.size());
-  const Vec3& o = site.local_origin();
-  for (std::size_t k = 0; k < spec.footprint_m.size(); ++k) {
-    detail::require_finite(spec.footprint_m[k][0], indexed(indexed(ff, k), 0));
-    detail::require_finite(spec.footprint_m[k][1], indexed(indexed(ff, k), 1));
-    poly.emplace_back(spec.footprint_m[k][0] - o.x(), spec.footprint_m[k][1] - o.y());
-  }
-  // GIS rings often repeat the first vertex at the end; accept that and drop the copy.
-  if (poly.size() >= 4 && spec.footprint_m.front() == spec.footprint_m.back()) poly.pop_back();
-  detail::validate_simple_polygon(poly, ff);
-  if (detail::signed_area(poly) < 0) std::reverse(poly.begin(), poly.end());  // make it CCW
+  const std::vector<std::vector<Vec2>> rings = footprint_rings(site, spec, b);
 
   double base = 0.0;
   if (spec.base_elevation_m) {
-    base = *spec.base_elevation_m - o.z();
+    base = *spec.base_elevation_m - site.local_origin().z();
   } else {
-    base = lowest_terrain_under(site, poly);
+    base = lowest_terrain_under(site, rings);
     if (!std::isfinite(base)) fail(ff, "footprint lies outside the terrain; give base_elevation_m");
   }
   const double top = base + spec.height_m;
 
   std::vector<std::array<std::uint32_t, 3>> roof;
   try {
-    roof = detail::triangulate_polygon(poly);
+    roof = detail::triangulate_polygon_with_holes(
+        rings[0], std::vector<std::vector<Vec2>>(rings.begin() + 1, rings.end()));
   } catch (const std::runtime_error&) {
     fail(ff, "cannot triangulate the roof (nearly degenerate polygon)");
   }
-  const auto n = static_cast<std::uint32_t>(poly.size());
+  std::uint32_t n = 0;  // vertices of all rings, numbered in ring order
+  for (const auto& ring : rings) n += static_cast<std::uint32_t>(ring.size());
   BuildingMesh mesh;
   mesh.vertices.reserve(2 * n);
-  for (const Vec2& p : poly) mesh.vertices.emplace_back(p.x(), p.y(), base);  // base ring 0..n-1
-  for (const Vec2& p : poly) mesh.vertices.emplace_back(p.x(), p.y(), top);   // top ring n..2n-1
-  // Walls: one quad per footprint edge k -> k+1. With a counter-clockwise footprint the outward
-  // side of the edge is on its right, and (b0, b1, t1), (b0, t1, t0) wind counter-clockwise seen
-  // from there: normal = (b1 - b0) x (t1 - b0) = h (dy, -dx, 0), which points right.
-  for (std::uint32_t k = 0; k < n; ++k) {
-    const std::uint32_t k1 = (k + 1) % n;
-    mesh.triangles.push_back({{k, k1, n + k1}, SurfaceType::kWall});
-    mesh.triangles.push_back({{k, n + k1, n + k}, SurfaceType::kWall});
+  for (const double z : {base, top}) {  // base ring 0..n-1, top ring n..2n-1
+    for (const auto& ring : rings)
+      for (const Vec2& p : ring) mesh.vertices.emplace_back(p.x(), p.y(), z);
+  }
+  // Walls: one quad per ring edge k -> k+1. The solid is on the left of every edge (footprint
+  // counter-clockwise, holes clockwise), so the outward side, into the open or into a
+  // courtyard, is on its right, and (b0, b1, t1), (b0, t1, t0) wind counter-clockwise seen from
+  // there: normal = (b1 - b0) x (t1 - b0) = h (dy, -dx, 0), which points right.
+  std::uint32_t first = 0;
+  for (const auto& ring : rings) {
+    const auto m = static_cast<std::uint32_t>(ring.size());
+    for (std::uint32_t k = first; k < first + m; ++k) {
+      const std::uint32_t k1 = k + 1 < first + m ? k + 1 : first;
+      mesh.triangles.push_back({{k, k1, n + k1}, SurfaceType::kWall});
+      mesh.triangles.push_back({{k, n + k1, n + k}, SurfaceType::kWall});
+    }
+    first += m;
   }
   // Roof: the ear-clipped triangles are counter-clockwise from above, normal +z (outward).
   for (const auto& t : roof)
@@ -268,6 +324,8 @@ void SiteBuilder::build_buildings(Site& site, const SiteSpec& spec, const Materi
       fail(b + ".id",
            "duplicate id \"" + bs.id + "\" (also " + indexed("site.buildings", it->second) + ")");
     if (bs.mesh && !bs.footprint_m.empty()) fail(b, "give either footprint_m or mesh, not both");
+    if (bs.mesh && !bs.holes_m.empty())
+      fail(b + ".holes_m", "only a footprint has holes; a mesh gives its courtyards as geometry");
 
     const BuildingMesh mesh = bs.mesh ? explicit_mesh(site, bs, b) : extrude_footprint(site, bs, b);
     // Materials per surface type: required where the building has such triangles, and checked

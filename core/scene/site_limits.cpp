@@ -103,12 +103,34 @@ void check_terrain(const TerrainSpec& terrain) {
   }
 }
 
-// The building's triangles as built: a footprint of n vertices gives 2n walls, n - 2 roof and
-// n - 2 floor triangles.
+// The building's triangles as built: a footprint of n vertices (all rings together) with h holes
+// gives 2n walls, and n + 2h - 2 roof and as many floor triangles (a triangulation of a polygon
+// with h holes, vertices only at its own; Euler's formula). A GIS ring's closing copy of its
+// first vertex counts too (the builder drops it): an upper bound then. Rings of fewer than 3
+// vertices are the builder's to refuse.
 std::size_t building_triangles(const BuildingSpec& b) {
   if (b.mesh) return b.mesh->triangles.size();
-  const std::size_t n = b.footprint_m.size();
-  return n >= 3 ? 4 * n - 4 : 0;
+  if (b.footprint_m.size() < 3) return 0;
+  std::size_t n = b.footprint_m.size();
+  for (const auto& hole : b.holes_m) n += hole.size();
+  return 4 * n + 4 * b.holes_m.size() - 4;
+}
+
+// Hole vertices are footprint vertices: the same coordinate range, and one count for all rings.
+void check_holes(const BuildingSpec& b, const std::string& field) {
+  std::size_t n = b.footprint_m.size();
+  for (std::size_t h = 0; h < b.holes_m.size(); ++h) {
+    const std::string hf = indexed(field + ".holes_m", h);
+    n += b.holes_m[h].size();
+    if (n > kMaxFootprintVertices)
+      fail(hf, "brings the footprint's vertices to " + std::to_string(n) +
+                   " (footprint_m and holes_m together); at most " +
+                   std::to_string(kMaxFootprintVertices) + " are allowed");
+    for (std::size_t k = 0; k < b.holes_m[h].size(); ++k) {
+      check_xy(b.holes_m[h][k][0], indexed(indexed(hf, k), 0));
+      check_xy(b.holes_m[h][k][1], indexed(indexed(hf, k), 1));
+    }
+  }
 }
 
 void check_building(const BuildingSpec& b, const std::string& field) {
@@ -124,6 +146,7 @@ void check_building(const BuildingSpec& b, const std::string& field) {
     check_xy(b.footprint_m[k][0], indexed(indexed(ff, k), 0));
     check_xy(b.footprint_m[k][1], indexed(indexed(ff, k), 1));
   }
+  check_holes(b, field);
   if (b.height_m > kMaxBuildingHeight_m)  // NaN and <= 0 are the builder's
     fail(field + ".height_m", "must be <= " + format_number(kMaxBuildingHeight_m) + " (got " +
                                   format_number(b.height_m) + ")");

@@ -28,13 +28,14 @@ inline constexpr double kMaxTerrainExtent_m = 2e5;
 // or plane may have; about 3 GB of mesh, index and per-triangle data.
 inline constexpr std::size_t kMaxTerrainTriangles = std::size_t{1} << 26;
 inline constexpr std::size_t kMaxTerrainVertices = std::size_t{1} << 26;
-// Buildings, and their triangles all together (a footprint of n vertices counts as extruded:
-// 4n - 4 triangles; a building mesh may have as many vertices). A city district has thousands of
-// buildings.
+// Buildings, and their triangles all together (a footprint of n vertices, holes' included, and h
+// holes counts as extruded: 4n + 4h - 4 triangles; a building mesh may have as many vertices). A
+// city district has thousands of buildings.
 inline constexpr std::size_t kMaxBuildings = 100000;
 inline constexpr std::size_t kMaxBuildingTriangles = std::size_t{1} << 24;
-// Footprint vertices of one building: the simplicity check is O(n^2) and the roof's ear
-// clipping O(n^2) to O(n^3); surveyed or mapped outlines have tens to hundreds of vertices.
+// Footprint vertices of one building, its holes' included: the simplicity checks are O(n^2) and
+// the roof's ear clipping O(n^2) to O(n^3); surveyed or mapped outlines have tens to hundreds of
+// vertices.
 inline constexpr std::size_t kMaxFootprintVertices = 1000;
 // Height of a footprint building above its base, m: twelve times the tallest building
 // (Burj Khalifa, 828 m).

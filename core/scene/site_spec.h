@@ -88,7 +88,12 @@ struct BuildingSpec {
   std::string id;
   // Footprint form (used when `mesh` is empty):
   std::vector<std::array<double, 2>> footprint_m;  // simple polygon, either orientation
-  double height_m = 0.0;                           // above the base
+  // Holes (courtyards), open to the sky and walled all round: each a simple polygon, either
+  // orientation, strictly inside footprint_m (touching it nowhere), the holes disjoint (none
+  // crosses, touches or contains another). Footprint vertices and hole vertices together count
+  // against the footprint vertex limit (site_limits.h). Empty: a plain footprint.
+  std::vector<std::vector<std::array<double, 2>>> holes_m;
+  double height_m = 0.0;                   // above the base
   std::optional<double> base_elevation_m;  // default: lowest terrain height under the footprint
   // Explicit form:
   std::optional<MeshSpec> mesh;

@@ -104,9 +104,12 @@ void validate_mesh(const MeshSpec& mesh, const std::string& field, const std::st
   }
 }
 
-void validate_simple_polygon(const std::vector<Vec2>& poly, const std::string& field) {
+void validate_simple_polygon(const std::vector<Vec2>& poly, const std::string& field,
+                             const char* what) {
   const std::size_t n = poly.size();
-  if (n < 3) fail(field, "a footprint needs at least 3 vertices (got " + std::to_string(n) + ")");
+  if (n < 3)
+    fail(field,
+         std::string("a ") + what + " needs at least 3 vertices (got " + std::to_string(n) + ")");
   for (std::size_t k = 0; k < n; ++k) {
     if (poly[k] == poly[(k + 1) % n])
       fail(indexed(field, (k + 1) % n), "repeats the previous vertex (zero-length edge)");
@@ -137,7 +140,44 @@ void validate_simple_polygon(const std::vector<Vec2>& poly, const std::string& f
   for (std::size_t k = 0; k < n; ++k)
     longest2 = std::max(longest2, (poly[(k + 1) % n] - poly[k]).squaredNorm());
   if (!(std::abs(signed_area(poly)) >= kZeroAreaRelative * longest2))
-    fail(field, "zero-area footprint");
+    fail(field, std::string("zero-area ") + what);
+}
+
+namespace {
+
+// The first pair of edges, one of `a` and one of `b`, that meet (cross, touch or overlap), as
+// "its edge i meets <b_name> edge j"; empty when the closed polygons' boundaries are disjoint.
+// O(|a| |b|): footprints and their holes have at most kMaxFootprintVertices vertices together.
+std::string boundaries_meet(const std::vector<Vec2>& a, const std::vector<Vec2>& b,
+                            const std::string& b_name) {
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    for (std::size_t j = 0; j < b.size(); ++j) {
+      if (segments_intersect(a[i], a[(i + 1) % a.size()], b[j], b[(j + 1) % b.size()]))
+        return "its edge " + std::to_string(i) + " meets " + b_name + " edge " + std::to_string(j);
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
+void validate_holes(const std::vector<Vec2>& outer, const std::vector<std::vector<Vec2>>& holes,
+                    const std::string& field) {
+  for (std::size_t k = 0; k < holes.size(); ++k) {
+    const std::string hk = indexed(field, k);
+    validate_simple_polygon(holes[k], hk, "hole");
+    // Boundaries apart, a hole is inside the footprint exactly when one of its vertices is.
+    if (const std::string meet = boundaries_meet(holes[k], outer, "footprint_m"); !meet.empty())
+      fail(hk, "not inside the footprint (" + meet + ")");
+    if (!point_in_polygon(outer, holes[k][0])) fail(hk, "not inside the footprint");
+    for (std::size_t j = 0; j < k; ++j) {
+      const std::string hj = "holes_m[" + std::to_string(j) + "]";
+      if (const std::string meet = boundaries_meet(holes[k], holes[j], hj); !meet.empty())
+        fail(hk, "crosses " + hj + " (" + meet + ")");
+      if (point_in_polygon(holes[j], holes[k][0])) fail(hk, "lies inside " + hj);
+      if (point_in_polygon(holes[k], holes[j][0])) fail(hk, "contains " + hj);
+    }
+  }
 }
 
 }  // namespace fragsim::scene::detail

@@ -50,7 +50,15 @@ void validate_mesh(const MeshSpec& mesh, const std::string& field, const std::st
 // 2-D polygon checks (footprints), coordinates already relative to a nearby point:
 // at least 3 vertices, finite, no repeated consecutive vertex, simple (no two edges cross or touch
 // other than adjacent edges at their shared vertex), non-zero area. Edge k runs from vertex k to
-// vertex k+1 (mod n).
-void validate_simple_polygon(const std::vector<Vec2>& poly, const std::string& field);
+// vertex k+1 (mod n). `what` names the polygon in messages ("zero-area footprint").
+void validate_simple_polygon(const std::vector<Vec2>& poly, const std::string& field,
+                             const char* what = "footprint");
+
+// Holes of a validated footprint `outer` (courtyards), `field` their path
+// ("site.buildings[2].holes_m"): each a simple polygon (validate_simple_polygon) strictly inside
+// `outer`, touching it nowhere, and the holes pairwise disjoint: none crosses or touches another,
+// none lies inside another. Errors name the hole: "holes_m[1]: crosses holes_m[0] (...)".
+void validate_holes(const std::vector<Vec2>& outer, const std::vector<std::vector<Vec2>>& holes,
+                    const std::string& field);
 
 }  // namespace fragsim::scene::detail

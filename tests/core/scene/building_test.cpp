@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <limits>
+#include <map>
 #include <random>
 #include <string>
 
@@ -294,6 +295,191 @@ TEST(Buildings, FootprintWithoutHolesIsUnchanged) {
     const auto& p = ccw_l[k % ccw_l.size()];
     EXPECT_EQ(site->building_vertices()[k], Vec3(p[0], p[1], k < ccw_l.size() ? 0 : 9) - o) << k;
   }
+}
+
+// ---- Footprints with holes (courtyards) ----
+
+using Ring = std::vector<std::array<double, 2>>;
+
+double ring_area(const Ring& r) {  // signed, shoelace
+  double a = 0;
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    const auto& p = r[k];
+    const auto& q = r[(k + 1) % r.size()];
+    a += p[0] * q[1] - q[0] * p[1];
+  }
+  return 0.5 * a;
+}
+
+double ring_perimeter(const Ring& r) {
+  double l = 0;
+  for (std::size_t k = 0; k < r.size(); ++k)
+    l += std::hypot(r[(k + 1) % r.size()][0] - r[k][0], r[(k + 1) % r.size()][1] - r[k][1]);
+  return l;
+}
+
+double net_area(const BuildingSpec& b) {
+  double a = std::abs(ring_area(b.footprint_m));
+  for (const auto& h : b.holes_m) a -= std::abs(ring_area(h));
+  return a;
+}
+
+// A 60 x 40 m block on the plane (x 100..160, y 20..60) around three courtyards: a square, a
+// triangle and an L, in mixed orientations.
+BuildingSpec courtyard_block() {
+  BuildingSpec b = box_building("Y", 100, 20, 160, 60, 12, /*clockwise=*/true);
+  b.holes_m = {{{105, 25}, {120, 25}, {120, 40}, {105, 40}},  // counter-clockwise
+               {{130, 50}, {140, 30}, {125, 30}},             // clockwise
+               {{145, 25}, {155, 25}, {155, 55}, {130, 55}, {130, 52}, {145, 52}}};
+  return b;
+}
+
+// Checks the extruded building: a closed 2-manifold (every directed edge used once, its reverse
+// once: each edge shared by exactly two triangles of opposite orientation), enclosing net area x
+// height (divergence theorem), every normal pointing out of the solid (a point just outside along
+// the normal is outside every building, one just inside is inside), roof and wall areas, and the
+// triangle count the site limits assume.
+void expect_closed_extrusion(const Site& site, std::size_t index, const BuildingSpec& spec) {
+  const Building& b = site.buildings()[index];
+  const auto& tris = site.building_triangles();
+  const auto& verts = site.building_vertices();
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
+  double volume6 = 0;
+  const Vec3 ref = b.bounds.lo;
+  for (std::uint32_t t = b.first_triangle; t < b.first_triangle + b.triangle_count; ++t) {
+    const auto& v = tris[t].v;
+    for (int k = 0; k < 3; ++k) ++directed[{v[k], v[(k + 1) % 3]}];
+    volume6 += (verts[v[0]] - ref).dot((verts[v[1]] - ref).cross(verts[v[2]] - ref));
+  }
+  for (const auto& [e, uses] : directed) {
+    ASSERT_EQ(uses, 1) << "edge " << e.first << "-" << e.second;
+    const auto back = directed.find({e.second, e.first});
+    ASSERT_TRUE(back != directed.end()) << "edge " << e.first << "-" << e.second << " is open";
+  }
+  const double area = net_area(spec);
+  EXPECT_NEAR(volume6 / 6, area * spec.height_m, 1e-9 * area * spec.height_m);
+  for (std::uint32_t t = b.first_triangle; t < b.first_triangle + b.triangle_count; ++t) {
+    const auto& v = tris[t].v;
+    const Vec3 c = (verts[v[0]] + verts[v[1]] + verts[v[2]]) / 3.0;
+    const Vec3& n = site.building_triangle_normal(t);
+    const double d = 1e-3;
+    if (tris[t].surface == SurfaceType::kRoof) {
+      EXPECT_NEAR(n.z(), 1, 1e-15);
+    }
+    // The floor lies on the plane z = 0: only its inner side is checked.
+    if (c.z() > b.bounds.lo.z() + 1e-9) {
+      EXPECT_FALSE(site.inside_building(c + d * n)) << t;
+    }
+    EXPECT_TRUE(site.inside_building(c - d * n)) << t;
+  }
+  double perimeter = ring_perimeter(spec.footprint_m);
+  std::size_t vertices = spec.footprint_m.size();
+  for (const auto& h : spec.holes_m) {
+    perimeter += ring_perimeter(h);
+    vertices += h.size();
+  }
+  EXPECT_NEAR(b.surface_area_m2[static_cast<int>(SurfaceType::kRoof)], area, 1e-9 * area);
+  EXPECT_NEAR(b.surface_area_m2[static_cast<int>(SurfaceType::kWall)], perimeter * spec.height_m,
+              1e-9 * perimeter * spec.height_m);
+  EXPECT_EQ(b.triangle_count, 4 * vertices + 4 * spec.holes_m.size() - 4);
+  EXPECT_EQ(b.floor_triangle_count, vertices + 2 * spec.holes_m.size() - 2);
+}
+
+TEST(Courtyards, ExtrudedBlockIsClosedAndOutward) {
+  auto spec = plane_site();
+  spec.buildings.push_back(courtyard_block());
+  const auto site = Site::build(spec);
+  expect_closed_extrusion(*site, 0, spec.buildings[0]);
+  // Materials as for any footprint.
+  for (const auto& t : site->building_triangles()) {
+    const std::string& name = site->materials()[t.material].name;
+    EXPECT_EQ(name, t.surface == SurfaceType::kRoof ? "metal_roof" : "concrete_wall");
+    EXPECT_NE(t.surface, SurfaceType::kWindow);
+  }
+}
+
+TEST(Courtyards, ManyHolesAndAConcaveOutline) {
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> jit(-1.5, 1.5);
+  auto spec = plane_site();
+  // A U-shaped block (x -90..-10, y -80..-20) with courtyards in both arms and the base.
+  BuildingSpec u = box_building("U", 0, 0, 1, 1, 7.5);
+  u.footprint_m = {{-90, -80}, {-10, -80}, {-10, -20}, {-30, -20},
+                   {-30, -55}, {-70, -55}, {-70, -20}, {-90, -20}};
+  for (const double cx : {-80.0, -20.0})
+    for (const double cy : {-45.0, -30.0})
+      u.holes_m.push_back({{cx - 4 + jit(rng), cy - 4},
+                           {cx + 4, cy - 4 + jit(rng)},
+                           {cx + 4 + jit(rng), cy + 4},
+                           {cx - 4, cy + 4 + jit(rng)}});
+  u.holes_m.push_back({{-50, -75}, {-40, -65}, {-50, -60}, {-60, -65}});
+  ASSERT_EQ(u.holes_m.size(), 5u);
+  spec.buildings.push_back(u);
+  spec.buildings.push_back(courtyard_block());
+  const auto site = Site::build(spec);
+  expect_closed_extrusion(*site, 0, spec.buildings[0]);
+  expect_closed_extrusion(*site, 1, spec.buildings[1]);
+}
+
+TEST(Courtyards, RaysFallIntoTheCourtyardAndOntoTheRoof) {
+  auto spec = plane_site();
+  spec.buildings.push_back(courtyard_block());
+  const auto site = Site::build(spec);
+  const Vec3 down(0, 0, -1);
+  const auto drop = [&](double x, double y) {
+    return site->intersect(site->to_local(Vec3(x, y, 50)), down, 0, 100);
+  };
+  // Into each courtyard: the ground, 50 m down.
+  for (const auto& [x, y] : {std::pair{112.5, 32.5}, {131.0, 33.0}, {150.0, 40.0}, {140.0, 54.0}}) {
+    const auto hit = drop(x, y);
+    ASSERT_TRUE(hit) << x << " " << y;
+    EXPECT_TRUE(hit->terrain) << x << " " << y;
+    EXPECT_NEAR(hit->t, 50, 1e-9);
+    EXPECT_FALSE(site->inside_building(site->to_local(Vec3(x, y, 6)))) << x << " " << y;
+  }
+  // Onto the roof between them: 12 m high.
+  for (const auto& [x, y] : {std::pair{102.5, 50.0}, {122.5, 45.0}, {150.0, 22.5}, {140.0, 50.0}}) {
+    const auto hit = drop(x, y);
+    ASSERT_TRUE(hit) << x << " " << y;
+    EXPECT_FALSE(hit->terrain) << x << " " << y;
+    EXPECT_EQ(hit->surface, SurfaceType::kRoof);
+    EXPECT_NEAR(hit->t, 38, 1e-9);
+    EXPECT_TRUE(site->inside_building(site->to_local(Vec3(x, y, 6)))) << x << " " << y;
+  }
+  // Across the square courtyard at half height: its east wall, facing into the courtyard.
+  const auto across = site->intersect(site->to_local(Vec3(110, 32.5, 6)), Vec3(1, 0, 0), 0, 100);
+  ASSERT_TRUE(across);
+  EXPECT_EQ(across->surface, SurfaceType::kWall);
+  EXPECT_NEAR(across->t, 10, 1e-9);
+  EXPECT_NEAR(across->normal.x(), -1, 1e-12);
+}
+
+TEST(Courtyards, BaseIsTheLowestGroundUnderTheBuildingNotInTheCourtyard) {
+  // A pit at terrain vertex (30, 30), -4 m in ground at 2 m. In the courtyard, it is not under
+  // the building, but the courtyard's walls stand on its slope: the ground under the hole's west
+  // edge x = 25 falls to 2 - 0.6 * 5 = -1 m (the outline's edges stay on flat ground).
+  auto g = make_grid(0, 0, 10, 7, 7, [](double, double) { return 2.0; });
+  g.elevation_m[3 * 7 + 3] = -4.0;
+  auto spec = grid_site(g);
+  BuildingSpec b = box_building("P", 12, 12, 48, 48, 5);
+  b.holes_m = {{{25, 25}, {35, 25}, {35, 35}, {25, 35}}};
+  spec.buildings.push_back(b);
+  const auto site = Site::build(spec);
+  EXPECT_NEAR(site->buildings()[0].bounds.lo.z() + site->local_origin().z(), -1.0, 1e-12);
+  // The courtyard elsewhere: the pit is under the building.
+  spec.buildings[0].holes_m = {{{15, 15}, {22, 15}, {22, 22}, {15, 22}}};
+  const auto moved = Site::build(spec);
+  EXPECT_NEAR(moved->buildings()[0].bounds.lo.z() + moved->local_origin().z(), -4.0, 1e-12);
+}
+
+TEST(Courtyards, AMeshHasNoHoles) {
+  auto spec = plane_site();
+  BuildingSpec b = box_building("M", 0, 0, 1, 1, 1);
+  b.footprint_m.clear();
+  b.mesh = MeshSpec{};
+  b.holes_m = {{{0, 0}, {1, 0}, {0, 1}}};
+  spec.buildings.push_back(b);
+  testing::expect_input_error(spec, "site.buildings[0].holes_m", "only a footprint has holes");
 }
 
 }  // namespace

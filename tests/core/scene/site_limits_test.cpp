@@ -129,5 +129,35 @@ TEST(SiteLimits, AFootprintAroundAFineTerrainFindsItsLowestVertex) {
   EXPECT_EQ(s->to_input(s->buildings()[0].bounds.lo).z(), -6.0);
 }
 
+TEST(SiteLimits, BuildingTrianglesCountCourtyardsAsBuilt) {
+  // 4 + 498 + 498 vertices and 2 holes: 4 * 1000 + 4 * 2 - 4 = 4004 triangles as built, which
+  // is what the limit on the building triangles adds up (counting only the outline, 12).
+  BuildingSpec b = box_building("b", -100, -100, 100, 100, 6);
+  for (const double cx : {-50.0, 50.0}) {
+    std::vector<std::array<double, 2>> round;
+    for (int k = 0; k < 498; ++k) {
+      const double a = 2 * M_PI * k / 498;
+      round.push_back({cx + 30 * std::cos(a), 30 * std::sin(a)});
+    }
+    b.holes_m.push_back(round);
+  }
+  SiteSpec one = plane_site();
+  one.buildings = {b};
+  const std::size_t per = Site::build(one)->buildings()[0].triangle_count;
+  ASSERT_EQ(per, 4004u);
+  // The first building over 2^24 triangles in all is number 4190 (4191 * 4004 = 16780764).
+  const std::size_t over = kMaxBuildingTriangles / per;
+  SiteSpec many = plane_site();
+  many.buildings.assign(over + 1, b);
+  try {
+    check_site_limits(many);
+    ADD_FAILURE() << "no limit";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "site.buildings[" + std::to_string(over) + "]");
+    EXPECT_EQ(e.message(), "brings the building triangles to " + std::to_string((over + 1) * per) +
+                               "; at most 16777216 in all");
+  }
+}
+
 }  // namespace
 }  // namespace fragsim::scene

@@ -267,6 +267,86 @@ TEST(SiteValidation, FootprintShape) {
   EXPECT_NO_THROW(Site::build(s));
 }
 
+// Three footprints; the third (40..60 x 0..20) gets the holes under test.
+SiteSpec courtyard_site(std::vector<std::vector<std::array<double, 2>>> holes) {
+  auto s = plane_site();
+  s.buildings.push_back(box_building("A", 0, 0, 5, 5, 3));
+  s.buildings.push_back(box_building("B", 20, 0, 25, 5, 3));
+  s.buildings.push_back(box_building("C", 40, 0, 60, 20, 3));
+  s.buildings[2].holes_m = std::move(holes);
+  return s;
+}
+
+TEST(SiteValidation, HoleShape) {
+  const std::string h0 = "site.buildings[2].holes_m[0]";
+  // Bow tie: edge 0 (42,2)->(48,8) crosses edge 2 (48,2)->(42,8).
+  expect_input_error(courtyard_site({{{42, 2}, {48, 8}, {48, 2}, {42, 8}}}), h0,
+                     "self-crossing polygon (edges 0 and 2 cross)");
+  expect_input_error(courtyard_site({{{42, 2}, {48, 2}}}), h0,
+                     "a hole needs at least 3 vertices (got 2)");
+  expect_input_error(courtyard_site({{{42, 2}, {48, 2}, {48, 2}, {42, 8}}}), h0 + "[2]",
+                     "repeats the previous vertex");
+  expect_input_error(courtyard_site({{{42, 2}, {48, 2}, {45, 2 + 1e-12}}}), h0, "zero-area hole");
+  expect_input_error(courtyard_site({{{42, 2}, {kNaN, 2}, {42, 8}}}), h0 + "[1][0]", "not finite");
+  // Either orientation, and a GIS-style closed ring, are accepted.
+  EXPECT_NO_THROW(Site::build(courtyard_site({{{42, 2}, {48, 2}, {42, 8}}})));
+  EXPECT_NO_THROW(Site::build(courtyard_site({{{42, 8}, {48, 2}, {42, 2}, {42, 8}}})));
+}
+
+TEST(SiteValidation, HoleInsideTheFootprint) {
+  const std::string h1 = "site.buildings[2].holes_m[1]";
+  const std::vector<std::array<double, 2>> ok = {{42, 2}, {48, 2}, {48, 8}, {42, 8}};
+  // Wholly outside, and around the whole footprint.
+  expect_input_error(courtyard_site({ok, {{70, 2}, {78, 2}, {78, 8}}}), h1,
+                     "not inside the footprint");
+  expect_input_error(courtyard_site({ok, {{30, -10}, {70, -10}, {70, 30}, {30, 30}}}), h1,
+                     "not inside the footprint");
+  // Crossing the outline: its edge 1 (58,12)->(65,12) meets the footprint's east edge 1.
+  expect_input_error(courtyard_site({ok, {{52, 12}, {58, 12}, {65, 18}, {52, 18}}}), h1,
+                     "not inside the footprint (its edge 1 meets footprint_m edge 1)");
+  // Touching it: a vertex on the east edge; a vertex on a footprint vertex.
+  expect_input_error(courtyard_site({ok, {{52, 12}, {60, 15}, {52, 18}}}), h1,
+                     "not inside the footprint (its edge 0 meets footprint_m edge 1)");
+  expect_input_error(courtyard_site({ok, {{52, 12}, {60, 20}, {52, 18}}}), h1,
+                     "not inside the footprint (its edge 0 meets footprint_m edge 1)");
+  EXPECT_NO_THROW(Site::build(courtyard_site({ok, {{52, 12}, {59.999, 15}, {52, 18}}})));
+}
+
+TEST(SiteValidation, HolesDisjoint) {
+  const std::string h1 = "site.buildings[2].holes_m[1]";
+  const std::vector<std::array<double, 2>> square = {{42, 2}, {48, 2}, {48, 8}, {42, 8}};
+  // Crossing: holes_m[1]'s edge 0 (45,5)->(55,5) leaves the square through its edge 1.
+  expect_input_error(courtyard_site({square, {{45, 5}, {55, 5}, {55, 10}}}), h1,
+                     "crosses holes_m[0] (its edge 0 meets holes_m[0] edge 1)");
+  // Touching at one point (a corner of the square).
+  expect_input_error(courtyard_site({square, {{48, 8}, {55, 9}, {55, 15}}}), h1,
+                     "crosses holes_m[0] (its edge 0 meets holes_m[0] edge 1)");
+  // Nested, either way round.
+  const std::vector<std::array<double, 2>> inner = {{44, 4}, {46, 4}, {46, 6}};
+  expect_input_error(courtyard_site({square, inner}), h1, "lies inside holes_m[0]");
+  expect_input_error(courtyard_site({inner, square}), h1, "contains holes_m[0]");
+  // Apart, they build.
+  EXPECT_NO_THROW(Site::build(courtyard_site({square, {{50, 5}, {55, 5}, {55, 10}}})));
+}
+
+TEST(SiteValidation, HolesCountAsFootprintVertices) {
+  // Limits (site_limits.h): coordinates in range, and at most 1000 vertices, holes included.
+  auto s = courtyard_site({{{42, 2}, {1e9, 2}, {42, 8}}});
+  expect_input_error(s, "site.buildings[2].holes_m[0][1][0]", "must be in [-1e+08, 1e+08]");
+  std::vector<std::array<double, 2>> round;
+  for (int k = 0; k < 600; ++k) {
+    const double a = -2 * kPi * k / 600;  // clockwise
+    round.push_back({50 + 4 * std::cos(a), 10 + 4 * std::sin(a)});
+  }
+  s = courtyard_site({round});
+  EXPECT_NO_THROW(Site::build(s));
+  s.buildings[2].holes_m.push_back(round);                 // 4 + 600 + 600 vertices
+  for (auto& p : s.buildings[2].holes_m[1]) p[1] += 1000;  // (limits come first)
+  expect_input_error(s, "site.buildings[2].holes_m[1]",
+                     "brings the footprint's vertices to 1204 (footprint_m and holes_m "
+                     "together); at most 1000 are allowed");
+}
+
 // Closed unit-cube mesh (outward winding), 8 vertices, 12 triangles.
 MeshSpec cube_mesh(double x0, double y0, double z0, double size) {
   MeshSpec m;
