@@ -237,9 +237,12 @@ Vec3 read_position(const Json& j, const std::string& path) {
 }
 
 ObjectReader::ObjectReader(const Json& j, std::string path, std::string_view kind)
+    : ObjectReader(j, std::move(path), object_keys(kind)) {}
+
+ObjectReader::ObjectReader(const Json& j, std::string path,
+                           const std::vector<std::string>& accepted)
     : j_(j), path_(std::move(path)) {
   if (!j.is_object()) wrong_type("object", j, path_);
-  const auto& accepted = object_keys(kind);
   for (const auto& item : j.items()) {
     const std::string& key = item.key();
     if (std::find(accepted.begin(), accepted.end(), key) != accepted.end()) continue;

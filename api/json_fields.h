@@ -67,6 +67,8 @@ Vec3 read_position(const Json& j, const std::string& path);
 class ObjectReader {
  public:
   ObjectReader(const Json& j, std::string path, std::string_view kind);
+  // The same with the accepted keys given (documents other than the scenario, e.g. gis/).
+  ObjectReader(const Json& j, std::string path, const std::vector<std::string>& accepted);
 
   const std::string& path() const { return path_; }
   const Json& json() const { return j_; }

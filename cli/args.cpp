@@ -62,11 +62,15 @@ Options parse_args(const std::vector<std::string>& args) {
     o.command = Command::kValidate;
   } else if (first == "submit") {
     o.command = Command::kSubmit;
+  } else if (first == "site") {
+    if (args.size() < 2 || args[1] != "import")
+      throw UsageError("site: expected \"site import IMPORT.json --out SITE.json\"");
+    o.command = Command::kSiteImport;
   } else {
     throw UsageError("unknown command \"" + first + "\"");
   }
 
-  for (std::size_t k = 1; k < args.size(); ++k) {
+  for (std::size_t k = o.command == Command::kSiteImport ? 2 : 1; k < args.size(); ++k) {
     const std::string& a = args[k];
     std::string value;
     if (a == "--help" || a == "-h") {
@@ -130,9 +134,19 @@ Options parse_args(const std::vector<std::string>& args) {
         continue;
       }
     }
+    if (o.command == Command::kSiteImport && take_value(args, k, "--out", value)) {
+      if (value.empty()) throw UsageError("--out: empty file name");
+      o.out = value;
+      continue;
+    }
     if (a.size() > 1 && a[0] == '-') throw UsageError("unknown option \"" + a + "\"");
     if (!o.scenario.empty()) throw UsageError("more than one scenario file (\"" + a + "\")");
     o.scenario = a;
+  }
+  if (o.command == Command::kSiteImport) {
+    if (o.scenario.empty()) throw UsageError("site import: missing IMPORT.json");
+    if (o.out.empty()) throw UsageError("site import needs --out SITE.json");
+    return o;
   }
   if (o.scenario.empty()) throw UsageError("missing SCENARIO.json");
   if (o.command == Command::kRun && o.out.empty()) throw UsageError("run needs --out DIR");
@@ -145,6 +159,7 @@ const char* usage_text() {
 Usage:
   fragsim run SCENARIO.json --out DIR [--threads N] [--samples-scale X] [--quiet]
   fragsim validate SCENARIO.json
+  fragsim site import IMPORT.json --out SITE.json
   fragsim submit SCENARIO.json [--server URL] [--token-file FILE] [--priority N]
                  [--idempotency-key KEY] [--no-wait] [--out DIR] [--quiet]
   fragsim --version
@@ -154,6 +169,11 @@ Commands:
   run        Validate the scenario, simulate it and write DIR/summary.json and DIR/results.h5.
              The files appear only when the run completes (Ctrl-C cancels: nothing is written).
   validate   Check the scenario (JSON contract and site geometry) without running it.
+  site import
+             Build a site from GIS files (docs/gis.md): a DEM raster (GeoTIFF, DTED, ASCII
+             grid, ...) and building footprints (GeoPackage, shapefile, GeoJSON, ...) named in
+             IMPORT.json, in a projected CRS. SITE.json is a site object as a scenario's "site"
+             and POST /v1/sites take it; it is checked (and built) before it is written.
   submit     Run the scenario on a fragsimd server (docs/http-api.md): an inline site is
              uploaded first (POST /v1/sites) and the job names it by site_id; then the job's
              progress is followed and its summary printed (--out DIR also downloads

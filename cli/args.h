@@ -13,12 +13,12 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class Command { kHelp, kVersion, kRun, kValidate, kSubmit };
+enum class Command { kHelp, kVersion, kRun, kValidate, kSubmit, kSiteImport };
 
 struct Options {
   Command command = Command::kHelp;
-  std::string scenario;                 // run, validate
-  std::string out;                      // run: --out DIR (required)
+  std::string scenario;                 // run, validate, submit; site import: IMPORT.json
+  std::string out;                      // run: --out DIR (required); site import: --out FILE
   std::optional<int> threads;           // run: --threads N overrides settings.threads
   std::optional<double> samples_scale;  // run: --samples-scale X multiplies every group's samples
   bool quiet = false;                   // run, submit: no progress, no report

@@ -17,6 +17,8 @@ inline constexpr int kExitCancelled = 130;  // 128 + SIGINT, as shells report it
 std::string read_file(const std::string& path, const std::string& field = "");
 
 int validate_command(const Options& options);
+// `fragsim site import`: GIS files to a site document (gis/site_import.h).
+int site_import_command(const Options& options);
 // `cancel` is set by the SIGINT/SIGTERM handler.
 int run_command(const Options& options, const std::atomic<bool>& cancel);
 // Runs the scenario on a fragsimd server; `cancel` stops following (the job keeps running).

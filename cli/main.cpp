@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
         std::cout << "fragsim " << fragsim::kVersion << " (git " << fragsim::kGitSha << ")\n";
         return kExitOk;
       case Command::kValidate: return validate_command(options);
+      case Command::kSiteImport: return site_import_command(options);
       case Command::kRun: install_signal_handlers(); return run_command(options, g_cancel);
       case Command::kSubmit:
         install_signal_handlers();

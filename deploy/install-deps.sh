@@ -13,6 +13,7 @@ PACKAGES=(
   librandom123-dev         # Philox counter-based random streams
   libgtest-dev libgmock-dev googletest  # unit and validation tests
   libbenchmark-dev         # micro-benchmarks in bench/
+  libgdal-dev gdal-bin     # gis/: DEM and footprint import (GDAL/OGR 3.6, PROJ 9)
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -1,0 +1,128 @@
+// `fragsim site import` from the command line (docs/gis.md): the site file appears only when the
+// import succeeds, and bad GIS input exits 2 with a message naming the file, layer and feature.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "api/site_document.h"
+#include "api/test_support.h"
+#include "gis/gis_fixtures.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+using fragsim::gis::testing::RasterFixture;
+
+struct Result {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+class SiteImportCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fragsim::api::testing::fresh_test_dir("fragsim_cli_site_import_");
+    RasterFixture f;
+    f.cols = 30;
+    f.rows = 30;  // 452000-452300 E, 3838740-3839040 N
+    fragsim::gis::testing::write_geotiff(dir_ / "dem.tif", f);
+    fragsim::gis::testing::write_layer(
+        dir_ / "b.gpkg", "EPSG:32611", {"name", "h"},
+        {{"POLYGON ((452100 3838800,452120 3838800,452120 3838820,452100 3838820,452100 "
+          "3838800))",
+          {{"name", "B1"}, {"h", "6"}}}});
+    import_ = R"({"schema": "fragsim.site_import/1",
+      "terrain": {"path": "dem.tif", "material": "soft"},
+      "buildings": {"path": "b.gpkg", "id_attribute": "name", "height_attribute": "h",
+                    "wall": "w", "roof": "w"},
+      "materials": {"w": {"friction": 0.5}}})";
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  Result run(const std::vector<std::string>& args) {
+    const std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
+    std::vector<std::string> argv_s = {FRAGSIM_CLI};
+    argv_s.insert(argv_s.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& a : argv_s) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      ::dup2(::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644), STDOUT_FILENO);
+      ::dup2(::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644), STDERR_FILENO);
+      ::execv(FRAGSIM_CLI, argv.data());
+      ::_exit(127);
+    }
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    Result r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = fragsim::api::testing::read_text(out);
+    r.err = fragsim::api::testing::read_text(err);
+    return r;
+  }
+
+  Result import(const std::string& text) {
+    std::ofstream(dir_ / "import.json") << text;
+    return run({"site", "import", (dir_ / "import.json").string(), "--out",
+                (dir_ / "site.json").string()});
+  }
+
+  fs::path dir_;
+  std::string import_;
+};
+
+TEST_F(SiteImportCli, WritesASiteThatParsesAndBuilds) {
+  const Result r = import(import_);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("CRS: EPSG:32611 (WGS 84 / UTM zone 11N)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("terrain: grid 30 x 30 vertices, 1682 triangles"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("buildings: 1"), std::string::npos) << r.out;
+  const Json site = Json::parse(fragsim::api::testing::read_text(dir_ / "site.json"));
+  EXPECT_NO_THROW(fragsim::api::build_site(fragsim::api::parse_site_document(site)));
+}
+
+TEST_F(SiteImportCli, BadGisInputExits2NamingTheFileAndWritesNothing) {
+  Json j = Json::parse(import_);
+  j["buildings"]["height_attribute"] = "height";
+  Result r = import(j.dump());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "error: buildings.height_attribute: " + (dir_ / "b.gpkg").string() +
+                       ", layer \"footprints\": no attribute \"height\" (its attributes: \"name\", "
+                       "\"h\")\n");
+  EXPECT_FALSE(fs::exists(dir_ / "site.json"));
+
+  j = Json::parse(import_);
+  j["terrain"]["path"] = "nope.tif";
+  r = import(j.dump());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err.rfind("error: terrain.path: " + (dir_ / "nope.tif").string() +
+                            ": cannot be opened as a raster",
+                        0),
+            0u)
+      << r.err;
+  // A building whose material the import file does not define: the site check names it.
+  j = Json::parse(import_);
+  j["buildings"]["wall"] = "granite";
+  r = import(j.dump());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(
+      r.err.find(
+          "the imported site is not valid: buildings[0].wall (building \"B1\"): unknown material"),
+      std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "site.json"));
+
+  r = run({"site", "import", (dir_ / "import.json").string()});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("site import needs --out SITE.json"), std::string::npos);
+}
+
+}  // namespace
