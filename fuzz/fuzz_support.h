@@ -1,0 +1,50 @@
+#pragma once
+// Shared by the libFuzzer targets (docs/testing.md). A target passes when every input either
+// goes through or is refused with the contract's "bad input" exception, fragsim::InputError (its
+// subclasses MalformedJsonError and JsonTooDeepError included). Anything else -- another
+// exception, a broken invariant, a sanitizer report, an input taking over a second -- is a
+// finding: the exception escapes LLVMFuzzerTestOneInput and libFuzzer stops with the input saved.
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <string_view>
+
+#include "api/scenario_json.h"
+#include "core/run/run.h"
+
+namespace fragsim::fuzz {
+
+inline std::string_view as_text(const std::uint8_t* data, std::size_t size) {
+  return {reinterpret_cast<const char*>(data), size};
+}
+
+// A broken invariant: abort() so that libFuzzer records the input as a crash.
+[[noreturn]] inline void fail(const std::string& what) {
+  std::fprintf(stderr, "fuzz invariant broken: %s\n", what.c_str());
+  std::abort();
+}
+
+// Normalising is idempotent: the normalised form parses back to itself. The daemon relies on it
+// (a site's id is the hash of its normalised JSON; results.h5 stores the normalised scenario).
+inline void check_scenario_round_trip(const api::ScenarioDocument& doc) {
+  const nlohmann::json once = api::scenario_to_json(doc);
+  const nlohmann::json twice = api::scenario_to_json(api::parse_scenario_document(once));
+  if (once != twice)
+    fail("scenario normalisation not idempotent:\n" + once.dump() + "\n" + twice.dump());
+}
+
+// A few histories of an accepted scenario: one per group (at most three groups), one thread, and
+// a work cap well below the production one, so that an input costs milliseconds. This reaches
+// the physics (flight, impacts, ground phase) with values no hand-written test would choose.
+inline void run_a_few_histories(run::Scenario sc, std::shared_ptr<const scene::Site> site) {
+  constexpr std::size_t kMaxGroups = 3;
+  if (sc.groups.size() > kMaxGroups) sc.groups.resize(kMaxGroups);
+  for (auto& g : sc.groups) g.samples = 1;
+  sc.settings.threads = 1;
+  sc.settings.max_history_work = 20'000;
+  sc.settings.max_recorded_trajectories = 3;
+  (void)run::run(sc, std::move(site));
+}
+
+}  // namespace fragsim::fuzz
