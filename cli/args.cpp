@@ -62,6 +62,8 @@ Options parse_args(const std::vector<std::string>& args) {
     o.command = Command::kValidate;
   } else if (first == "submit") {
     o.command = Command::kSubmit;
+  } else if (first == "export") {
+    o.command = Command::kExport;
   } else if (first == "site") {
     if (args.size() < 2 || args[1] != "import")
       throw UsageError("site: expected \"site import IMPORT.json --out SITE.json\"");
@@ -134,7 +136,16 @@ Options parse_args(const std::vector<std::string>& args) {
         continue;
       }
     }
-    if (o.command == Command::kSiteImport && take_value(args, k, "--out", value)) {
+    if (o.command == Command::kExport && take_value(args, k, "--pixel-m", value)) {
+      char* end = nullptr;
+      const double x = std::strtod(value.c_str(), &end);
+      if (value.empty() || *end != '\0' || !std::isfinite(x) || !(x > 0))
+        throw UsageError("--pixel-m: expected a number > 0, got \"" + value + "\"");
+      o.pixel_m = x;
+      continue;
+    }
+    if ((o.command == Command::kSiteImport || o.command == Command::kExport) &&
+        take_value(args, k, "--out", value)) {
       if (value.empty()) throw UsageError("--out: empty file name");
       o.out = value;
       continue;
@@ -142,6 +153,11 @@ Options parse_args(const std::vector<std::string>& args) {
     if (a.size() > 1 && a[0] == '-') throw UsageError("unknown option \"" + a + "\"");
     if (!o.scenario.empty()) throw UsageError("more than one scenario file (\"" + a + "\")");
     o.scenario = a;
+  }
+  if (o.command == Command::kExport) {
+    if (o.scenario.empty()) throw UsageError("export: missing RESULTS.h5");
+    if (o.out.empty()) throw UsageError("export needs --out DIR");
+    return o;
   }
   if (o.command == Command::kSiteImport) {
     if (o.scenario.empty()) throw UsageError("site import: missing IMPORT.json");
@@ -160,6 +176,7 @@ Usage:
   fragsim run SCENARIO.json --out DIR [--threads N] [--samples-scale X] [--quiet]
   fragsim validate SCENARIO.json
   fragsim site import IMPORT.json --out SITE.json
+  fragsim export RESULTS.h5 --out DIR [--pixel-m X]
   fragsim submit SCENARIO.json [--server URL] [--token-file FILE] [--priority N]
                  [--idempotency-key KEY] [--no-wait] [--out DIR] [--quiet]
   fragsim --version
@@ -174,6 +191,9 @@ Commands:
              grid, ...) and building footprints (GeoPackage, shapefile, GeoJSON, ...) named in
              IMPORT.json, in a projected CRS. SITE.json is a site object as a scenario's "site"
              and POST /v1/sites take it; it is checked (and built) before it is written.
+  export     Write a run's results as GIS files into DIR (docs/gis.md): the PTN density as
+             GeoTIFF (and in classes with a colour table), the hazardous area, buildings and
+             HFD as GeoPackage, GeoJSON (RFC 7946) and KML, in the site's CRS / WGS 84.
   submit     Run the scenario on a fragsimd server (docs/http-api.md): an inline site is
              uploaded first (POST /v1/sites) and the job names it by site_id; then the job's
              progress is followed and its summary printed (--out DIR also downloads

@@ -13,7 +13,7 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class Command { kHelp, kVersion, kRun, kValidate, kSubmit, kSiteImport };
+enum class Command { kHelp, kVersion, kRun, kValidate, kSubmit, kSiteImport, kExport };
 
 struct Options {
   Command command = Command::kHelp;
@@ -28,6 +28,8 @@ struct Options {
   std::optional<int> priority;
   std::string idempotency_key;
   bool wait = true;  // follow the job to its end
+  // export (RESULTS.h5 in `scenario`, DIR in `out`)
+  std::optional<double> pixel_m;
 };
 
 Options parse_args(const std::vector<std::string>& args);  // args without argv[0]

@@ -1,6 +1,5 @@
-// `fragsim site import IMPORT.json --out SITE.json` (docs/gis.md).
-#include "gis/site_import.h"
-
+// The GIS commands (docs/gis.md): `fragsim site import IMPORT.json --out SITE.json` and
+// `fragsim export RESULTS.h5 --out DIR`.
 #include <filesystem>
 #include <iostream>
 
@@ -11,6 +10,8 @@
 #include "core/common/error.h"
 #include "core/scene/site.h"
 #include "gis/gdal_support.h"
+#include "gis/results_export.h"
+#include "gis/site_import.h"
 
 namespace fragsim::cli {
 
@@ -64,6 +65,20 @@ int site_import_command(const Options& o) {
             << " vertices, " << site->terrain_triangle_count() << " triangles";
   if (t.filled_cells > 0) std::cout << ", " << t.filled_cells << " nodata cells filled";
   std::cout << "\n  buildings: " << imported.buildings << "\n";
+  return kExitOk;
+}
+
+int export_command(const Options& o) {
+  gis::ExportOptions options;
+  options.results_h5 = o.scenario;
+  options.out_dir = o.out;
+  options.pixel_m = o.pixel_m;
+  const gis::ExportReport r = gis::export_results(options);
+  std::cout << "ok: " << o.out << " (CRS " << (r.crs.empty() ? "none: local metres" : r.crs)
+            << "; raster " << r.raster_cols << " x " << r.raster_rows << " cells of " << r.pixel_m
+            << " m; " << r.hazardous_triangles << " terrain triangles at or above the threshold)\n";
+  for (const auto& f : r.files) std::cout << "  " << (fs::path(o.out) / f).string() << "\n";
+  for (const auto& n : r.notes) std::cout << "note: " << n << "\n";
   return kExitOk;
 }
 

@@ -1,0 +1,96 @@
+// Per-triangle values onto a raster by exact plan-area weights (plan_raster.h).
+#include "gis/plan_raster.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace fragsim::gis {
+
+namespace {
+
+// Keeps the part of `poly` where s * (p[axis] - bound) >= 0.
+std::vector<Vec2> clip(const std::vector<Vec2>& poly, int axis, double bound, double s) {
+  std::vector<Vec2> out;
+  const std::size_t n = poly.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const Vec2& p = poly[k];
+    const Vec2& q = poly[(k + 1) % n];
+    const double dp = s * (p[axis] - bound), dq = s * (q[axis] - bound);
+    if (dp >= 0) out.push_back(p);
+    if ((dp >= 0) != (dq >= 0)) out.push_back(p + (q - p) * (dp / (dp - dq)));
+  }
+  return out;
+}
+
+double polygon_area(const std::vector<Vec2>& p) {
+  double a2 = 0;
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    const Vec2& u = p[k];
+    const Vec2& v = p[(k + 1) % p.size()];
+    a2 += u.x() * v.y() - v.x() * u.y();
+  }
+  return 0.5 * std::abs(a2);
+}
+
+}  // namespace
+
+double PlanRaster::mean(std::size_t k, int col, int row) const {
+  const std::size_t i = index(col, row);
+  return covered_m2[i] > 0 ? weighted[k][i] / covered_m2[i]
+                           : std::numeric_limits<double>::quiet_NaN();
+}
+
+PlanRaster make_plan_raster(const std::vector<Vec3>& vertices, double cell_m,
+                            std::size_t value_sets) {
+  Vec2 lo(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
+  Vec2 hi = -lo;
+  for (const Vec3& v : vertices) {
+    lo = lo.cwiseMin(v.head<2>());
+    hi = hi.cwiseMax(v.head<2>());
+  }
+  PlanRaster r;
+  r.x0 = lo.x();
+  r.y0 = lo.y();
+  r.cell_m = cell_m;
+  // A whole number of cells to within 1e-9 of a cell counts as whole (grid spacings).
+  const auto cells = [&](double span) {
+    return std::max(1, static_cast<int>(std::ceil(span / cell_m - 1e-9)));
+  };
+  r.cols = cells(hi.x() - lo.x());
+  r.rows = cells(hi.y() - lo.y());
+  const std::size_t n = static_cast<std::size_t>(r.cols) * static_cast<std::size_t>(r.rows);
+  r.covered_m2.assign(n, 0.0);
+  r.weighted.assign(value_sets, std::vector<double>(n, 0.0));
+  return r;
+}
+
+double clipped_area(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& lo, const Vec2& hi) {
+  std::vector<Vec2> p = {a, b, c};
+  p = clip(p, 0, lo.x(), 1.0);
+  if (!p.empty()) p = clip(p, 0, hi.x(), -1.0);
+  if (!p.empty()) p = clip(p, 1, lo.y(), 1.0);
+  if (!p.empty()) p = clip(p, 1, hi.y(), -1.0);
+  return p.size() < 3 ? 0.0 : polygon_area(p);
+}
+
+void add_triangle(PlanRaster& r, const Vec2& a, const Vec2& b, const Vec2& c,
+                  const std::vector<double>& values) {
+  const Vec2 tlo = a.cwiseMin(b).cwiseMin(c), thi = a.cwiseMax(b).cwiseMax(c);
+  const auto cell_of = [&](double v, double origin, int n) {
+    return std::clamp(static_cast<int>(std::floor((v - origin) / r.cell_m)), 0, n - 1);
+  };
+  const int i0 = cell_of(tlo.x(), r.x0, r.cols), i1 = cell_of(thi.x(), r.x0, r.cols);
+  const int j0 = cell_of(tlo.y(), r.y0, r.rows), j1 = cell_of(thi.y(), r.y0, r.rows);
+  for (int j = j0; j <= j1; ++j)
+    for (int i = i0; i <= i1; ++i) {
+      const Vec2 lo(r.x0 + i * r.cell_m, r.y0 + j * r.cell_m);
+      const double area = clipped_area(a, b, c, lo, lo + Vec2(r.cell_m, r.cell_m));
+      if (area <= 0) continue;
+      const std::size_t k = r.index(i, j);
+      r.covered_m2[k] += area;
+      for (std::size_t s = 0; s < values.size(); ++s) r.weighted[s][k] += values[s] * area;
+    }
+}
+
+}  // namespace fragsim::gis

@@ -1,0 +1,33 @@
+#pragma once
+// GIS outputs of a run (docs/gis.md, "Outputs"): `fragsim export RESULTS.h5 --out DIR` writes
+//   ptn_density.tif     PTN density and its standard error (GeoTIFF, 2 float64 bands)
+//   ptn_classes.tif     the density in classes relative to the threshold, with a colour table
+//   hazard.gpkg         layers hazardous_area, buildings, hfd, hfd_sectors (the site's CRS)
+//   hazardous_area.geojson, buildings.geojson   RFC 7946 (WGS 84)
+//   hazard.kml          the four layers for Google Earth (WGS 84)
+// results.h5 holds everything needed (terrain, densities, buildings, the scenario and its CRS).
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace fragsim::gis {
+
+struct ExportOptions {
+  std::filesystem::path results_h5;
+  std::filesystem::path out_dir;  // created if missing; files replaced atomically
+  std::optional<double> pixel_m;  // raster cell size; default: the terrain's cell size
+};
+
+struct ExportReport {
+  std::vector<std::string> files;  // written, in out_dir
+  std::string crs;                 // "EPSG:32611", or "" when the site has none
+  int raster_cols = 0, raster_rows = 0;
+  double pixel_m = 0.0;
+  std::size_t hazardous_triangles = 0;
+  std::vector<std::string> notes;  // what was not written and why
+};
+
+ExportReport export_results(const ExportOptions& options);
+
+}  // namespace fragsim::gis

@@ -1,0 +1,221 @@
+// GIS outputs of a run (gis/results_export.h; docs/gis.md "Outputs"): a run's results.h5 out as
+// GeoTIFF, GeoPackage, RFC 7946 GeoJSON and KML; checked by reading the files back with GDAL.
+#include "gis/results_export.h"
+
+#include <gtest/gtest.h>
+#include <ogrsf_frmts.h>
+
+#include <cmath>
+
+#include "api/results_h5.h"
+#include "api/run_outputs.h"
+#include "api/test_support.h"
+#include "core/run/run.h"
+#include "gis/gdal_support.h"
+
+namespace fragsim::gis {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+class ResultsExport : public ::testing::Test {
+ protected:
+  void SetUp() override { dir_ = api::testing::fresh_test_dir("fragsim_gis_export_"); }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // The minimal example moved to UTM 11N (input (0, 0) at 452300 E, 3839800 N), with fragments
+  // slow and steep enough to leave a hazardous area near the origin.
+  fs::path run_minimal(const std::string& crs) {
+    Json sc = api::testing::minimal_example();
+    sc["site"]["origin"] = {
+        {"crs", crs}, {"easting_m", 452300}, {"northing_m", 3839800}, {"elevation_m", 0}};
+    auto& g = sc["fragment_groups"][0];
+    g["speed_mps"] = {{"dist", "normal"}, {"mean", 60}, {"sigma", 5}};
+    g["direction"]["elevation_deg"] = {40, 80};
+    g["count"] = 20000;
+    const api::ScenarioDocument doc = api::parse_scenario_document(sc);
+    const auto site = api::validate_scenario(doc.scenario);
+    const run::RunResult result = run::run(doc.scenario);
+    api::OutputDir out(dir_ / "run");
+    api::stage_run_outputs(out, result, *site, doc, api::build_provenance());
+    out.commit();
+    return dir_ / "run" / "results.h5";
+  }
+
+  fs::path dir_;
+};
+
+struct Terrain {
+  std::vector<double> v;  // input coordinates
+  std::vector<std::int64_t> t;
+  std::vector<double> d, se;
+  double threshold;
+  Vec2 centroid(std::size_t k) const {
+    Vec2 c(0, 0);
+    for (int i = 0; i < 3; ++i) c += Vec2(v[3 * t[3 * k + i]], v[3 * t[3 * k + i] + 1]);
+    return c / 3.0;
+  }
+};
+
+Terrain read_terrain(const fs::path& h5) {
+  return {api::read_dataset_double(h5, "/terrain/vertices_m"),
+          api::read_dataset_int64(h5, "/terrain/triangles"),
+          api::read_dataset_double(h5, "/ptn/density_per_m2"),
+          api::read_dataset_double(h5, "/ptn/std_error_per_m2"),
+          api::read_dataset_double(h5, "/hfd/threshold_per_m2").at(0)};
+}
+
+TEST_F(ResultsExport, TheDensityGeoTiffHoldsTheCellMeansOfTheTrianglesInTheSiteCrs) {
+  const fs::path h5 = run_minimal("EPSG:32611");
+  const ExportReport rep = export_results({h5, dir_ / "gis", std::nullopt});
+  EXPECT_EQ(rep.crs, "EPSG:32611");
+  EXPECT_EQ(rep.pixel_m, 10.0);  // the plane's cells
+  GDALDatasetUniquePtr ds(
+      GDALDataset::Open((dir_ / "gis/ptn_density.tif").c_str(), GDAL_OF_RASTER));
+  ASSERT_TRUE(ds);
+  EXPECT_EQ(crs_name(*ds->GetSpatialRef()), "EPSG:32611");
+  double gt[6];
+  ds->GetGeoTransform(gt);
+  // The plane spans input -200 ... 200: 40 x 40 cells of 10 m, north-up.
+  EXPECT_EQ(std::vector<double>(gt, gt + 6), (std::vector<double>{452100, 10, 0, 3840000, 0, -10}));
+  ASSERT_EQ(ds->GetRasterXSize(), 40);
+  ASSERT_EQ(ds->GetRasterYSize(), 40);
+  std::vector<double> band(1600), se(1600);
+  ASSERT_EQ(
+      ds->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, 40, 40, band.data(), 40, 40, GDT_Float64, 0, 0),
+      CE_None);
+  ASSERT_EQ(
+      ds->GetRasterBand(2)->RasterIO(GF_Read, 0, 0, 40, 40, se.data(), 40, 40, GDT_Float64, 0, 0),
+      CE_None);
+  // Each cell: the mean of its two triangles (equal plan areas), independently from results.h5.
+  const Terrain t = read_terrain(h5);
+  std::vector<double> sum(1600, 0.0), sum_se(1600, 0.0);
+  std::vector<int> n(1600, 0);
+  for (std::size_t k = 0; k < t.d.size(); ++k) {
+    const Vec2 c = t.centroid(k);
+    const int col = static_cast<int>(std::floor((c.x() + 200) / 10));
+    const int row = 39 - static_cast<int>(std::floor((c.y() + 200) / 10));  // north first
+    sum[row * 40 + col] += t.d[k];
+    sum_se[row * 40 + col] += t.se[k];
+    ++n[row * 40 + col];
+  }
+  double total = 0;
+  for (std::size_t p = 0; p < 1600; ++p) {
+    ASSERT_EQ(n[p], 2);
+    EXPECT_NEAR(band[p], sum[p] / 2, 1e-12 * std::max(1e-12, sum[p])) << p;
+    EXPECT_NEAR(se[p], sum_se[p] / 2, 1e-12 * std::max(1e-12, sum_se[p])) << p;
+    total += band[p];
+  }
+  EXPECT_GT(total, 0.0);
+}
+
+double area_of(OGRLayer& l, const char* band) {
+  l.ResetReading();
+  for (auto& f : l)
+    if (std::string(f->GetFieldAsString("band")) == band) {
+      const OGRGeometry* g = f->GetGeometryRef();
+      return g->IsEmpty() ? 0.0
+             : dynamic_cast<const OGRSurface*>(g)
+                 ? dynamic_cast<const OGRSurface*>(g)->get_Area()
+                 : dynamic_cast<const OGRMultiSurface*>(g)->get_Area();
+    }
+  ADD_FAILURE() << "no feature " << band;
+  return -1;
+}
+
+TEST_F(ResultsExport, TheHazardousAreaIsExactlyTheTrianglesAtOrAboveTheThreshold) {
+  const fs::path h5 = run_minimal("EPSG:32611");
+  const ExportReport rep = export_results({h5, dir_ / "gis", std::nullopt});
+  const Terrain t = read_terrain(h5);
+  ASSERT_GT(rep.hazardous_triangles, 0u) << "the scenario leaves no hazardous area";
+  GDALDatasetUniquePtr ds(GDALDataset::Open((dir_ / "gis/hazard.gpkg").c_str(), GDAL_OF_VECTOR));
+  ASSERT_TRUE(ds);
+  OGRLayer* l = ds->GetLayerByName("hazardous_area");
+  ASSERT_NE(l, nullptr);
+  EXPECT_EQ(l->GetFeatureCount(), 3);
+  EXPECT_EQ(crs_name(*l->GetSpatialRef()), "EPSG:32611");
+  // Plan area: 50 m2 per triangle of the 10 m plane.
+  int above = 0, lower = 0, upper = 0;
+  for (std::size_t k = 0; k < t.d.size(); ++k) {
+    above += t.d[k] >= t.threshold;
+    lower += t.d[k] - t.se[k] >= t.threshold;
+    upper += t.d[k] + t.se[k] >= t.threshold;
+  }
+  EXPECT_EQ(static_cast<std::size_t>(above), rep.hazardous_triangles);
+  EXPECT_NEAR(area_of(*l, "estimate"), 50.0 * above, 1e-6);
+  EXPECT_NEAR(area_of(*l, "lower_1se"), 50.0 * lower, 1e-6);
+  EXPECT_NEAR(area_of(*l, "upper_1se"), 50.0 * upper, 1e-6);
+  // Every triangle's centroid is inside the estimate iff its density reaches the threshold.
+  l->ResetReading();
+  std::unique_ptr<OGRGeometry> estimate;
+  for (auto& f : *l)
+    if (std::string(f->GetFieldAsString("band")) == "estimate")
+      estimate.reset(f->GetGeometryRef()->clone());
+  ASSERT_TRUE(estimate);
+  for (std::size_t k = 0; k < t.d.size(); ++k) {
+    const Vec2 c = t.centroid(k);
+    const OGRPoint p(c.x() + 452300, c.y() + 3839800);
+    EXPECT_EQ(p.Within(estimate.get()), t.d[k] >= t.threshold) << k;
+  }
+  // The HFD point and its 36 sectors.
+  EXPECT_EQ(ds->GetLayerByName("hfd")->GetFeatureCount(), 1);
+  EXPECT_EQ(ds->GetLayerByName("hfd_sectors")->GetFeatureCount(), 36);
+}
+
+TEST_F(ResultsExport, BuildingsCarryTheirFiguresAndGeoJsonIsRfc7946) {
+  const fs::path h5 = run_minimal("EPSG:32611");
+  export_results({h5, dir_ / "gis", std::nullopt});
+  const auto ids = api::read_dataset_strings(h5, "/buildings/id");
+  const auto impacts = api::read_dataset_double(h5, "/buildings/expected_impacts");
+  GDALDatasetUniquePtr ds(
+      GDALDataset::Open((dir_ / "gis/buildings.geojson").c_str(), GDAL_OF_VECTOR));
+  ASSERT_TRUE(ds);
+  OGRLayer* l = ds->GetLayer(0);
+  ASSERT_EQ(l->GetFeatureCount(), static_cast<GIntBig>(ids.size()));
+  std::size_t k = 0;
+  for (auto& f : *l) {
+    EXPECT_EQ(f->GetFieldAsString("id"), ids[k]);
+    EXPECT_EQ(f->GetFieldAsDouble("expected_impacts"), impacts[k]);
+    OGREnvelope e;
+    f->GetGeometryRef()->getEnvelope(&e);
+    // WGS 84 longitude, latitude near the site (117.5 W, 34.7 N).
+    EXPECT_GT(e.MinX, -118.0);
+    EXPECT_LT(e.MaxX, -117.0);
+    EXPECT_GT(e.MinY, 34.0);
+    EXPECT_LT(e.MaxY, 35.0);
+    ++k;
+  }
+  const std::string text = api::testing::read_text(dir_ / "gis/hazardous_area.geojson");
+  EXPECT_EQ(text.find("\"crs\""), std::string::npos) << "RFC 7946 has no crs member";
+  const std::string kml = api::testing::read_text(dir_ / "gis/hazard.kml");
+  EXPECT_NE(kml.find("<Placemark>"), std::string::npos);
+  EXPECT_NE(kml.find("hfd_sectors"), std::string::npos);
+  for (const auto& e : fs::directory_iterator(dir_ / "gis"))
+    EXPECT_NE(e.path().filename().string()[0], '.') << "left behind: " << e.path();
+}
+
+TEST_F(ResultsExport, WithoutACrsOnlyLocalFilesAreWrittenAndSaid) {
+  const fs::path h5 = run_minimal("");
+  const ExportReport rep = export_results({h5, dir_ / "gis", std::nullopt});
+  EXPECT_EQ(rep.files,
+            (std::vector<std::string>{"ptn_density.tif", "ptn_classes.tif", "hazard.gpkg"}));
+  ASSERT_EQ(rep.notes.size(), 1u);
+  EXPECT_NE(rep.notes[0].find("no CRS"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir_ / "gis/hazard.kml"));
+}
+
+TEST_F(ResultsExport, NotAResultsFileIsAnInputErrorNamingIt) {
+  std::ofstream(dir_ / "x.h5") << "nothing";
+  try {
+    export_results({dir_ / "x.h5", dir_ / "gis", std::nullopt});
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "RESULTS.h5");
+    EXPECT_NE(e.message().find((dir_ / "x.h5").string()), std::string::npos);
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "gis"));
+}
+
+}  // namespace
+}  // namespace fragsim::gis
