@@ -150,11 +150,12 @@ std::vector<std::vector<Vec2>> footprint_rings(const Site& site, const BuildingS
   std::vector<std::vector<Vec2>> rings;
   rings.push_back(local_ring(site, spec.footprint_m, ff));
   detail::validate_simple_polygon(rings[0], ff);
-  if (detail::signed_area(rings[0]) < 0) std::reverse(rings[0].begin(), rings[0].end());
   for (std::size_t h = 0; h < spec.holes_m.size(); ++h)
     rings.push_back(local_ring(site, spec.holes_m[h], indexed(b + ".holes_m", h)));
+  // Validated as given, so that the edge numbers in messages are the input's.
   const std::vector<std::vector<Vec2>> holes(rings.begin() + 1, rings.end());
   detail::validate_holes(rings[0], holes, b + ".holes_m");
+  if (detail::signed_area(rings[0]) < 0) std::reverse(rings[0].begin(), rings[0].end());
   for (std::size_t h = 1; h < rings.size(); ++h)
     if (detail::signed_area(rings[h]) > 0) std::reverse(rings[h].begin(), rings[h].end());
   return rings;

@@ -310,6 +310,12 @@ TEST(SiteValidation, HoleInsideTheFootprint) {
   expect_input_error(courtyard_site({ok, {{52, 12}, {60, 20}, {52, 18}}}), h1,
                      "not inside the footprint (its edge 0 meets footprint_m edge 1)");
   EXPECT_NO_THROW(Site::build(courtyard_site({ok, {{52, 12}, {59.999, 15}, {52, 18}}})));
+  // Edges are numbered as given: clockwise, the south edge (60,0)->(40,0) is edge 2.
+  auto cw = courtyard_site({});
+  cw.buildings[2] = box_building("C", 40, 0, 60, 20, 3, /*clockwise=*/true);
+  cw.buildings[2].holes_m = {{{50, -2}, {55, 5}, {45, 5}}};
+  expect_input_error(cw, "site.buildings[2].holes_m[0]",
+                     "not inside the footprint (its edge 0 meets footprint_m edge 2)");
 }
 
 TEST(SiteValidation, HolesDisjoint) {
