@@ -23,7 +23,7 @@ const std::map<std::string, std::vector<std::string>, std::less<>>& scenario_obj
       {"restitution_table", {"normal_speed_mps", "e"}},
       {"penetration", {"ke_per_area_j_per_m2"}},
       {"building_footprint",
-       {"id", "footprint_m", "height_m", "base_elevation_m", "wall", "roof", "window"}},
+       {"id", "footprint_m", "holes_m", "height_m", "base_elevation_m", "wall", "roof", "window"}},
       {"building_mesh", {"id", "mesh", "wall", "roof", "window"}},
       {"building_mesh_geometry", {"vertices_m", "triangles", "surface"}},
       // Atmosphere

@@ -170,11 +170,24 @@ scene::SurfaceType parse_surface(const Json& j, const std::string& path) {
   fail(path, "must be \"wall\", \"roof\" or \"window\" (got \"" + s + "\")");
 }
 
+// A ring of [x, y] vertices (a footprint or a hole); its shape is checked by Site::build.
+std::vector<std::array<double, 2>> parse_ring(const Json& j, const std::string& path) {
+  read_array(j, path);
+  std::vector<std::array<double, 2>> ring;
+  ring.reserve(j.size());
+  for (std::size_t k = 0; k < j.size(); ++k) ring.push_back(read_vec2(j[k], index_path(path, k)));
+  return ring;
+}
+
 scene::BuildingSpec parse_building(const Json& j, const std::string& path,
                                    const std::map<std::string, scene::MaterialSpec>& materials) {
   if (j.is_object() && j.contains("mesh") && j.contains("footprint_m"))
     fail(path, "give either footprint_m or mesh, not both");
   const bool mesh_form = j.is_object() && j.contains("mesh");
+  // Said plainly rather than as an unknown key of the mesh form.
+  if (mesh_form && j.contains("holes_m"))
+    fail(child_path(path, "holes_m"),
+         "only the footprint form has holes; a mesh gives its courtyards as geometry");
   const ObjectReader o(j, path, mesh_form ? "building_mesh" : "building_footprint");
   scene::BuildingSpec b;
   b.id = o.string("id");
@@ -189,10 +202,13 @@ scene::BuildingSpec parse_building(const Json& j, const std::string& path,
       mesh.surface.push_back(parse_surface(surface[k], index_path(m.at("surface"), k)));
     b.mesh = std::move(mesh);
   } else {
-    const std::string fp = o.at("footprint_m");
-    const Json& footprint = read_array(o.require("footprint_m"), fp);
-    for (std::size_t k = 0; k < footprint.size(); ++k)
-      b.footprint_m.push_back(read_vec2(footprint[k], index_path(fp, k)));
+    b.footprint_m = parse_ring(o.require("footprint_m"), o.at("footprint_m"));
+    if (const Json* holes = o.find("holes_m")) {
+      const std::string hp = o.at("holes_m");
+      read_array(*holes, hp);
+      for (std::size_t k = 0; k < holes->size(); ++k)
+        b.holes_m.push_back(parse_ring((*holes)[k], index_path(hp, k)));
+    }
     b.height_m = o.number("height_m");
     check_gt(b.height_m, 0.0, o.at("height_m"));
     b.base_elevation_m = o.optional_number("base_elevation_m");
@@ -381,6 +397,16 @@ Json site_to_json(const scene::SiteSpec& site, const std::map<std::string, Mater
       Json footprint = Json::array();
       for (const auto& p : b.footprint_m) footprint.push_back(vec2_json(p));
       bj["footprint_m"] = std::move(footprint);
+      // Only when there are holes: a site without them keeps its normalised form (and its id).
+      if (!b.holes_m.empty()) {
+        Json holes = Json::array();
+        for (const auto& ring : b.holes_m) {
+          Json hole = Json::array();
+          for (const auto& p : ring) hole.push_back(vec2_json(p));
+          holes.push_back(std::move(hole));
+        }
+        bj["holes_m"] = std::move(holes);
+      }
       bj["height_m"] = b.height_m;
       if (b.base_elevation_m) bj["base_elevation_m"] = *b.base_elevation_m;
     }

@@ -233,5 +233,74 @@ TEST(SiteDocument, GridTerrainElevationCountIsSiteRelative) {
   EXPECT_EQ(e.first, "terrain.grid.elevation_m") << e.second;
 }
 
+// ---- Footprints with holes (courtyards) ----
+
+// The example's building (60..80 x -10..10) with two courtyards, in either orientation.
+Json courtyard_site() {
+  Json site = minimal_site();
+  site["buildings"][0]["holes_m"] = {{{63, -7}, {70, -7}, {70, 0}, {63, 0}},
+                                     {{78, 8}, {78, -5}, {73, 2}}};
+  return site;
+}
+
+TEST(SiteDocument, HolesRoundTripThroughTheNormalisedSite) {
+  const SiteDocument doc = parse_site_document(courtyard_site());
+  ASSERT_EQ(doc.spec.buildings[0].holes_m.size(), 2u);
+  EXPECT_EQ(doc.spec.buildings[0].holes_m[1][2], (std::array<double, 2>{73, 2}));
+  EXPECT_EQ(doc.normalised["buildings"][0]["holes_m"], courtyard_site()["buildings"][0]["holes_m"]);
+  const SiteDocument again = parse_site_document(doc.normalised);
+  EXPECT_EQ(again.normalised, doc.normalised);
+  EXPECT_EQ(again.site_id, doc.site_id);
+  EXPECT_NE(doc.site_id, parse_site_document(minimal_site()).site_id);
+  // A site without holes writes no holes_m: its normalised form, and so its id, are as before.
+  EXPECT_FALSE(parse_site_document(minimal_site()).normalised["buildings"][0].contains("holes_m"));
+  // Built: 4 + 4 + 3 vertices and 2 holes, 4 * 11 + 4 * 2 - 4 triangles.
+  const auto site = build_site(again);
+  EXPECT_EQ(site->buildings()[0].triangle_count, 48u);
+  // The same in a scenario.
+  Json scenario = minimal_example();
+  scenario["site"] = courtyard_site();
+  EXPECT_EQ(scenario_to_json(parse_scenario_document(scenario))["site"], doc.normalised);
+}
+
+TEST(SiteDocument, HolesErrors) {
+  Json site = courtyard_site();
+  site["buildings"][0]["holes_m"] = {{63, -7}, {70, -7}, {70, 0}};  // a ring, not rings
+  EXPECT_EQ(site_error(site),
+            FieldMessage("buildings[0].holes_m[0][0]", "expected array of 2 numbers, got integer"));
+  site["buildings"][0]["holes_m"] = {{{63, -7}, {70, -7, 1}, {70, 0}}};
+  EXPECT_EQ(site_error(site).first, "buildings[0].holes_m[0][1]");
+  site["buildings"][0]["holes_m"] = "courtyard";
+  EXPECT_EQ(site_error(site), FieldMessage("buildings[0].holes_m", "expected array, got string"));
+  // Site limits, at parse time.
+  site["buildings"][0]["holes_m"] = {{{63, -7}, {2e8, -7}, {70, 0}}};
+  EXPECT_EQ(site_error(site).first, "buildings[0].holes_m[0][1][0]");
+  // A mesh building has none.
+  site = courtyard_site();
+  site["buildings"][0].erase("footprint_m");
+  site["buildings"][0].erase("height_m");
+  site["buildings"][0]["mesh"] = {{"vertices_m", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}},
+                                  {"triangles", {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}}},
+                                  {"surface", {"wall", "wall", "wall", "roof"}}};
+  EXPECT_EQ(site_error(site),
+            FieldMessage("buildings[0].holes_m",
+                         "only the footprint form has holes; a mesh gives its courtyards as "
+                         "geometry"));
+}
+
+TEST(SiteDocument, HoleGeometryErrorsAreSiteRelative) {
+  Json site = courtyard_site();
+  site["buildings"][0]["holes_m"][1] = {{75, 5}, {85, 5}, {85, 8}};  // through the east wall
+  EXPECT_EQ(build_error(site),
+            FieldMessage("buildings[0].holes_m[1]",
+                         "not inside the footprint (its edge 0 meets footprint_m edge 1)"));
+  site["buildings"][0]["holes_m"][1] = {{64, -6}, {66, -6}, {66, -4}};  // in holes_m[0]
+  EXPECT_EQ(build_error(site), FieldMessage("buildings[0].holes_m[1]", "lies inside holes_m[0]"));
+  Json scenario = minimal_example();
+  scenario["site"] = site;
+  EXPECT_EQ(testing::validation_error(scenario),
+            FieldMessage("site.buildings[0].holes_m[1]", "lies inside holes_m[0]"));
+}
+
 }  // namespace
 }  // namespace fragsim::api
