@@ -41,6 +41,20 @@ double PlanRaster::mean(std::size_t k, int col, int row) const {
                            : std::numeric_limits<double>::quiet_NaN();
 }
 
+PlanRaster make_plan_raster_at(double x0, double y0, double cell_m, int cols, int rows,
+                               std::size_t value_sets) {
+  PlanRaster r;
+  r.x0 = x0;
+  r.y0 = y0;
+  r.cell_m = cell_m;
+  r.cols = cols;
+  r.rows = rows;
+  const std::size_t n = static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows);
+  r.covered_m2.assign(n, 0.0);
+  r.weighted.assign(value_sets, std::vector<double>(n, 0.0));
+  return r;
+}
+
 PlanRaster make_plan_raster(const std::vector<Vec3>& vertices, double cell_m,
                             std::size_t value_sets) {
   Vec2 lo(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
@@ -49,20 +63,12 @@ PlanRaster make_plan_raster(const std::vector<Vec3>& vertices, double cell_m,
     lo = lo.cwiseMin(v.head<2>());
     hi = hi.cwiseMax(v.head<2>());
   }
-  PlanRaster r;
-  r.x0 = lo.x();
-  r.y0 = lo.y();
-  r.cell_m = cell_m;
   // A whole number of cells to within 1e-9 of a cell counts as whole (grid spacings).
   const auto cells = [&](double span) {
     return std::max(1, static_cast<int>(std::ceil(span / cell_m - 1e-9)));
   };
-  r.cols = cells(hi.x() - lo.x());
-  r.rows = cells(hi.y() - lo.y());
-  const std::size_t n = static_cast<std::size_t>(r.cols) * static_cast<std::size_t>(r.rows);
-  r.covered_m2.assign(n, 0.0);
-  r.weighted.assign(value_sets, std::vector<double>(n, 0.0));
-  return r;
+  return make_plan_raster_at(lo.x(), lo.y(), cell_m, cells(hi.x() - lo.x()), cells(hi.y() - lo.y()),
+                             value_sets);
 }
 
 double clipped_area(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& lo, const Vec2& hi) {

@@ -32,6 +32,10 @@ struct PlanRaster {
 PlanRaster make_plan_raster(const std::vector<Vec3>& vertices, double cell_m,
                             std::size_t value_sets);
 
+// A raster of `cols` x `rows` cells of `cell_m` whose south-west corner is (x0, y0).
+PlanRaster make_plan_raster_at(double x0, double y0, double cell_m, int cols, int rows,
+                               std::size_t value_sets);
+
 // Adds triangle (a, b, c) with values[k] for each value set.
 void add_triangle(PlanRaster& r, const Vec2& a, const Vec2& b, const Vec2& c,
                   const std::vector<double>& values);

@@ -7,6 +7,7 @@
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "api/output_dir.h"
 #include "api/results_h5.h"
@@ -41,6 +42,10 @@ struct Results {
   std::string crs;            // "" when the site has none
   Vec2 offset{0, 0};          // site.origin easting, northing
   double terrain_cell_m = 0;  // grid spacing / plane cell; 0 for a mesh
+  // A grid terrain: its vertices are the DEM's samples (docs/gis.md): the raster's cells are
+  // centred on them, as the DEM's own cells were.
+  std::optional<std::array<double, 2>> grid_origin;
+  int grid_nx = 0, grid_ny = 0;
 };
 
 std::vector<Vec3> read_points(const fs::path& f, const std::string& name, const Vec2& offset) {
@@ -67,7 +72,14 @@ void read_site_of_scenario(const fs::path& f, Results& r) {
     r.offset = Vec2(o->value("easting_m", 0.0), o->value("northing_m", 0.0));
   }
   const Json& terrain = site.at("terrain");
-  if (terrain.contains("grid")) r.terrain_cell_m = terrain["grid"].at("spacing_m").get<double>();
+  if (terrain.contains("grid")) {
+    const Json& g = terrain["grid"];
+    r.terrain_cell_m = g.at("spacing_m").get<double>();
+    r.grid_origin = std::array<double, 2>{g.at("origin_m")[0].get<double>() + r.offset.x(),
+                                          g.at("origin_m")[1].get<double>() + r.offset.y()};
+    r.grid_nx = g.at("nx").get<int>();
+    r.grid_ny = g.at("ny").get<int>();
+  }
   if (terrain.contains("plane")) r.terrain_cell_m = terrain["plane"].value("cell_m", 10.0);
 }
 
@@ -127,8 +139,11 @@ double default_cell(const Results& r) {
   return std::sqrt(2.0 * area / static_cast<double>(std::max<std::size_t>(1, r.triangles.size())));
 }
 
-PlanRaster rasterise(const Results& r, double cell_m) {
-  PlanRaster pr = make_plan_raster(r.vertices, cell_m, 2);
+PlanRaster rasterise(const Results& r, double cell_m, bool on_grid_samples) {
+  PlanRaster pr = on_grid_samples ? make_plan_raster_at((*r.grid_origin)[0] - 0.5 * cell_m,
+                                                        (*r.grid_origin)[1] - 0.5 * cell_m, cell_m,
+                                                        r.grid_nx, r.grid_ny, 2)
+                                  : make_plan_raster(r.vertices, cell_m, 2);
   for (std::size_t k = 0; k < r.triangles.size(); ++k) {
     const auto& t = r.triangles[k];
     add_triangle(pr, r.vertices[t[0]].head<2>(), r.vertices[t[1]].head<2>(),
@@ -407,7 +422,7 @@ ExportReport export_results(const ExportOptions& o) {
   const OGRSpatialReference* site_srs = srs ? &*srs : nullptr;
 
   report.pixel_m = o.pixel_m.value_or(default_cell(r));
-  const PlanRaster pr = rasterise(r, report.pixel_m);
+  const PlanRaster pr = rasterise(r, report.pixel_m, r.grid_origin && !o.pixel_m);
   report.raster_cols = pr.cols;
   report.raster_rows = pr.rows;
 

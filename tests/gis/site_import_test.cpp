@@ -4,15 +4,19 @@
 
 #include <gtest/gtest.h>
 
+#include "api/results_h5.h"
+#include "api/run_outputs.h"
 #include "api/scenario_json.h"
 #include "api/site_document.h"
 #include "api/test_support.h"
 #include "core/run/run.h"
+#include "gis/results_export.h"
 #include "gis_fixtures.h"
 
 namespace fragsim::gis {
 namespace {
 
+namespace fs = std::filesystem;
 using Json = nlohmann::json;
 using testing::RasterFixture;
 using testing::write_geotiff;
@@ -103,6 +107,63 @@ TEST_F(SiteImportTest, TheImportFileIsCheckedLikeAScenario) {
   j["buildings"].erase("height_attribute");
   const SiteImport no_height = parse_site_import(j, dir_);
   EXPECT_TRUE(no_height.buildings->height_attribute.empty());
+}
+
+TEST_F(SiteImportTest, ADemImportedRunAndExportedComesBackOnItsOwnCellsAndCrs) {
+  // The round trip of docs/gis.md: a GeoTIFF DEM -> site -> run -> ptn_density.tif with the
+  // DEM's CRS and geotransform (each output cell centred on its DEM sample), and the fragments
+  // per m2 conserved: sum over cells of mean x covered area = sum over triangles.
+  RasterFixture f;
+  f.cols = 41;
+  f.rows = 41;  // 10 m cells, 452000-452410 E, 3838630-3839040 N
+  f.z = [](int col, int row) { return 400 + 0.05 * col + 0.02 * row; };
+  write_geotiff(dir_ / "dem.tif", f);
+  Json imp = import_file();
+  imp.erase("buildings");
+  const ImportedSite imported = import_site(parse_site_import(imp, dir_));
+  Json scenario = api::testing::minimal_example();
+  scenario["site"] = Json::parse(imported.site.dump());
+  scenario["site"]["materials"]["concrete_wall"] = {{"friction", 0.5}};
+  scenario["site"]["materials"]["metal_roof"] = {{"friction", 0.5}};
+  auto& g = scenario["fragment_groups"][0];
+  g["frame"]["origin_m"] = {452205, 3838835, 412};
+  g["speed_mps"] = {{"dist", "normal"}, {"mean", 60}, {"sigma", 5}};
+  g["direction"]["elevation_deg"] = {40, 80};
+  const api::ScenarioDocument doc = api::parse_scenario_document(scenario);
+  const auto site = api::validate_scenario(doc.scenario);
+  api::OutputDir out(dir_ / "run");
+  api::stage_run_outputs(out, run::run(doc.scenario), *site, doc, api::build_provenance());
+  out.commit();
+  const fs::path h5 = dir_ / "run" / "results.h5";
+  export_results({h5, dir_ / "gis", std::nullopt});
+
+  GDALDatasetUniquePtr dem(GDALDataset::Open((dir_ / "dem.tif").c_str(), GDAL_OF_RASTER));
+  GDALDatasetUniquePtr ptn(
+      GDALDataset::Open((dir_ / "gis/ptn_density.tif").c_str(), GDAL_OF_RASTER));
+  ASSERT_TRUE(dem && ptn);
+  EXPECT_TRUE(ptn->GetSpatialRef()->IsSame(dem->GetSpatialRef()));
+  double a[6], b[6];
+  dem->GetGeoTransform(a);
+  ptn->GetGeoTransform(b);
+  EXPECT_EQ(std::vector<double>(a, a + 6), std::vector<double>(b, b + 6));
+  ASSERT_EQ(ptn->GetRasterXSize(), 41);
+  ASSERT_EQ(ptn->GetRasterYSize(), 41);
+  std::vector<double> v(41 * 41);
+  ASSERT_EQ(
+      ptn->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, 41, 41, v.data(), 41, 41, GDT_Float64, 0, 0),
+      CE_None);
+  double cells = 0;  // interior cells are covered whole, edge cells half, corners a quarter
+  for (int row = 0; row < 41; ++row)
+    for (int col = 0; col < 41; ++col) {
+      const double cover =
+          (col == 0 || col == 40 ? 0.5 : 1.0) * (row == 0 || row == 40 ? 0.5 : 1.0);
+      cells += v[row * 41 + col] * cover * 100.0;
+    }
+  const auto d = api::read_dataset_double(h5, "/ptn/density_per_m2");
+  double triangles = 0;  // each of the 2 x 40 x 40 triangles covers 50 m2 in plan
+  for (const double x : d) triangles += 50.0 * x;
+  ASSERT_GT(triangles, 0.0);
+  EXPECT_NEAR(cells, triangles, 1e-9 * triangles);
 }
 
 }  // namespace
