@@ -65,14 +65,18 @@ Options parse_args(const std::vector<std::string>& args) {
   } else if (first == "export") {
     o.command = Command::kExport;
   } else if (first == "site") {
-    if (args.size() < 2 || args[1] != "import")
-      throw UsageError("site: expected \"site import IMPORT.json --out SITE.json\"");
-    o.command = Command::kSiteImport;
+    if (args.size() < 2 || (args[1] != "import" && args[1] != "export-gis"))
+      throw UsageError(
+          "site: expected \"site import IMPORT.json --out SITE.json\" or \"site export-gis "
+          "SITE.json --out DIR\"");
+    o.command = args[1] == "import" ? Command::kSiteImport : Command::kSiteExportGis;
   } else {
     throw UsageError("unknown command \"" + first + "\"");
   }
 
-  for (std::size_t k = o.command == Command::kSiteImport ? 2 : 1; k < args.size(); ++k) {
+  for (std::size_t k =
+           o.command == Command::kSiteImport || o.command == Command::kSiteExportGis ? 2 : 1;
+       k < args.size(); ++k) {
     const std::string& a = args[k];
     std::string value;
     if (a == "--help" || a == "-h") {
@@ -144,7 +148,8 @@ Options parse_args(const std::vector<std::string>& args) {
       o.pixel_m = x;
       continue;
     }
-    if ((o.command == Command::kSiteImport || o.command == Command::kExport) &&
+    if ((o.command == Command::kSiteImport || o.command == Command::kSiteExportGis ||
+         o.command == Command::kExport) &&
         take_value(args, k, "--out", value)) {
       if (value.empty()) throw UsageError("--out: empty file name");
       o.out = value;
@@ -157,6 +162,11 @@ Options parse_args(const std::vector<std::string>& args) {
   if (o.command == Command::kExport) {
     if (o.scenario.empty()) throw UsageError("export: missing RESULTS.h5");
     if (o.out.empty()) throw UsageError("export needs --out DIR");
+    return o;
+  }
+  if (o.command == Command::kSiteExportGis) {
+    if (o.scenario.empty()) throw UsageError("site export-gis: missing SITE.json");
+    if (o.out.empty()) throw UsageError("site export-gis needs --out DIR");
     return o;
   }
   if (o.command == Command::kSiteImport) {
@@ -176,6 +186,7 @@ Usage:
   fragsim run SCENARIO.json --out DIR [--threads N] [--samples-scale X] [--quiet]
   fragsim validate SCENARIO.json
   fragsim site import IMPORT.json --out SITE.json
+  fragsim site export-gis SITE.json --out DIR
   fragsim export RESULTS.h5 --out DIR [--pixel-m X]
   fragsim submit SCENARIO.json [--server URL] [--token-file FILE] [--priority N]
                  [--idempotency-key KEY] [--no-wait] [--out DIR] [--quiet]
@@ -191,6 +202,9 @@ Commands:
              grid, ...) and building footprints (GeoPackage, shapefile, GeoJSON, ...) named in
              IMPORT.json, in a projected CRS. SITE.json is a site object as a scenario's "site"
              and POST /v1/sites take it; it is checked (and built) before it is written.
+  site export-gis
+             The inverse: a site (or a scenario's inline site) with a grid terrain and a CRS as
+             DIR/terrain.tif, DIR/buildings.gpkg and DIR/import.json (which imports them back).
   export     Write a run's results as GIS files into DIR (docs/gis.md): the PTN density as
              GeoTIFF (and in classes with a colour table), the hazardous area, buildings and
              HFD as GeoPackage, GeoJSON (RFC 7946) and KML, in the site's CRS / WGS 84.

@@ -13,7 +13,16 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class Command { kHelp, kVersion, kRun, kValidate, kSubmit, kSiteImport, kExport };
+enum class Command {
+  kHelp,
+  kVersion,
+  kRun,
+  kValidate,
+  kSubmit,
+  kSiteImport,
+  kSiteExportGis,
+  kExport
+};
 
 struct Options {
   Command command = Command::kHelp;

@@ -19,6 +19,8 @@ std::string read_file(const std::string& path, const std::string& field = "");
 int validate_command(const Options& options);
 // `fragsim site import`: GIS files to a site document (gis/site_import.h).
 int site_import_command(const Options& options);
+// `fragsim site export-gis`: a site document to GIS files (gis/site_to_gis.h).
+int site_export_gis_command(const Options& options);
 // `fragsim export`: results.h5 to GIS files (gis/results_export.h).
 int export_command(const Options& options);
 // `cancel` is set by the SIGINT/SIGTERM handler.

@@ -12,6 +12,7 @@
 #include "gis/gdal_support.h"
 #include "gis/results_export.h"
 #include "gis/site_import.h"
+#include "gis/site_to_gis.h"
 
 namespace fragsim::cli {
 
@@ -65,6 +66,20 @@ int site_import_command(const Options& o) {
             << " vertices, " << site->terrain_triangle_count() << " triangles";
   if (t.filled_cells > 0) std::cout << ", " << t.filled_cells << " nodata cells filled";
   std::cout << "\n  buildings: " << imported.buildings << "\n";
+  return kExitOk;
+}
+
+int site_export_gis_command(const Options& o) {
+  const nlohmann::json j = api::parse_json_text(read_file(o.scenario));
+  // A scenario with an inline site, or a site document.
+  const bool scenario = j.is_object() && j.contains("fragment_groups");
+  const nlohmann::json site = scenario ? j.value("site", nlohmann::json()) : j;
+  if (scenario && site.is_null()) throw InputError("site", "the scenario has no inline site");
+  (void)api::parse_site_document(site);  // the site is checked before anything is written
+  const gis::SiteGisReport r = gis::write_site_gis(site, o.out);
+  std::cout << "ok: " << o.out << "\n";
+  for (const auto& f : r.files) std::cout << "  " << (fs::path(o.out) / f).string() << "\n";
+  for (const auto& n : r.notes) std::cout << "note: " << n << "\n";
   return kExitOk;
 }
 

@@ -49,6 +49,7 @@ int main(int argc, char** argv) {
       case Command::kValidate: return validate_command(options);
       case Command::kSiteImport: return site_import_command(options);
       case Command::kExport: return export_command(options);
+      case Command::kSiteExportGis: return site_export_gis_command(options);
       case Command::kRun: install_signal_handlers(); return run_command(options, g_cancel);
       case Command::kSubmit:
         install_signal_handlers();
