@@ -137,6 +137,7 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
 
   const run::Timing& t = r.timing;
   Json timing = {{"wall_s", t.wall_s},
+                 {"parse_s", t.parse_s},
                  {"build_s", t.build_s},
                  {"threads", t.threads},
                  {"fragments_per_s", t.fragments_per_s},
@@ -227,7 +228,8 @@ std::string render_summary_text(const nlohmann::ordered_json& s) {
   if (s.contains("timing") && s["timing"].is_object()) {
     const Json& t = s["timing"];
     const int threads = t.value("threads", 1);
-    out += "\nRun time " + printf_string("%.2f", num(t, "wall_s")) + " s (site build " +
+    out += "\nRun time " + printf_string("%.2f", num(t, "wall_s")) + " s (before it: parse " +
+           printf_string("%.2f", num(t, "parse_s")) + " s, site build " +
            printf_string("%.2f", num(t, "build_s")) + " s) on " + std::to_string(threads) +
            (threads == 1 ? " thread" : " threads") + ": " +
            printf_string("%.0f", num(t, "fragments_per_s")) + " fragments/s (" +

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -130,10 +131,14 @@ int validate_command(const Options& o) {
 
 int run_command(const Options& o, const std::atomic<bool>& cancel) {
   // Everything that can be wrong with the input is found before anything is created.
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
   const std::string text = read_file(o.scenario);
   api::ScenarioDocument doc = api::parse_scenario_document_text(text);
   apply_overrides(o, doc.scenario);
-  const auto site = api::validate_scenario(doc.scenario);
+  const auto t1 = Clock::now();
+  const auto site = api::validate_scenario(doc.scenario);  // builds the site
+  const auto t2 = Clock::now();
   std::error_code ec;
   if (std::filesystem::exists(o.out, ec) && !std::filesystem::is_directory(o.out, ec))
     throw InputError("--out", o.out + " exists and is not a directory");
@@ -147,7 +152,9 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
   run::RunControl control;
   control.cancel = &cancel;
   control.on_progress = [&progress](const run::Progress& p) { progress.update(p); };
-  const run::RunResult result = run::run(doc.scenario, site, control);
+  run::RunResult result = run::run(doc.scenario, site, control);
+  result.timing.parse_s = std::chrono::duration<double>(t1 - t0).count();
+  result.timing.build_s = std::chrono::duration<double>(t2 - t1).count();
   progress.finish();
   if (result.cancelled || cancel.load()) {
     std::cerr << "cancelled: no output written\n";

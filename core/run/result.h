@@ -96,7 +96,8 @@ struct TrajectoryRecord {
 
 struct Timing {
   double wall_s = 0.0;
-  double build_s = 0.0;  // site build (Embree scene)
+  double parse_s = 0.0;  // reading and parsing the scenario (set by the caller that parsed it)
+  double build_s = 0.0;  // site build (meshes, Embree scene); 0 for a site built before
   int threads = 1;
   // With settings.profile: summed over threads, seconds.
   double integration_s = 0.0;

@@ -37,6 +37,7 @@ run::RunResult synthetic_result() {
   r.outcome_histories[3] = 1952;
   r.outcome_fragments[3] = {976.0, 3.75};
   r.timing.wall_s = 2.0;
+  r.timing.parse_s = 0.0625;
   r.timing.build_s = 0.125;
   r.timing.threads = 4;
   r.timing.fragments_per_s = 1000.0;
@@ -120,6 +121,7 @@ TEST(SummaryJson, TimingStatsAndProfile) {
   run::Scenario sc;
   Json s = summary_to_json(synthetic_result(), sc, build_provenance());
   EXPECT_EQ(s["timing"]["wall_s"], 2.0);
+  EXPECT_EQ(s["timing"]["parse_s"], 0.0625);
   EXPECT_EQ(s["timing"]["build_s"], 0.125);
   EXPECT_EQ(s["timing"]["threads"], 4);
   EXPECT_EQ(s["timing"]["fragments_per_s"], 1000.0);
@@ -165,7 +167,8 @@ TEST(SummaryText, ReportsHeadlinesAndTheBuildingTable) {
   has("  B1" + sp(9) + sp(13) + "12.5 ± 0.25" + sp(17) + "3 ± 0.5\n");
   has("  far_store" + sp(2) + sp(19) + "0 ± 0" + sp(19) + "0 ± 0\n");
   has("  ground" + sp(16) + sp(10) + "48" + sp(16) + "24 ± 3.5\n");
-  has("Run time 2.00 s (site build 0.12 s) on 4 threads: 1000 fragments/s (250 per thread)");
+  has("Run time 2.00 s (before it: parse 0.06 s, site build 0.12 s) on 4 threads: 1000 "
+      "fragments/s (250 per thread)");
   EXPECT_EQ(text.find("CANCELLED"), std::string::npos);
   EXPECT_EQ(text.find("profile:"), std::string::npos);
 }

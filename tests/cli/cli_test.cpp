@@ -226,6 +226,10 @@ TEST_F(Cli, RunWritesSummaryAndResults) {
   EXPECT_EQ(s["seed"], 42);
   EXPECT_EQ(s["cancelled"], false);
   EXPECT_EQ(s["timing"]["threads"], 2);
+  // Parsing and the site build are timed where they happen, before the run (issue 11: build_s
+  // read 0.00 s while they took most of a large site's time).
+  EXPECT_GT(s["timing"]["parse_s"].get<double>(), 0.0);
+  EXPECT_GT(s["timing"]["build_s"].get<double>(), 0.0);
   EXPECT_EQ(s["buildings"][0]["id"], "B1");
   EXPECT_EQ(s["provenance"]["scenario_sha256"].get<std::string>().size(), 64u);
   // The report on stdout.
