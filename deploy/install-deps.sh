@@ -14,6 +14,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev googletest  # unit and validation tests
   libbenchmark-dev         # micro-benchmarks in bench/
   libgdal-dev gdal-bin     # gis/: DEM and footprint import (GDAL/OGR 3.6, PROJ 9)
+  clang llvm libclang-rt-14-dev  # sanitizer builds and libFuzzer (deploy/sanitize.sh, fuzz.sh)
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

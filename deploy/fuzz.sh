@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets (fuzz/, clang, ASan + UBSan, into ./build-fuzz) and runs each one
+# for SECONDS (default 60). Fails on any crash, sanitizer report, leak, input slower than 1 s
+# (-timeout=1) or RSS above 2 GiB. docs/testing.md.
+#
+#   deploy/fuzz.sh                 # CI: 60 s per target
+#   deploy/fuzz.sh 3600            # the long run: an hour per target
+#   FUZZ_RUNS=10000000 deploy/fuzz.sh 86400   # stop each target at 10 M executions instead
+#   deploy/fuzz.sh 60 fuzz_site    # some targets only
+#
+# The seed corpora in fuzz/corpus/ are copied to a scratch directory first: the tree is never
+# modified. FUZZ_KEEP=1 keeps the scratch directory (the grown corpora) and says where it is.
+# A failing input is saved in build-fuzz/artifacts/<target>/; replay it with
+#   build-fuzz/fuzz/<target> build-fuzz/artifacts/<target>/crash-...
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+seconds="${1:-60}"
+shift || true
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_scenario fuzz_site fuzz_job fuzz_service)
+build="$root/build-fuzz"
+
+"$root/deploy/install-deps.sh"
+CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DFRAGSIM_FUZZ=ON -DFRAGSIM_BUILD_TESTS=OFF -DFRAGSIM_BUILD_BENCH=OFF >/dev/null
+nice -n 5 cmake --build "$build" -j "$(nproc 2>/dev/null || echo 2)" --target "${targets[@]}"
+
+scratch="$(mktemp -d "${TMPDIR:-/tmp}/fragsim-fuzz.XXXXXX")"
+if [ "${FUZZ_KEEP:-0}" = 1 ]; then
+  echo "fuzz: corpora and logs kept in $scratch"
+else
+  trap 'rm -rf "$scratch"' EXIT
+fi
+
+# Reports are fatal and come with a stack; leaks are checked (libFuzzer's -detect_leaks).
+export ASAN_OPTIONS="halt_on_error=1:abort_on_error=1:detect_leaks=1:strict_string_checks=1"
+export UBSAN_OPTIONS="halt_on_error=1:abort_on_error=1:print_stacktrace=1"
+export LSAN_OPTIONS="suppressions=$root/deploy/sanitizers/lsan.supp:print_suppressions=0"
+runs_flag=()
+[ -z "${FUZZ_RUNS:-}" ] || runs_flag=(-runs="$FUZZ_RUNS")
+
+failed=()
+for t in "${targets[@]}"; do
+  mkdir -p "$scratch/$t/corpus" "$scratch/$t/tmp" "$build/artifacts/$t"
+  cp "$root/fuzz/corpus/$t/"* "$scratch/$t/corpus/"
+  log="$scratch/$t/log"
+  start=$(date +%s)
+  # TMPDIR: fuzz_service's data directory lives in the scratch directory too.
+  if TMPDIR="$scratch/$t/tmp" nice -n 5 "$build/fuzz/$t" -max_total_time="$seconds" \
+      "${runs_flag[@]}" -timeout=1 -rss_limit_mb=2048 -malloc_limit_mb=2048 -max_len=16384 \
+      -dict="$root/fuzz/fragsim.dict" -artifact_prefix="$build/artifacts/$t/" \
+      -print_final_stats=1 "$scratch/$t/corpus" >"$log" 2>&1; then
+    status=ok
+  else
+    status=FAILED
+    failed+=("$t")
+  fi
+  execs="$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)"
+  rate="$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -n 1)"
+  cov="$(grep -o 'cov: [0-9]*' "$log" | tail -n 1 | cut -d' ' -f2)"
+  echo "fuzz: $t $status: ${execs:-?} executions in $(($(date +%s) - start)) s" \
+    "(${rate:-?}/s), coverage ${cov:-?}, corpus $(ls "$scratch/$t/corpus" | wc -l) inputs"
+  if [ "$status" != ok ]; then
+    grep -B2 -A40 -m1 -E 'ERROR: |runtime error|==ERROR|fuzz invariant|deadly signal|timeout' \
+      "$log" || tail -n 60 "$log"
+  fi
+done
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "fuzz: FAILED: ${failed[*]} (inputs in $build/artifacts/)" >&2
+  exit 1
+fi
+echo "fuzz: all ${#targets[@]} targets passed"
