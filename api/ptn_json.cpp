@@ -61,7 +61,8 @@ void append_number(std::string& out, double v) {
 
 PtnGeoJsonWriter::PtnGeoJsonWriter(const std::filesystem::path& results_h5,
                                    const std::string& job_id,
-                                   std::optional<double> min_density_per_m2)
+                                   std::optional<double> min_density_per_m2,
+                                   const Wgs84Factory& wgs84)
     : min_density_(min_density_per_m2) {
   PtnField f = read_field(results_h5);
   density_ = std::move(f.density);
@@ -81,13 +82,38 @@ PtnGeoJsonWriter::PtnGeoJsonWriter(const std::filesystem::path& results_h5,
   head["fragsim_threshold_per_m2"] = f.threshold;
   const nlohmann::json scenario =
       nlohmann::json::parse(read_attribute_string(results_h5, "/", "scenario_json"));
+  nlohmann::json origin;
   if (const auto site = scenario.find("site"); site != scenario.end()) {
-    if (const auto origin = site->find("origin"); origin != site->end())
-      head["fragsim_origin"] = *origin;
+    if (const auto o = site->find("origin"); o != site->end()) origin = *o;
   }
+  head["fragsim_coordinates"] = convert_vertices(origin, wgs84);
+  if (!origin.is_null()) head["fragsim_origin"] = origin;
   head_ = head.dump();
   head_.pop_back();  // the closing brace: the features follow
   head_ += ",\"features\":[";
+}
+
+std::string PtnGeoJsonWriter::convert_vertices(const nlohmann::json& origin,
+                                               const Wgs84Factory& wgs84) {
+  const std::string crs = origin.is_object() ? origin.value("crs", "") : "";
+  const ToWgs84 to_wgs84 = wgs84 && !crs.empty() ? wgs84(crs) : ToWgs84();
+  if (!to_wgs84)
+    return "site input coordinates [x, y, z] in metres: the site has " +
+           (crs.empty() ? std::string("no CRS") : "no CRS PROJ knows (\"" + crs + "\")") +
+           ", so this is not RFC 7946 GeoJSON";
+  const std::size_t n = vertices_.size() / 3;
+  std::vector<double> x(n), y(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    x[k] = vertices_[3 * k] + origin.value("easting_m", 0.0);
+    y[k] = vertices_[3 * k + 1] + origin.value("northing_m", 0.0);
+  }
+  if (!to_wgs84(x, y)) throw std::runtime_error("the terrain cannot be transformed to WGS 84");
+  for (std::size_t k = 0; k < n; ++k) {
+    vertices_[3 * k] = x[k];
+    vertices_[3 * k + 1] = y[k];
+  }
+  return "RFC 7946: WGS 84 [longitude, latitude, z], z the site's elevation in metres (from " +
+         crs + ")";
 }
 
 void PtnGeoJsonWriter::append_feature(std::string& out, std::size_t t) const {
@@ -132,8 +158,9 @@ bool PtnGeoJsonWriter::next(std::string& out, std::size_t piece_bytes) {
 }
 
 std::string render_ptn_geojson(const std::filesystem::path& results_h5, const std::string& job_id,
-                               std::optional<double> min_density_per_m2) {
-  PtnGeoJsonWriter writer(results_h5, job_id, min_density_per_m2);
+                               std::optional<double> min_density_per_m2,
+                               const Wgs84Factory& wgs84) {
+  PtnGeoJsonWriter writer(results_h5, job_id, min_density_per_m2, wgs84);
   std::string out;
   while (writer.next(out)) {
   }

@@ -5,6 +5,7 @@
 #include <ogr_srs_api.h>
 
 #include <cmath>
+#include <memory>
 #include <mutex>
 
 #include "core/common/error.h"
@@ -120,6 +121,25 @@ void require_projected_metres(const OGRSpatialReference& srs, const std::string&
     throw InputError(field, what + " is in " + crs_label(srs) + ", whose unit is " +
                                 std::to_string(unit_m) +
                                 " m, not the metre; fragsim's coordinates are metres. " + fix);
+}
+
+std::function<bool(std::vector<double>&, std::vector<double>&)> wgs84_converter(
+    const std::string& crs) {
+  ensure_gdal_registered();
+  GdalErrorCapture quiet;
+  OGRSpatialReference from;
+  if (crs.empty() || from.SetFromUserInput(crs.c_str()) != OGRERR_NONE) return {};
+  from.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  OGRSpatialReference to;
+  to.importFromEPSG(4326);
+  to.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::shared_ptr<OGRCoordinateTransformation> tr(OGRCreateCoordinateTransformation(&from, &to));
+  if (!tr) return {};
+  return [tr](std::vector<double>& x, std::vector<double>& y) {
+    // At most 2^26 terrain vertices (core/scene/site_limits.h): within int.
+    if (x.size() != y.size() || x.size() > static_cast<std::size_t>(INT32_MAX)) return false;
+    return tr->Transform(static_cast<int>(x.size()), x.data(), y.data(), nullptr, nullptr) == TRUE;
+  };
 }
 
 }  // namespace fragsim::gis

@@ -4,6 +4,7 @@
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -49,5 +50,10 @@ std::string crs_label(const OGRSpatialReference& srs);
 // InputError(field, "<what> is in <label>, a geographic CRS (degrees) ...<fix>") otherwise.
 void require_projected_metres(const OGRSpatialReference& srs, const std::string& what,
                               const std::string& field, const std::string& fix);
+
+// The PTN GeoJSON's converter (api/ptn_json.h): site coordinates in `crs` to WGS 84 longitude,
+// latitude. An empty function when `crs` is not a CRS PROJ knows.
+std::function<bool(std::vector<double>& x, std::vector<double>& y)> wgs84_converter(
+    const std::string& crs);
 
 }  // namespace fragsim::gis

@@ -18,6 +18,7 @@
 #include "api/sha256.h"
 #include "api/site_document.h"
 #include "fragsim/version.h"
+#include "gis/gdal_support.h"
 #include "server/log.h"
 #include "server/openapi_text.h"
 #include "server/utf8.h"
@@ -680,7 +681,9 @@ Response Service::job_ptn(const Request& req, const std::string& id) {
   Response r;
   if (geojson) {
     r.content_type = "application/geo+json";
-    auto writer = std::make_shared<api::PtnGeoJsonWriter>(h5, id, min_density);
+    // RFC 7946 (WGS 84) when the site's CRS is one PROJ knows (gis/; docs/http-api.md).
+    auto writer =
+        std::make_shared<api::PtnGeoJsonWriter>(h5, id, min_density, gis::wgs84_converter);
     r.stream = [writer](std::string& piece) { return writer->next(piece); };
   } else {
     r.body = api::render_ptn_json(h5, id);

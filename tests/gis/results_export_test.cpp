@@ -7,6 +7,7 @@
 
 #include <cmath>
 
+#include "api/ptn_json.h"
 #include "api/results_h5.h"
 #include "api/run_outputs.h"
 #include "api/test_support.h"
@@ -215,6 +216,46 @@ TEST_F(ResultsExport, NotAResultsFileIsAnInputErrorNamingIt) {
     EXPECT_NE(e.message().find((dir_ / "x.h5").string()), std::string::npos);
   }
   EXPECT_FALSE(fs::exists(dir_ / "gis"));
+}
+
+TEST_F(ResultsExport, ThePtnGeoJsonRouteIsRfc7946WhenTheSiteHasACrs) {
+  // What fragsimd serves at GET /v1/jobs/{id}/ptn?format=geojson (api/ptn_json.h with gis's
+  // converter): WGS 84 longitude/latitude, back to the site's UTM coordinates to 1 mm.
+  const fs::path h5 = run_minimal("EPSG:32611");
+  const Json g = Json::parse(api::render_ptn_geojson(h5, "j_1", std::nullopt, wgs84_converter));
+  EXPECT_EQ(g["fragsim_coordinates"].get<std::string>().rfind("RFC 7946: WGS 84", 0), 0u);
+  EXPECT_FALSE(g.contains("crs"));
+  const auto v = api::read_dataset_double(h5, "/terrain/vertices_m");
+  const auto t = api::read_dataset_int64(h5, "/terrain/triangles");
+  const OGRSpatialReference wgs = crs_from_text("EPSG:4326", "x");
+  const OGRSpatialReference utm = crs_from_text("EPSG:32611", "x");
+  std::unique_ptr<OGRCoordinateTransformation> back(OGRCreateCoordinateTransformation(&wgs, &utm));
+  for (const std::size_t f : {std::size_t{0}, std::size_t{1234}, std::size_t{3199}}) {
+    const auto& ring = g["features"][f]["geometry"]["coordinates"][0];
+    ASSERT_EQ(g["features"][f]["properties"]["triangle"], f);
+    for (std::size_t c = 0; c < 3; ++c) {
+      double lon = ring[c][0], lat = ring[c][1];
+      EXPECT_GT(lon, -118.0);
+      EXPECT_LT(lon, -117.0);
+      ASSERT_TRUE(back->Transform(1, &lon, &lat));
+      const auto k = static_cast<std::size_t>(3 * t[3 * f + c]);
+      EXPECT_NEAR(lon, v[k] + 452300, 1e-3);
+      EXPECT_NEAR(lat, v[k + 1] + 3839800, 1e-3);
+      EXPECT_EQ(ring[c][2].get<double>(), v[k + 2]);
+    }
+  }
+}
+
+TEST_F(ResultsExport, ThePtnGeoJsonSaysSoWhenTheCrsIsOnlyALabel) {
+  const fs::path h5 = run_minimal("local");
+  const Json g = Json::parse(api::render_ptn_geojson(h5, "j_1", std::nullopt, wgs84_converter));
+  EXPECT_EQ(g["fragsim_coordinates"],
+            "site input coordinates [x, y, z] in metres: the site has no CRS PROJ knows "
+            "(\"local\"), so this is not RFC 7946 GeoJSON");
+  const auto v = api::read_dataset_double(h5, "/terrain/vertices_m");
+  const auto t = api::read_dataset_int64(h5, "/terrain/triangles");
+  EXPECT_EQ(g["features"][0]["geometry"]["coordinates"][0][0][0].get<double>(),
+            v[static_cast<std::size_t>(3 * t[0])]);
 }
 
 }  // namespace
