@@ -10,6 +10,8 @@
 #
 # The seed corpora in fuzz/corpus/ are copied to a scratch directory first: the tree is never
 # modified. FUZZ_KEEP=1 keeps the scratch directory (the grown corpora) and says where it is.
+# FUZZ_TIMEOUT (default 1 s) is wall-clock time: on a machine busy with other work, a run in the
+# background needs a larger one (the slowest input is printed; replay it to time it alone).
 # A failing input is saved in build-fuzz/artifacts/<target>/; replay it with
 #   build-fuzz/fuzz/<target> build-fuzz/artifacts/<target>/crash-...
 set -euo pipefail
@@ -47,7 +49,8 @@ for t in "${targets[@]}"; do
   start=$(date +%s)
   # TMPDIR: fuzz_service's data directory lives in the scratch directory too.
   if TMPDIR="$scratch/$t/tmp" nice -n 5 "$build/fuzz/$t" -max_total_time="$seconds" \
-      "${runs_flag[@]}" -timeout=1 -rss_limit_mb=2048 -malloc_limit_mb=2048 -max_len=16384 \
+      "${runs_flag[@]}" -timeout="${FUZZ_TIMEOUT:-1}" -rss_limit_mb=2048 -malloc_limit_mb=2048 \
+      -max_len=16384 \
       -dict="$root/fuzz/fragsim.dict" -artifact_prefix="$build/artifacts/$t/" \
       -print_final_stats=1 "$scratch/$t/corpus" >"$log" 2>&1; then
     status=ok
@@ -58,8 +61,10 @@ for t in "${targets[@]}"; do
   execs="$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)"
   rate="$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -n 1)"
   cov="$(grep -o 'cov: [0-9]*' "$log" | tail -n 1 | cut -d' ' -f2)"
+  slowest="$(sed -n 's/^stat::slowest_unit_time_sec: *//p' "$log" | tail -n 1)"
   echo "fuzz: $t $status: ${execs:-?} executions in $(($(date +%s) - start)) s" \
-    "(${rate:-?}/s), coverage ${cov:-?}, corpus $(ls "$scratch/$t/corpus" | wc -l) inputs"
+    "(${rate:-?}/s), coverage ${cov:-?}, corpus $(ls "$scratch/$t/corpus" | wc -l) inputs," \
+    "slowest input ${slowest:-?} s"
   if [ "$status" != ok ]; then
     grep -B2 -A40 -m1 -E 'ERROR: |runtime error|==ERROR|fuzz invariant|deadly signal|timeout' \
       "$log" || tail -n 60 "$log"

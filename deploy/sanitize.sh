@@ -17,14 +17,6 @@ supp="$root/deploy/sanitizers"
 
 # Test executables whose code runs on several threads (labels from tests/CMakeLists.txt).
 TSAN_LABELS='^(test_core_run|test_server)$'
-# Left out under TSan only: each runs the demo job (up to 3x its samples) through a daemon
-# process, 10-40 min under TSan on 2 cores. They run under ASan, and the same threads (scheduler,
-# job pool, connection workers) run under TSan in the other service and daemon tests, on jobs of
-# a few hundred histories.
-TSAN_EXCLUDE='^Daemon\.(DemoJobIsBitIdenticalToTheCli|JobsSurviveKillNineAndRerunIdentically'
-TSAN_EXCLUDE+='|AsPidOneItStopsOnSigtermAndRerunsAfterKillNine'
-TSAN_EXCLUDE+='|ShutdownPutsTheRunningJobBackInTheQueue'
-TSAN_EXCLUDE+='|FiftyClientsPollWhileAJobRuns)$'
 
 configure() {  # build dir, sanitizers
   CC=clang CXX=clang++ cmake -S "$root" -B "$1" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
@@ -60,8 +52,7 @@ tsan() {
   export TSAN_OPTIONS="halt_on_error=1:abort_on_error=1:second_deadlock_stack=1"
   export TSAN_OPTIONS="$TSAN_OPTIONS:suppressions=$supp/tsan.supp:print_suppressions=0"
   t0=$(date +%s)
-  (cd "$root/build-tsan" && ctest --output-on-failure -j "$jobs" --timeout 1800 -L "$TSAN_LABELS" \
-    -E "$TSAN_EXCLUDE")
+  (cd "$root/build-tsan" && ctest --output-on-failure -j "$jobs" --timeout 1800 -L "$TSAN_LABELS")
   echo "sanitize: TSan tests $(elapsed "$t0")"
 }
 
