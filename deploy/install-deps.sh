@@ -15,6 +15,7 @@ PACKAGES=(
   libbenchmark-dev         # micro-benchmarks in bench/
   libgdal-dev gdal-bin     # gis/: DEM and footprint import (GDAL/OGR 3.6, PROJ 9)
   clang llvm libclang-rt-14-dev  # sanitizer builds and libFuzzer (deploy/sanitize.sh, fuzz.sh)
+  clang-format-14          # the formatting check of CI (deploy/check-format.sh)
 )
 missing=()
 for p in "${PACKAGES[@]}"; do
