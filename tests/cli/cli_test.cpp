@@ -16,6 +16,7 @@
 
 #include "api/results_h5.h"
 #include "api/test_support.h"
+#include "cli/cli_process.h"
 
 namespace {
 
@@ -37,47 +38,18 @@ Json minimal_example() {
   return Json::parse(read_text(fs::path(FRAGSIM_SOURCE_DIR) / "examples/minimal/scenario.json"));
 }
 
-struct CliResult {
-  int exit_code = -1;  // -1 when killed by a signal
-  std::string out;
-  std::string err;
-};
+using fragsim::cli::testing::CliResult;
 
 class Cli : public ::testing::Test {
  protected:
   void SetUp() override { dir_ = fragsim::api::testing::fresh_test_dir("fragsim_cli_test_"); }
   void TearDown() override { fs::remove_all(dir_); }
 
-  // Starts the CLI with stdout/stderr going to files in the test directory.
+  // The CLI as a subprocess, its output in the test directory (cli_process.h).
   pid_t spawn(const std::vector<std::string>& args) {
-    const std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
-    std::vector<std::string> argv_s = {FRAGSIM_CLI};
-    argv_s.insert(argv_s.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : argv_s) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const pid_t pid = ::fork();
-    if (pid == 0) {
-      const int fo = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      const int fe = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      ::dup2(fo, STDOUT_FILENO);
-      ::dup2(fe, STDERR_FILENO);
-      ::execv(FRAGSIM_CLI, argv.data());
-      ::_exit(127);
-    }
-    return pid;
+    return fragsim::cli::testing::spawn_cli(dir_, args);
   }
-
-  CliResult wait(pid_t pid) {
-    int status = 0;
-    ::waitpid(pid, &status, 0);
-    CliResult r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = read_text(dir_ / "stdout.txt");
-    r.err = read_text(dir_ / "stderr.txt");
-    return r;
-  }
-
+  CliResult wait(pid_t pid) { return fragsim::cli::testing::wait_cli(dir_, pid); }
   CliResult run(const std::vector<std::string>& args) { return wait(spawn(args)); }
 
   fs::path scenario_file(const std::string& name, const std::string& text) {

@@ -1,9 +1,6 @@
 // `fragsim site import` from the command line (docs/gis.md): the site file appears only when the
 // import succeeds, and bad GIS input exits 2 with a message naming the file, layer and feature.
-#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -11,6 +8,7 @@
 
 #include "api/site_document.h"
 #include "api/test_support.h"
+#include "cli/cli_process.h"
 #include "gis/gis_fixtures.h"
 
 namespace {
@@ -19,10 +17,7 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 using fragsim::gis::testing::RasterFixture;
 
-struct Result {
-  int exit_code = -1;
-  std::string out, err;
-};
+using Result = fragsim::cli::testing::CliResult;
 
 class SiteImportCli : public ::testing::Test {
  protected:
@@ -46,26 +41,7 @@ class SiteImportCli : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
 
   Result run(const std::vector<std::string>& args) {
-    const std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
-    std::vector<std::string> argv_s = {FRAGSIM_CLI};
-    argv_s.insert(argv_s.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : argv_s) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const pid_t pid = ::fork();
-    if (pid == 0) {
-      ::dup2(::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644), STDOUT_FILENO);
-      ::dup2(::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644), STDERR_FILENO);
-      ::execv(FRAGSIM_CLI, argv.data());
-      ::_exit(127);
-    }
-    int status = 0;
-    ::waitpid(pid, &status, 0);
-    Result r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = fragsim::api::testing::read_text(out);
-    r.err = fragsim::api::testing::read_text(err);
-    return r;
+    return fragsim::cli::testing::wait_cli(dir_, fragsim::cli::testing::spawn_cli(dir_, args));
   }
 
   Result import(const std::string& text) {
