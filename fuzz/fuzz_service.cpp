@@ -14,6 +14,7 @@
 // is an internal error, i.e. a finding. The scheduler is stopped after start: queued jobs never
 // run, and the data directory is restored from a snapshot every kRequestsPerReset inputs so that
 // the queue and site limits are not reached for good and the disk does not fill.
+#include <signal.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -124,11 +125,25 @@ class Fixture {
   void reset() {
     service_.reset();
     const fs::path live = base_ / "live";
-    fs::remove_all(live);
-    fs::copy(base_ / "pristine", live, fs::copy_options::recursive);
+    copy_without_alarms(base_ / "pristine", live);
     service_ = std::make_unique<Service>(config(live));
     service_->shutdown();  // no job runs: an input costs one request, not a Monte Carlo run
     uses_ = 1;
+  }
+
+  // libFuzzer's -max_total_time/-timeout checks come as SIGALRM, installed without SA_RESTART;
+  // libstdc++'s fs::copy does not retry a sendfile/copy_file_range interrupted by one (EINTR
+  // became a "cannot copy: Interrupted system call" abort in CI). The signal is held, not lost.
+  static void copy_without_alarms(const fs::path& from, const fs::path& to) {
+    sigset_t alarm, previous;
+    sigemptyset(&alarm);
+    sigaddset(&alarm, SIGALRM);
+    pthread_sigmask(SIG_BLOCK, &alarm, &previous);
+    std::error_code ec;
+    fs::remove_all(to, ec);
+    if (!ec) fs::copy(from, to, fs::copy_options::recursive, ec);
+    pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+    if (ec) fragsim::fuzz::fail("cannot restore " + to.string() + ": " + ec.message());
   }
 
   static std::map<std::string, std::string> headers() {
