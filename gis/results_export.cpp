@@ -416,9 +416,18 @@ GDALDatasetUniquePtr create_vector(const fs::path& path, const char* driver,
 ExportReport export_results(const ExportOptions& o) {
   const Results r = read_results(o.results_h5);
   ExportReport report;
-  report.crs = r.crs;
+  // site.origin.crs is informational in a scenario: a label PROJ does not know (e.g. "local")
+  // is treated as no CRS, as the PTN GeoJSON route does, rather than refusing the export.
   std::optional<OGRSpatialReference> srs;
-  if (!r.crs.empty()) srs = crs_from_text(r.crs, "site.origin.crs");
+  if (!r.crs.empty()) {
+    try {
+      srs = crs_from_text(r.crs, "site.origin.crs");
+      report.crs = r.crs;
+    } catch (const InputError&) {
+      report.notes.push_back("site.origin.crs \"" + r.crs +
+                             "\" is not a CRS PROJ knows: read as no CRS");
+    }
+  }
   const OGRSpatialReference* site_srs = srs ? &*srs : nullptr;
 
   report.pixel_m = o.pixel_m.value_or(default_cell(r));
@@ -453,7 +462,7 @@ ExportReport export_results(const ExportOptions& o) {
   });
   if (!srs) {
     report.notes.push_back(
-        "the site has no CRS (site.origin.crs): GeoJSON (RFC 7946) and KML need WGS 84, so "
+        "the site has no CRS PROJ knows (site.origin.crs): GeoJSON (RFC 7946) and KML need WGS 84, so "
         "they were not written; the GeoTIFFs and the GeoPackage are in the site's local metres");
     out.commit();
     return report;

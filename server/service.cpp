@@ -40,7 +40,9 @@ enum class RouteId {
   kJobSummary,
   kJobBuildings,
   kJobPtn,
-  kJobResults
+  kJobResults,
+  kJobMaps,
+  kJobMap
 };
 
 constexpr const char* kJsonType = "application/json";
@@ -160,7 +162,8 @@ std::size_t clean_stale_temporaries(const std::filesystem::path& data_dir) {
   std::error_code ec;
   for (std::filesystem::directory_iterator it(data_dir / "jobs", ec), end; !ec && it != end;
        it.increment(ec)) {
-    if (it->is_directory(ec)) n += api::remove_stale_temporaries(it->path());
+    if (it->is_directory(ec))
+      n += api::remove_stale_temporaries(it->path()) + JobMaps::remove_stale(it->path());
   }
   return n;
 }
@@ -230,6 +233,8 @@ const std::vector<Service::Route>& routes() {
       {RouteId::kJobBuildings, "/v1/jobs/{id}/buildings", {"GET"}},
       {RouteId::kJobPtn, "/v1/jobs/{id}/ptn", {"GET"}},
       {RouteId::kJobResults, "/v1/jobs/{id}/results.h5", {"GET"}},
+      {RouteId::kJobMaps, "/v1/jobs/{id}/maps", {"GET"}},
+      {RouteId::kJobMap, "/v1/jobs/{id}/maps/{name}", {"GET"}},
   };
   return kRoutes;
 }
@@ -252,10 +257,10 @@ Response Service::handle(const Request& req) {
   const auto& kRoutes = routes();
   const std::string& path = req.path;
   for (const Route& route : kRoutes) {
-    // Match segment by segment; "{id}" takes one non-empty segment.
+    // Match segment by segment; "{id}" and "{name}" take one non-empty segment each.
     std::string_view pattern = route.pattern;
     std::string_view rest = path;
-    std::string id;
+    std::string id, name;
     bool match = true;
     while (!pattern.empty() || !rest.empty()) {
       if (pattern.empty() || rest.empty() || pattern[0] != '/' || rest[0] != '/') {
@@ -266,12 +271,12 @@ Response Service::handle(const Request& req) {
       rest.remove_prefix(1);
       const std::string_view p = pattern.substr(0, pattern.find('/'));
       const std::string_view s = rest.substr(0, rest.find('/'));
-      if (p == "{id}") {
+      if (p == "{id}" || p == "{name}") {
         if (s.empty()) {
           match = false;
           break;
         }
-        id = std::string(s);
+        (p == "{id}" ? id : name) = std::string(s);
       } else if (p != s) {
         match = false;
         break;
@@ -301,7 +306,7 @@ Response Service::handle(const Request& req) {
       r.headers.emplace_back("WWW-Authenticate", "Bearer realm=\"fragsimd\"");
     } else {
       try {
-        r = dispatch(req, route, id);
+        r = dispatch(req, route, id, name);
       } catch (const api::JsonTooDeepError& e) {
         r = error_response(400, "too_deep", e.message(), e.field());
       } catch (const api::MalformedJsonError& e) {
@@ -326,7 +331,8 @@ Response Service::handle(const Request& req) {
   return error_response(404, "not_found", "no route " + path);
 }
 
-Response Service::dispatch(const Request& req, const Route& route, const std::string& id) {
+Response Service::dispatch(const Request& req, const Route& route, const std::string& id,
+                           const std::string& name) {
   const bool get = req.method == "GET" || req.method == "HEAD";
   // Query parameters first (the same order on every route), then the id in the path.
   std::optional<Response> bad;
@@ -356,6 +362,8 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
     case RouteId::kJobSummary: return job_summary(id);
     case RouteId::kJobBuildings: return job_buildings(id);
     case RouteId::kJobResults: return job_results_h5(id);
+    case RouteId::kJobMaps: return job_maps(id);
+    case RouteId::kJobMap: return job_map_file(id, name);
     default: return error_response(404, "not_found", "no route " + req.path);
   }
 }
@@ -699,6 +707,48 @@ Response Service::job_results_h5(const std::string& id) {
   r.file = scheduler_.job_dir(id) / api::kResultsFileName;
   r.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + id + ".h5\"");
   return r;
+}
+
+// The maps are made on the first request (seconds for a large site; the request waits).
+Response Service::job_maps(const std::string& id) {
+  auto job = finished_job(id);
+  if (auto* r = std::get_if<Response>(&job)) return *r;
+  const MapSet m = maps_.ensure(scheduler_.job_dir(id));
+  OJson files = OJson::array();
+  for (const auto& f : m.files)
+    files.push_back({{"name", f.name},
+                     {"url", "/v1/jobs/" + id + "/maps/" + f.name},
+                     {"content_type", f.content_type},
+                     {"bytes", f.bytes}});
+  return json_response(200, OJson{{"job_id", id},
+                                  {"crs", m.crs.empty() ? OJson(nullptr) : OJson(m.crs)},
+                                  {"pixel_m", m.pixel_m},
+                                  {"raster_cols", m.raster_cols},
+                                  {"raster_rows", m.raster_rows},
+                                  {"hazardous_triangles", m.hazardous_triangles},
+                                  {"files", std::move(files)},
+                                  {"notes", m.notes}});
+}
+
+Response Service::job_map_file(const std::string& id, const std::string& name) {
+  auto job = finished_job(id);
+  if (auto* r = std::get_if<Response>(&job)) return *r;
+  const MapSet m = maps_.ensure(scheduler_.job_dir(id));
+  std::string known;
+  for (const auto& f : m.files) {
+    if (f.name != name) {
+      known += (known.empty() ? "" : ", ") + f.name;
+      continue;
+    }
+    Response r;
+    r.content_type = f.content_type;
+    r.file = scheduler_.job_dir(id) / JobMaps::kDirName / f.name;
+    r.headers.emplace_back("Content-Disposition",
+                           "attachment; filename=\"" + id + "_" + f.name + "\"");
+    return r;
+  }
+  return error_response(404, "not_found",
+                        "job " + id + " has no map \"" + name + "\" (it has: " + known + ")");
 }
 
 }  // namespace fragsim::server

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "server/config.h"
+#include "server/job_maps.h"
 #include "server/metrics.h"
 #include "server/scheduler.h"
 #include "server/site_registry.h"
@@ -79,7 +80,8 @@ class Service {
   Metrics& metrics() { return metrics_; }
 
  private:
-  Response dispatch(const Request& req, const Route& route, const std::string& id);
+  Response dispatch(const Request& req, const Route& route, const std::string& id,
+                    const std::string& name);
 
   // Routes
   Response health();
@@ -97,6 +99,8 @@ class Service {
   Response job_buildings(const std::string& id);
   Response job_ptn(const Request& req, const std::string& id);
   Response job_results_h5(const std::string& id);
+  Response job_maps(const std::string& id);
+  Response job_map_file(const std::string& id, const std::string& name);
 
   bool authorised(const Request& req) const;
   std::optional<std::string> owner_of(const Request& req) const;
@@ -127,6 +131,7 @@ class Service {
   SiteRegistry sites_;
   Scheduler scheduler_;
   Metrics metrics_;
+  JobMaps maps_;
   // Site deletion and job submission check and change "which jobs use which site" together.
   std::mutex catalogue_mutex_;
 };

@@ -206,6 +206,18 @@ TEST_F(ResultsExport, WithoutACrsOnlyLocalFilesAreWrittenAndSaid) {
   EXPECT_FALSE(fs::exists(dir_ / "gis/hazard.kml"));
 }
 
+// site.origin.crs is informational: a label PROJ does not know ("local") is read as no CRS and
+// said, not a reason to refuse the export.
+TEST_F(ResultsExport, ACrsLabelPROJDoesNotKnowIsReadAsNoCrs) {
+  const fs::path h5 = run_minimal("local");
+  const ExportReport rep = export_results({h5, dir_ / "gis", std::nullopt});
+  EXPECT_EQ(rep.crs, "");
+  EXPECT_EQ(rep.files,
+            (std::vector<std::string>{"ptn_density.tif", "ptn_classes.tif", "hazard.gpkg"}));
+  ASSERT_EQ(rep.notes.size(), 2u);
+  EXPECT_NE(rep.notes[0].find("\"local\" is not a CRS PROJ knows"), std::string::npos);
+}
+
 TEST_F(ResultsExport, NotAResultsFileIsAnInputErrorNamingIt) {
   std::ofstream(dir_ / "x.h5") << "nothing";
   try {

@@ -24,6 +24,7 @@
 #include "api/site_document.h"
 #include "api/test_support.h"
 #include "core/run/run.h"
+#include "gis/results_export.h"
 
 namespace fragsim::server {
 namespace {
@@ -240,7 +241,9 @@ TEST_F(ServiceRouting, MalformedOrUnknownIdsAre404) {
         "/v1/sites/s_0000000000000000", "/v1/jobs/abc", "/v1/jobs/..",
         "/v1/jobs/s_0123456789abcdef", "/v1/jobs/j_0123456789abcdef",
         "/v1/jobs/j_0123456789abcdef/summary", "/v1/jobs/j_0123456789abcdef/ptn",
-        "/v1/jobs/x/results.h5", "/v1/jobs/j_0123456789abcdef/buildings"}) {
+        "/v1/jobs/x/results.h5", "/v1/jobs/j_0123456789abcdef/buildings",
+        "/v1/jobs/j_0123456789abcdef/maps", "/v1/jobs/j_0123456789abcdef/maps/hazard.kml",
+        "/v1/jobs/j_0123456789abcdef/maps/"}) {
     SCOPED_TRACE(path);
     expect_error(get(path), 404, "not_found");
   }
@@ -368,6 +371,8 @@ TEST_F(ServiceAuth, EveryPrivateRouteNeedsTheToken) {
       {"GET", job + "/buildings"},
       {"GET", job + "/ptn"},
       {"GET", job + "/results.h5"},
+      {"GET", job + "/maps"},
+      {"GET", job + "/maps/hazard.kml"},
       {"GET", "/v1/sites/not-an-id"}};
   for (const auto& [method, path] : routes) {
     SCOPED_TRACE(method + " " + path);
@@ -929,7 +934,8 @@ TEST_F(ServiceQueue, ResultsOfAJobNotDoneAre409NotReady) {
   body["priority"] = -1000;
   const std::string queued = add_job(body);
   for (const std::string& id : {queued, blocker}) {
-    for (const char* part : {"/summary", "/buildings", "/ptn", "/results.h5"}) {
+    for (const char* part :
+         {"/summary", "/buildings", "/ptn", "/results.h5", "/maps", "/maps/hazard.kml"}) {
       SCOPED_TRACE(id + part);
       const Response r = get("/v1/jobs/" + id + part);
       expect_error(r, 409, "not_ready");
@@ -959,7 +965,7 @@ TEST_F(ServiceQueue, CancellingAQueuedJob) {
   EXPECT_EQ(j["attempts"], 0);
   EXPECT_EQ(job(id)["state"], "cancelled");
 
-  for (const char* part : {"/summary", "/buildings", "/ptn", "/results.h5"}) {
+  for (const char* part : {"/summary", "/buildings", "/ptn", "/results.h5", "/maps"}) {
     SCOPED_TRACE(part);
     const Response results = get("/v1/jobs/" + id + part);
     expect_error(results, 409, "not_ready");
@@ -1182,6 +1188,97 @@ TEST_F(ServiceResults, SmallJobIsDoneAndItsResultsAreServed) {
   EXPECT_EQ(body_of(get("/v1/sites/" + site))["jobs_using"], 0);
   EXPECT_EQ(del("/v1/sites/" + site).status, 204);
   EXPECT_EQ(get("/v1/jobs/" + id + "/ptn").status, 200);  // results stay
+}
+
+// The maps route serves what `fragsim export` writes (the same function), made once on the first
+// request; an interrupted export is made again and its temporaries are removed.
+TEST_F(ServiceResults, MapsAreMadeOnceAndServedAsFiles) {
+  start();
+  Json site = minimal_site();
+  site["origin"] = {{"crs", "EPSG:32611"}, {"easting_m", 500000.0}, {"northing_m", 3700000.0},
+                    {"elevation_m", 0.0}};
+  const std::string id = add_job(job_on(add_site(site), 200));
+  ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
+  const fs::path job_dir = fs::path(config().data_dir) / "jobs" / id;
+  const fs::path maps_dir = job_dir / "maps";
+  EXPECT_FALSE(fs::exists(maps_dir)) << "made before anyone asked";
+
+  const Response listing = get("/v1/jobs/" + id + "/maps");
+  ASSERT_EQ(listing.status, 200) << listing.body;
+  const Json m = body_of(listing);
+  EXPECT_EQ(m["job_id"], id);
+  EXPECT_EQ(m["crs"], "EPSG:32611");
+  std::map<std::string, Json> files;
+  for (const auto& f : m["files"]) files[f["name"].get<std::string>()] = f;
+  for (const char* name : {"ptn_density.tif", "ptn_classes.tif", "hazard.gpkg",
+                           "hazardous_area.geojson", "buildings.geojson", "hazard.kml"}) {
+    SCOPED_TRACE(name);
+    ASSERT_TRUE(files.count(name));
+    EXPECT_EQ(files[name]["url"], "/v1/jobs/" + id + "/maps/" + name);
+    EXPECT_EQ(files[name]["bytes"].get<std::uintmax_t>(), fs::file_size(maps_dir / name));
+  }
+  EXPECT_EQ(files["ptn_density.tif"]["content_type"], "image/tiff");
+  EXPECT_EQ(files["hazard.kml"]["content_type"], "application/vnd.google-earth.kml+xml");
+
+  // A file: served from the job's maps directory, with its type and a download name.
+  const Response tif = get("/v1/jobs/" + id + "/maps/ptn_density.tif");
+  ASSERT_EQ(tif.status, 200) << tif.body;
+  ASSERT_TRUE(tif.file.has_value());
+  EXPECT_EQ(fs::weakly_canonical(*tif.file), fs::weakly_canonical(maps_dir / "ptn_density.tif"));
+  EXPECT_EQ(tif.content_type, "image/tiff");
+  EXPECT_EQ(header(tif, "Content-Disposition"),
+            "attachment; filename=\"" + id + "_ptn_density.tif\"");
+  // The same bytes as `fragsim export` of the job's results.h5.
+  const fs::path direct = dir_ / "direct";
+  gis::export_results({job_dir / "results.h5", direct, std::nullopt});
+  EXPECT_EQ(api::testing::read_text(*tif.file), api::testing::read_text(direct / "ptn_density.tif"));
+
+  // Made once: a second listing reads the stored one.
+  const auto made = fs::last_write_time(maps_dir / "index.json");
+  EXPECT_EQ(body_of(get("/v1/jobs/" + id + "/maps")), m);
+  EXPECT_EQ(fs::last_write_time(maps_dir / "index.json"), made);
+
+  // A name it does not have (or one that would leave the directory) is 404 naming those it has.
+  for (const char* name : {"nope.tif", "index.json", "..", "%2e%2e", "results.h5"}) {
+    SCOPED_TRACE(name);
+    const Response r = get("/v1/jobs/" + id + "/maps/" + name);
+    expect_error(r, 404, "not_found");
+    EXPECT_NE(body_of(r)["message"].get<std::string>().find("hazard.kml"), std::string::npos);
+  }
+
+  // An export killed half-way: temporaries and no index. Start-up removes the temporaries;
+  // the next request makes the set again.
+  fs::remove(maps_dir / "index.json");
+  fs::remove(maps_dir / "hazard.kml");
+  std::ofstream(maps_dir / ".hazard.kml.tmp.0123456789abcdef.3") << "partial";
+  restart();
+  EXPECT_FALSE(fs::exists(maps_dir / ".hazard.kml.tmp.0123456789abcdef.3"));
+  EXPECT_EQ(get("/v1/jobs/" + id + "/maps/hazard.kml").status, 200);
+  EXPECT_TRUE(fs::is_regular_file(maps_dir / "hazard.kml"));
+  EXPECT_TRUE(fs::is_regular_file(maps_dir / "index.json"));
+}
+
+// Concurrent first requests: one export, every request answered with the same listing.
+TEST_F(ServiceResults, ConcurrentFirstMapRequestsAgree) {
+  start();
+  const std::string id = add_job(job_on(add_site(), 200));
+  ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
+  std::vector<Response> answers(4);
+  std::vector<std::thread> threads;
+  for (auto& a : answers)
+    threads.emplace_back([&a, this, &id] { a = get("/v1/jobs/" + id + "/maps"); });
+  for (auto& t : threads) t.join();
+  for (const auto& a : answers) {
+    ASSERT_EQ(a.status, 200) << a.body;
+    EXPECT_EQ(body_of(a), body_of(answers[0]));
+  }
+  // A site without a CRS: the maps are in local metres and the listing says what was left out.
+  const Json m = body_of(answers[0]);
+  EXPECT_TRUE(m["crs"].is_null());
+  ASSERT_EQ(m["notes"].size(), 2u);  // "local" is a label, not a CRS; so no GeoJSON or KML
+  EXPECT_NE(m["notes"][0].get<std::string>().find("\"local\" is not a CRS"), std::string::npos);
+  EXPECT_NE(m["notes"][1].get<std::string>().find("no CRS"), std::string::npos);
+  EXPECT_EQ(m["files"].size(), 3u);  // the GeoTIFFs and the GeoPackage
 }
 
 // ---- Metrics ----
