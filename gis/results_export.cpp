@@ -462,7 +462,8 @@ ExportReport export_results(const ExportOptions& o) {
   });
   if (!srs) {
     report.notes.push_back(
-        "the site has no CRS PROJ knows (site.origin.crs): GeoJSON (RFC 7946) and KML need WGS 84, so "
+        "the site has no CRS PROJ knows (site.origin.crs): GeoJSON (RFC 7946) and KML need WGS 84, "
+        "so "
         "they were not written; the GeoTIFFs and the GeoPackage are in the site's local metres");
     out.commit();
     return report;

@@ -1195,7 +1195,9 @@ TEST_F(ServiceResults, SmallJobIsDoneAndItsResultsAreServed) {
 TEST_F(ServiceResults, MapsAreMadeOnceAndServedAsFiles) {
   start();
   Json site = minimal_site();
-  site["origin"] = {{"crs", "EPSG:32611"}, {"easting_m", 500000.0}, {"northing_m", 3700000.0},
+  site["origin"] = {{"crs", "EPSG:32611"},
+                    {"easting_m", 500000.0},
+                    {"northing_m", 3700000.0},
                     {"elevation_m", 0.0}};
   const std::string id = add_job(job_on(add_site(site), 200));
   ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
@@ -1231,7 +1233,8 @@ TEST_F(ServiceResults, MapsAreMadeOnceAndServedAsFiles) {
   // The same bytes as `fragsim export` of the job's results.h5.
   const fs::path direct = dir_ / "direct";
   gis::export_results({job_dir / "results.h5", direct, std::nullopt});
-  EXPECT_EQ(api::testing::read_text(*tif.file), api::testing::read_text(direct / "ptn_density.tif"));
+  EXPECT_EQ(api::testing::read_text(*tif.file),
+            api::testing::read_text(direct / "ptn_density.tif"));
 
   // Made once: a second listing reads the stored one.
   const auto made = fs::last_write_time(maps_dir / "index.json");
