@@ -506,7 +506,8 @@ OJson Service::job_json(const JobRow& row) {
                 {"summary", self + "/summary"},
                 {"buildings", self + "/buildings"},
                 {"ptn", self + "/ptn"},
-                {"results_h5", self + "/results.h5"}};
+                {"results_h5", self + "/results.h5"},
+                {"maps", self + "/maps"}};
   return j;
 }
 

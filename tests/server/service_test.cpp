@@ -797,7 +797,8 @@ TEST_F(ServiceJobs, PostJobIs202WithLocationAndJobStatus) {
                               {"summary", self + "/summary"},
                               {"buildings", self + "/buildings"},
                               {"ptn", self + "/ptn"},
-                              {"results_h5", self + "/results.h5"}}));
+                              {"results_h5", self + "/results.h5"},
+                              {"maps", self + "/maps"}}));
 
   const Json again = job(id);
   EXPECT_EQ(again["job_id"], id);
