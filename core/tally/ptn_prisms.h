@@ -9,6 +9,7 @@
 //   A_PTN = A |n . v_hat| + H sum_e max(0, N_e . v_hat_xy).
 // Vertical fall gives A_PTN = A (the plain count/area density); horizontal flight gives H times the
 // width of the triangle across the path.
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -22,7 +23,7 @@ class PtnPrisms {
   PtnPrisms(const scene::Site& site, double person_height_m);
 
   double person_height_m() const { return h_; }
-  std::size_t size() const { return prisms_.size(); }
+  std::size_t size() const { return count_; }
 
   // Eqs. 38-39 for a unit direction of travel.
   double projected_area(std::uint32_t triangle, const Vec3& dir_unit) const;
@@ -35,12 +36,15 @@ class PtnPrisms {
             double& s_out) const;
 
   // Starts loading a prism's data (a hint for walks that know the next triangle ahead).
-  void prefetch(std::uint32_t triangle) const { __builtin_prefetch(&prisms_[triangle]); }
+  void prefetch(std::uint32_t triangle) const { __builtin_prefetch(&(*triangles_)[triangle]); }
 
   // Highest point of any prism (terrain max z + H): a path above it crosses no prism.
   double top_z() const { return top_z_; }
 
  private:
+  // A prism's geometry is computed from the triangle's vertices when it is tested, not stored:
+  // stored, it took 120 bytes per terrain triangle and was built for every run (0.96 GB and
+  // 2.7 s of a 4.1 s run on an 8-million-triangle site; docs/benchmarks.md section 7).
   struct Prism {
     // xy-projection as three half-planes N_k . p <= c_k (N_k outward, |N_k| = |edge_k|).
     std::array<Vec2, 3> edge_normal;
@@ -49,7 +53,11 @@ class PtnPrisms {
     double gx, gy, gz;
     Vec3 area_normal;  // A * n (n upward unit normal)
   };
-  std::vector<Prism> prisms_;
+  Prism prism(std::uint32_t triangle) const;
+
+  const std::vector<Vec3>* vertices_;
+  const std::vector<std::array<std::uint32_t, 3>>* triangles_;
+  std::size_t count_;
   double h_;
   double top_z_;
 };
