@@ -2,6 +2,7 @@
 #include "gis/plan_raster.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -9,25 +10,33 @@ namespace fragsim::gis {
 
 namespace {
 
+// A convex polygon of at most 7 vertices: a triangle clipped by the 4 sides of a cell (each
+// clip adds at most one vertex). Fixed storage: the export clips millions of triangles.
+struct SmallPolygon {
+  std::array<Vec2, 8> v;
+  std::size_t n = 0;
+  void push(const Vec2& p) { v[n++] = p; }
+};
+
 // Keeps the part of `poly` where s * (p[axis] - bound) >= 0.
-std::vector<Vec2> clip(const std::vector<Vec2>& poly, int axis, double bound, double s) {
-  std::vector<Vec2> out;
-  const std::size_t n = poly.size();
+SmallPolygon clip(const SmallPolygon& poly, int axis, double bound, double s) {
+  SmallPolygon out;
+  const std::size_t n = poly.n;
   for (std::size_t k = 0; k < n; ++k) {
-    const Vec2& p = poly[k];
-    const Vec2& q = poly[(k + 1) % n];
+    const Vec2& p = poly.v[k];
+    const Vec2& q = poly.v[(k + 1) % n];
     const double dp = s * (p[axis] - bound), dq = s * (q[axis] - bound);
-    if (dp >= 0) out.push_back(p);
-    if ((dp >= 0) != (dq >= 0)) out.push_back(p + (q - p) * (dp / (dp - dq)));
+    if (dp >= 0) out.push(p);
+    if ((dp >= 0) != (dq >= 0)) out.push(p + (q - p) * (dp / (dp - dq)));
   }
   return out;
 }
 
-double polygon_area(const std::vector<Vec2>& p) {
+double polygon_area(const SmallPolygon& p) {
   double a2 = 0;
-  for (std::size_t k = 0; k < p.size(); ++k) {
-    const Vec2& u = p[k];
-    const Vec2& v = p[(k + 1) % p.size()];
+  for (std::size_t k = 0; k < p.n; ++k) {
+    const Vec2& u = p.v[k];
+    const Vec2& v = p.v[(k + 1) % p.n];
     a2 += u.x() * v.y() - v.x() * u.y();
   }
   return 0.5 * std::abs(a2);
@@ -72,12 +81,15 @@ PlanRaster make_plan_raster(const std::vector<Vec3>& vertices, double cell_m,
 }
 
 double clipped_area(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& lo, const Vec2& hi) {
-  std::vector<Vec2> p = {a, b, c};
+  SmallPolygon p;
+  p.push(a);
+  p.push(b);
+  p.push(c);
   p = clip(p, 0, lo.x(), 1.0);
-  if (!p.empty()) p = clip(p, 0, hi.x(), -1.0);
-  if (!p.empty()) p = clip(p, 1, lo.y(), 1.0);
-  if (!p.empty()) p = clip(p, 1, hi.y(), -1.0);
-  return p.size() < 3 ? 0.0 : polygon_area(p);
+  if (p.n > 0) p = clip(p, 0, hi.x(), -1.0);
+  if (p.n > 0) p = clip(p, 1, lo.y(), 1.0);
+  if (p.n > 0) p = clip(p, 1, hi.y(), -1.0);
+  return p.n < 3 ? 0.0 : polygon_area(p);
 }
 
 void add_triangle(PlanRaster& r, const Vec2& a, const Vec2& b, const Vec2& c,

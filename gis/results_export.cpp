@@ -144,10 +144,13 @@ PlanRaster rasterise(const Results& r, double cell_m, bool on_grid_samples) {
                                                         (*r.grid_origin)[1] - 0.5 * cell_m, cell_m,
                                                         r.grid_nx, r.grid_ny, 2)
                                   : make_plan_raster(r.vertices, cell_m, 2);
+  std::vector<double> values(2);
   for (std::size_t k = 0; k < r.triangles.size(); ++k) {
     const auto& t = r.triangles[k];
+    values[0] = r.density[k];
+    values[1] = r.std_error[k];
     add_triangle(pr, r.vertices[t[0]].head<2>(), r.vertices[t[1]].head<2>(),
-                 r.vertices[t[2]].head<2>(), {r.density[k], r.std_error[k]});
+                 r.vertices[t[2]].head<2>(), values);
   }
   return pr;
 }
