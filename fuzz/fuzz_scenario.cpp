@@ -11,6 +11,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   std::shared_ptr<const scene::Site> site;
   try {
     doc = api::parse_scenario_document_text(fuzz::as_text(data, size));
+    if (fuzz::too_large_to_build(doc.scenario.site.terrain)) return 0;
     site = api::validate_scenario(doc.scenario);
   } catch (const InputError&) {
     return 0;  // refused with a field path: what the contract promises

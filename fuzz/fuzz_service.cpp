@@ -94,6 +94,7 @@ class Fixture {
     c.threads = 1;
     c.job_nice = 0;
     c.max_sites = 8;
+    c.max_terrain_triangles = 1 << 18;  // fuzz_support.h: kMaxFuzzTerrainTriangles
     c.max_queued_jobs = 16;
     c.max_body_bytes = 1 << 20;
     c.max_samples_per_job = 1'000'000;

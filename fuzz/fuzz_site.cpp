@@ -11,6 +11,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   api::SiteDocument doc;
   try {
     doc = api::parse_site_document(api::parse_json_text(fuzz::as_text(data, size)));
+    if (fuzz::too_large_to_build(doc.spec.terrain)) return 0;
     (void)api::build_site(doc);
   } catch (const InputError&) {
     return 0;

@@ -12,6 +12,7 @@
 
 #include "api/scenario_json.h"
 #include "core/run/run.h"
+#include "core/scene/site_limits.h"
 
 namespace fragsim::fuzz {
 
@@ -32,6 +33,15 @@ inline void check_scenario_round_trip(const api::ScenarioDocument& doc) {
   const nlohmann::json twice = api::scenario_to_json(api::parse_scenario_document(once));
   if (once != twice)
     fail("scenario normalisation not idempotent:\n" + once.dump() + "\n" + twice.dump());
+}
+
+// The harness's memory budget for a site: the fuzzer runs with -rss_limit_mb=2048, and the limits
+// of the contract allow a few bytes of plane spec to ask for 2^26 triangles (~13 GB). Larger
+// terrains are skipped before they are built (the daemon refuses them the same way, with its
+// --max-terrain-triangles; tested in tests/server). 2^18 triangles build in well under a second.
+inline constexpr double kMaxFuzzTerrainTriangles = 1 << 18;
+inline bool too_large_to_build(const scene::TerrainSpec& terrain) {
+  return scene::terrain_triangles_of(terrain) > kMaxFuzzTerrainTriangles;
 }
 
 // A few histories of an accepted scenario: one per group (at most three groups), one thread, and

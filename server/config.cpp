@@ -109,23 +109,15 @@ void apply_config_file(const std::string& path, Config& c) {
     throw ConfigError(path + ": " + e.what());
   }
   if (!j.is_object()) throw ConfigError(path + ": expected a JSON object");
-  static const std::vector<std::string> kKeys = {"listen",
-                                                 "data_dir",
-                                                 "threads",
-                                                 "http_threads",
-                                                 "token_file",
-                                                 "auth",
-                                                 "max_body_bytes",
-                                                 "max_samples_per_job",
-                                                 "max_sites",
-                                                 "max_queued_jobs",
-                                                 "request_timeout_s",
-                                                 "log_level",
-                                                 "max_crashes",
-                                                 "port_file",
-                                                 "keep_alive_s",
-                                                 "max_connections",
-                                                 "job_nice"};
+  static const std::vector<std::string> kKeys = {"listen",          "data_dir",
+                                                 "threads",         "http_threads",
+                                                 "token_file",      "auth",
+                                                 "max_body_bytes",  "max_samples_per_job",
+                                                 "max_sites",       "max_terrain_triangles",
+                                                 "max_queued_jobs", "request_timeout_s",
+                                                 "log_level",       "max_crashes",
+                                                 "port_file",       "keep_alive_s",
+                                                 "max_connections", "job_nice"};
   try {
     for (const auto& item : j.items()) {
       const std::string& k = item.key();
@@ -146,6 +138,8 @@ void apply_config_file(const std::string& path, Config& c) {
         c.max_body_bytes = api::read_integer(v, k, 1024, kInt64Max);
       } else if (k == "max_samples_per_job") {
         c.max_samples_per_job = api::read_integer(v, k, 1, kInt64Max);
+      } else if (k == "max_terrain_triangles") {
+        c.max_terrain_triangles = api::read_integer(v, k, 2, kInt64Max);
       } else if (k == "max_sites") {
         c.max_sites = api::read_integer(v, k, 1, kInt64Max);
       } else if (k == "max_queued_jobs") {
@@ -220,6 +214,8 @@ Invocation parse_command_line(const std::vector<std::string>& args) {
       c.max_body_bytes = parse_integer(value(), a, 1024, kInt64Max);
     } else if (a == "--max-samples-per-job") {
       c.max_samples_per_job = parse_integer(value(), a, 1, kInt64Max);
+    } else if (a == "--max-terrain-triangles") {
+      c.max_terrain_triangles = parse_integer(value(), a, 2, kInt64Max);
     } else if (a == "--max-sites") {
       c.max_sites = parse_integer(value(), a, 1, kInt64Max);
     } else if (a == "--max-queued-jobs") {
@@ -274,6 +270,7 @@ const char* usage_text() {
          "  --max-body-bytes N       largest request body (default 268435456)\n"
          "  --max-samples-per-job N  (default 100000000)\n"
          "  --max-sites N            (default 100)\n"
+         "  --max-terrain-triangles N  terrain triangles of one site (default 16777216)\n"
          "  --max-queued-jobs N      (default 1000)\n"
          "  --request-timeout-s S    a request must arrive within S of its first byte (default "
          "30)\n"

@@ -23,6 +23,9 @@ struct Config {
   std::int64_t max_body_bytes = 256LL << 20;
   std::int64_t max_samples_per_job = 100'000'000;
   std::int64_t max_sites = 100;
+  // Terrain triangles of one site (uploaded or inline), refused before it is built: about
+  // 190 bytes each resident (docs/benchmarks.md section 7), so the default 2^24 is ~3.2 GB.
+  std::int64_t max_terrain_triangles = 1LL << 24;
   std::int64_t max_queued_jobs = 1000;
   double request_timeout_s = 30.0;
   std::string port_file;

@@ -17,6 +17,7 @@
 #include "api/scenario_json.h"
 #include "api/sha256.h"
 #include "api/site_document.h"
+#include "core/scene/site_limits.h"
 #include "fragsim/version.h"
 #include "gis/gdal_support.h"
 #include "server/log.h"
@@ -414,9 +415,22 @@ OJson Service::site_json(const SiteEntry& e) {
   return j;
 }
 
+// Refuses, before anything is built, a site larger than this daemon's memory budget allows.
+void Service::check_terrain_size(const scene::TerrainSpec& terrain,
+                                 const std::string& field) const {
+  const double n = scene::terrain_triangles_of(terrain);
+  if (n > static_cast<double>(config_.max_terrain_triangles))
+    throw LimitError(field, "the terrain would have " +
+                                std::to_string(static_cast<std::int64_t>(n)) +
+                                " triangles; this daemon accepts at most " +
+                                std::to_string(config_.max_terrain_triangles) +
+                                " per site (--max-terrain-triangles)");
+}
+
 Response Service::post_site(const Request& req) {
   if (auto bad = check_json_content_type(req)) return *bad;
   const api::SiteDocument doc = api::parse_site_document(parse_body(req));
+  check_terrain_size(doc.spec.terrain, "terrain");
   std::shared_ptr<const SiteEntry> entry = sites_.find(doc.site_id);
   bool created = false;
   if (!entry) {
@@ -528,7 +542,10 @@ Response Service::post_job(const Request& req) {
                                             std::to_string(config_.max_samples_per_job) +
                                             " (--max-samples-per-job)");
   // An inline site gets the full geometry check now, not when the job runs.
-  if (!jr.document.site_id) (void)api::validate_scenario(jr.document.scenario);
+  if (!jr.document.site_id) {
+    check_terrain_size(jr.document.scenario.site.terrain, "site.terrain");
+    (void)api::validate_scenario(jr.document.scenario);
+  }
 
   JobRow row;
   row.job_id = new_job_id();

@@ -103,6 +103,7 @@ class Service {
   Response job_map_file(const std::string& id, const std::string& name);
 
   bool authorised(const Request& req) const;
+  void check_terrain_size(const scene::TerrainSpec& terrain, const std::string& field) const;
   std::optional<std::string> owner_of(const Request& req) const;
   nlohmann::ordered_json site_json(const SiteEntry& e);
   nlohmann::ordered_json job_json(const JobRow& row);

@@ -168,6 +168,21 @@ void check_buildings(const std::vector<BuildingSpec>& buildings) {
 
 }  // namespace
 
+double terrain_triangles_of(const TerrainSpec& terrain) {
+  if (const auto* plane = std::get_if<PlaneTerrainSpec>(&terrain.geometry)) {
+    const auto& e = plane->extent_m;
+    const double nx = std::ceil((e[2] - e[0]) / plane->cell_m);
+    const double ny = std::ceil((e[3] - e[1]) / plane->cell_m);
+    if (!(nx > 0.0) || !(ny > 0.0)) return 0.0;  // NaN or empty: refused by the builder
+    return 2.0 * nx * ny;
+  }
+  if (const auto* grid = std::get_if<GridTerrainSpec>(&terrain.geometry)) {
+    if (grid->nx < 2 || grid->ny < 2) return 0.0;
+    return 2.0 * static_cast<double>(grid->nx - 1) * static_cast<double>(grid->ny - 1);
+  }
+  return static_cast<double>(std::get<MeshSpec>(terrain.geometry).triangles.size());
+}
+
 void check_site_limits(const SiteSpec& spec) {
   if (spec.origin) {
     check_xy(spec.origin->easting_m, "site.origin.easting_m");

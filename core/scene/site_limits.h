@@ -46,4 +46,11 @@ inline constexpr double kMaxBuildingHeight_m = 1e4;
 // breaks a limit above. Fields that are not finite are reported as "not finite".
 void check_site_limits(const SiteSpec& spec);
 
+// The number of terrain triangles the spec would build, known before building it (a plane's
+// cells are counted as the builder counts them; an upper bound when the spec is invalid, which
+// the builder then refuses). Lets a caller with a memory budget refuse a site up front: a few
+// bytes of plane or grid spec can ask for 2^26 triangles (about 13 GB built, at the ~190 bytes
+// per triangle measured in docs/benchmarks.md section 7).
+double terrain_triangles_of(const TerrainSpec& terrain);
+
 }  // namespace fragsim::scene

@@ -97,6 +97,8 @@ TEST(ConfigCommandLine, EveryFlag) {
                                              "5000",
                                              "--max-sites",
                                              "7",
+                                             "--max-terrain-triangles",
+                                             "5000",
                                              "--max-queued-jobs",
                                              "9",
                                              "--request-timeout-s",
@@ -118,6 +120,7 @@ TEST(ConfigCommandLine, EveryFlag) {
   EXPECT_EQ(c.max_body_bytes, 2048);
   EXPECT_EQ(c.max_samples_per_job, 5000);
   EXPECT_EQ(c.max_sites, 7);
+  EXPECT_EQ(c.max_terrain_triangles, 5000);
   EXPECT_EQ(c.max_queued_jobs, 9);
   EXPECT_EQ(c.request_timeout_s, 2.5);
   EXPECT_EQ(c.port_file, "/tmp/port");
@@ -174,6 +177,7 @@ TEST(ConfigCommandLine, BadValuesNameTheFlag) {
       {"--max-body-bytes", "99999999999999999999999"},
       {"--max-samples-per-job", "0"},
       {"--max-sites", "0"},
+      {"--max-terrain-triangles", "1"},
       {"--max-queued-jobs", "-3"},
       {"--request-timeout-s", "0"},
       {"--request-timeout-s", "-1"},
@@ -211,10 +215,11 @@ TEST(ConfigCommandLine, MissingValueAndUnknownFlag) {
 
 TEST(ConfigCommandLine, UsageMentionsEveryFlag) {
   const std::string usage = usage_text();
-  for (const char* flag : {"--config", "--listen", "--data-dir", "--threads", "--http-threads",
-                           "--token-file", "--no-auth", "--max-body-bytes", "--max-samples-per-job",
-                           "--max-sites", "--max-queued-jobs", "--request-timeout-s", "--port-file",
-                           "--max-crashes", "--log-level", "--version", "--help"})
+  for (const char* flag :
+       {"--config", "--listen", "--data-dir", "--threads", "--http-threads", "--token-file",
+        "--no-auth", "--max-body-bytes", "--max-samples-per-job", "--max-sites",
+        "--max-terrain-triangles", "--max-queued-jobs", "--request-timeout-s", "--port-file",
+        "--max-crashes", "--log-level", "--version", "--help"})
     EXPECT_NE(usage.find(flag), std::string::npos) << flag;
 }
 

@@ -591,6 +591,33 @@ TEST_F(ServiceInput, TooManySamplesIs422LimitExceeded) {
   EXPECT_EQ(post("/v1/jobs", job_on(site, 1000)).status, 202);
 }
 
+// A few bytes of plane can ask for millions of triangles: refused from the spec, before building.
+TEST_F(ServiceInput, TooLargeATerrainIs422BeforeItIsBuilt) {
+  start();  // the default budget: 2^24 triangles
+  Json huge = minimal_site();
+  huge["terrain"]["plane"] = {
+      {"elevation_m", 0}, {"extent_m", {-2100, -2100, 2100, 2100}}, {"cell_m", 1}};
+  huge["buildings"] = Json::array();
+  const Response r = post("/v1/sites", huge);
+  expect_error(r, 422, "limit_exceeded", "terrain");
+  EXPECT_NE(body_of(r)["message"].get<std::string>().find("35280000 triangles"), std::string::npos)
+      << r.body;
+  EXPECT_EQ(body_of(get("/v1/sites"))["sites"].size(), 0u);
+  // Inline in a job: the same, with the scenario's path.
+  Json job = minimal_example();
+  job["site"] = huge;
+  expect_error(post("/v1/jobs", job), 422, "limit_exceeded", "site.terrain");
+  EXPECT_EQ(get("/v1/jobs").body, R"({"jobs":[]})");
+}
+
+TEST_F(ServiceInput, TheTerrainBudgetIsConfigurableAndInclusive) {
+  start([](Config& c) { c.max_terrain_triangles = 3199; });  // the minimal site has 3200
+  expect_error(post("/v1/sites", minimal_site()), 422, "limit_exceeded", "terrain");
+  service_.reset();
+  start([](Config& c) { c.max_terrain_triangles = 3200; });
+  EXPECT_EQ(post("/v1/sites", minimal_site()).status, 201);
+}
+
 TEST_F(ServiceInput, TooManySitesIs422LimitExceeded) {
   start([](Config& c) { c.max_sites = 1; });
   const std::string first = add_site();
