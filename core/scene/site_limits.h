@@ -25,7 +25,8 @@ inline constexpr double kMaxAbsElevation_m = 1e5;
 // site-local coordinates within 1e5 m, where Embree's floats still resolve 8 mm.
 inline constexpr double kMaxTerrainExtent_m = 2e5;
 // Terrain triangles and vertices of a mesh terrain: the 2^25 cells (two triangles each) a grid
-// or plane may have; about 3 GB of mesh, index and per-triangle data.
+// or plane may have; about 13 GB built (~190 bytes per triangle measured, docs/benchmarks.md
+// section 7). fragsimd's own budget (--max-terrain-triangles) is lower by default.
 inline constexpr std::size_t kMaxTerrainTriangles = std::size_t{1} << 26;
 inline constexpr std::size_t kMaxTerrainVertices = std::size_t{1} << 26;
 // Buildings, and their triangles all together (a footprint of n vertices, holes' included, and h
