@@ -135,6 +135,10 @@ Options parse_args(const std::vector<std::string>& args) {
         o.wait = false;
         continue;
       }
+      if (a == "--maps") {
+        o.maps = true;
+        continue;
+      }
       if (a == "--quiet" || a == "-q") {
         o.quiet = true;
         continue;
@@ -176,6 +180,7 @@ Options parse_args(const std::vector<std::string>& args) {
   }
   if (o.scenario.empty()) throw UsageError("missing SCENARIO.json");
   if (o.command == Command::kRun && o.out.empty()) throw UsageError("run needs --out DIR");
+  if (o.maps && o.out.empty()) throw UsageError("--maps needs --out DIR (the maps go to DIR/maps)");
   return o;
 }
 
@@ -189,7 +194,7 @@ Usage:
   fragsim site export-gis SITE.json --out DIR
   fragsim export RESULTS.h5 --out DIR [--pixel-m X]
   fragsim submit SCENARIO.json [--server URL] [--token-file FILE] [--priority N]
-                 [--idempotency-key KEY] [--no-wait] [--out DIR] [--quiet]
+                 [--idempotency-key KEY] [--no-wait] [--out DIR [--maps]] [--quiet]
   fragsim --version
   fragsim --help
 
@@ -228,6 +233,8 @@ Options (submit):
   --idempotency-key K Resubmitting with the same key returns the same job.
   --no-wait           Print the job id and return once the job is queued.
   --out DIR           Download summary.json and results.h5 into DIR when the job is done.
+  --maps              With --out: also download the job's GIS maps (GET /v1/jobs/{id}/maps,
+                      the files `fragsim export` writes) into DIR/maps.
 
 Exit status: 0 success, 2 invalid input or command line (the message names the field),
              1 internal error (submit: server unreachable, job failed), 130 cancelled.

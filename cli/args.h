@@ -36,7 +36,8 @@ struct Options {
   std::string token_file;
   std::optional<int> priority;
   std::string idempotency_key;
-  bool wait = true;  // follow the job to its end
+  bool wait = true;   // follow the job to its end
+  bool maps = false;  // with --out: also download the job's GIS maps into DIR/maps
   // export (RESULTS.h5 in `scenario`, DIR in `out`)
   std::optional<double> pixel_m;
 };

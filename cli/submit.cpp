@@ -88,6 +88,21 @@ class Client {
   httplib::Client http_;
 };
 
+// The job's GIS maps (made by the server on this first request), each file as listed, into
+// `dir`; the set appears at once (api::OutputDir). Only plain file names from the listing.
+void download_maps(Client& client, const std::string& job_id, const std::filesystem::path& dir) {
+  const std::string base = "/v1/jobs/" + job_id + "/maps";
+  const Json listing = Json::parse(client.request("GET", base).second);
+  api::OutputDir out(dir);
+  for (const auto& f : listing.at("files")) {
+    const std::string name = f.at("name").get<std::string>();
+    if (name.empty() || name.find('/') != std::string::npos || name[0] == '.')
+      throw ServerError(0, "GET " + base + ": unexpected file name \"" + name + "\"");
+    out.stage_text(name, client.request("GET", base + "/" + name).second);
+  }
+  out.commit();
+}
+
 }  // namespace
 
 int submit_command(const Options& o, const std::atomic<bool>& cancel) {
@@ -172,12 +187,15 @@ int submit_command(const Options& o, const std::atomic<bool>& cancel) {
       out.stage_text(api::kSummaryFileName, summary_text);
       out.stage_text(api::kResultsFileName, h5);
       out.commit();
+      if (o.maps) download_maps(client, job_id, std::filesystem::path(o.out) / "maps");
     }
     if (!o.quiet) {
       std::cout << api::render_summary_text(nlohmann::ordered_json::parse(summary_text));
       if (!o.out.empty())
         std::cout << "\nWrote " << (std::filesystem::path(o.out) / api::kSummaryFileName).string()
                   << " and " << (std::filesystem::path(o.out) / api::kResultsFileName).string()
+                  << (o.maps ? ", maps in " + (std::filesystem::path(o.out) / "maps").string()
+                             : std::string())
                   << "\n";
     }
     return kExitOk;

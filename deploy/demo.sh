@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Quick start, command 1: build (installing dependencies if missing), start fragsimd with a data
 # directory under out/, upload the bundled demo site, submit the demo job, follow it, print its
-# summary (files in out/demo/), stop the daemon, and write the maps (out/demo/maps/).
+# summary, download its results and maps (out/demo/, out/demo/maps/), and stop the daemon.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$root/deploy/build.sh"
@@ -34,10 +34,11 @@ done
 url="http://127.0.0.1:$(cat "$data/port")"
 echo "fragsimd listening on $url (log: $data/fragsimd.log)"
 
-./build/cli/fragsim submit examples/demo/scenario.json --server "$url" \
-  --token-file "$data/tokens" --out out/demo
-stop_daemon
-# The maps: PTN density GeoTIFFs, hazardous area, buildings and HFD as GeoPackage, GeoJSON, KML
+# --maps: the job's maps from the daemon (GET /v1/jobs/{id}/maps; the files `fragsim export`
+# writes): PTN density GeoTIFFs, hazardous area, buildings and HFD as GeoPackage, GeoJSON, KML
 # (docs/gis.md, "Outputs").
-./build/cli/fragsim export out/demo/results.h5 --out out/demo/maps
-echo "results: out/demo/summary.json, out/demo/results.h5, maps in out/demo/maps/ (daemon data: $data)"
+./build/cli/fragsim submit examples/demo/scenario.json --server "$url" \
+  --token-file "$data/tokens" --out out/demo --maps
+stop_daemon
+echo "results: out/demo/summary.json, out/demo/results.h5 (daemon data: $data); maps:"
+printf '  %s\n' out/demo/maps/*

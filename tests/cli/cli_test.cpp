@@ -104,7 +104,8 @@ TEST_F(Cli, UsageErrorsExitTwo) {
         {"validate"},
         {"run", "x.json", "--out", "o", "--threads", "many"},
         {"run", "x.json", "--out", "o", "--samples-scale", "0"},
-        {"validate", "x.json", "--bogus"}}) {
+        {"validate", "x.json", "--bogus"},
+        {"submit", "x.json", "--maps"}}) {
     const CliResult r = run(args);
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << r.err;

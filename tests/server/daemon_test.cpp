@@ -545,7 +545,7 @@ TEST(Daemon, SubmitCommandRunsAScenarioOnTheServer) {
   const std::string scenario = source_path("examples/minimal/scenario.json").string();
   const fs::path out = dir / "out";
   ASSERT_EQ(run_process({FRAGSIM_CLI, "submit", scenario, "--server", url, "--token-file",
-                         (dir / "tokens").string(), "--out", out.string(), "--quiet"},
+                         (dir / "tokens").string(), "--out", out.string(), "--maps", "--quiet"},
                         dir / "submit.log"),
             0)
       << read_text(dir / "submit.log");
@@ -553,6 +553,15 @@ TEST(Daemon, SubmitCommandRunsAScenarioOnTheServer) {
   expect_same_datasets(out / "results.h5", cli / "results.h5");
   EXPECT_EQ(comparable_summary(read_text(out / "summary.json")),
             comparable_summary(read_text(cli / "summary.json")));
+  // --maps: the server's maps, the same bytes as `fragsim export` of the downloaded results.
+  ASSERT_EQ(run_process({FRAGSIM_CLI, "export", (out / "results.h5").string(), "--out",
+                         (dir / "local_maps").string()},
+                        dir / "export.log"),
+            0)
+      << read_text(dir / "export.log");
+  for (const char* name : {"ptn_density.tif", "ptn_classes.tif"})
+    EXPECT_EQ(read_text(out / "maps" / name), read_text(dir / "local_maps" / name)) << name;
+  EXPECT_TRUE(fs::is_regular_file(out / "maps" / "hazard.gpkg"));
 
   // A wrong token is invalid input (exit 2); nothing is written.
   write_text(dir / "wrong", "not-the-token\n");
