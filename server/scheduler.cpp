@@ -156,11 +156,15 @@ void Scheduler::run_job(const JobRow& job) {
       entry = sites_.find(site_id);
       return entry ? &entry->normalised : nullptr;
     };
+    const auto t_parse = Clock::now();
     api::ScenarioDocument doc =
         api::parse_scenario_document(api::parse_json_text(job.scenario_json), &resolve);
     doc.scenario.settings.threads = threads_;
+    const auto t_build = Clock::now();
+    // A stored site was built at upload (build_s 0 here); an inline one is built now.
     const std::shared_ptr<const scene::Site> site =
         entry ? entry->site : api::validate_scenario(doc.scenario);
+    const auto t_run = Clock::now();
 
     auto last_flush = Clock::now();
     run::RunControl control;
@@ -183,7 +187,9 @@ void Scheduler::run_job(const JobRow& job) {
         store_.update_progress(id, p.histories_done);
       }
     };
-    const run::RunResult result = run::run(doc.scenario, site, control);
+    run::RunResult result = run::run(doc.scenario, site, control);
+    result.timing.parse_s = std::chrono::duration<double>(t_build - t_parse).count();
+    result.timing.build_s = std::chrono::duration<double>(t_run - t_build).count();
     if (result.cancelled || cancel_run_.load()) {
       bool stopping = false;
       {
