@@ -16,6 +16,7 @@ PACKAGES=(
   libgdal-dev gdal-bin     # gis/: DEM and footprint import (GDAL/OGR 3.6, PROJ 9)
   clang llvm libclang-rt-14-dev  # sanitizer builds and libFuzzer (deploy/sanitize.sh, fuzz.sh)
   clang-format-14          # the formatting check of CI (deploy/check-format.sh)
+  python3-vtk9             # tests: VTK's own reader checks the ParaView (VTKHDF) export
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

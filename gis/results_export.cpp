@@ -14,6 +14,7 @@
 #include "core/common/error.h"
 #include "gis/gdal_support.h"
 #include "gis/plan_raster.h"
+#include "gis/vtkhdf_export.h"
 
 namespace fragsim::gis {
 
@@ -416,6 +417,30 @@ GDALDatasetUniquePtr create_vector(const fs::path& path, const char* driver,
 
 }  // namespace
 
+namespace {
+
+// ParaView: terrain, buildings and trajectories as VTKHDF (gis/vtkhdf_export.h); a file with
+// nothing to show is left out and said.
+void stage_paraview(const fs::path& h5, const Vec2& offset,
+                    const std::function<void(const std::string&,
+                                             const std::function<void(const fs::path&)>&)>& stage,
+                    std::vector<std::string>& notes) {
+  const api::VtkUnstructuredGrid terrain = terrain_vtk(h5, offset);
+  stage("terrain.vtkhdf", [&](const fs::path& p) { api::write_vtkhdf(p, terrain); });
+  if (const auto b = buildings_vtk(h5, offset))
+    stage("buildings.vtkhdf", [&](const fs::path& p) { api::write_vtkhdf(p, *b); });
+  else
+    notes.push_back("the site has no buildings: buildings.vtkhdf was not written");
+  if (const auto t = trajectories_vtk(h5, offset))
+    stage("trajectories.vtkhdf", [&](const fs::path& p) { api::write_vtkhdf(p, *t); });
+  else
+    notes.push_back(
+        "the run recorded no trajectories (settings.record_trajectories): trajectories.vtkhdf "
+        "was not written");
+}
+
+}  // namespace
+
 ExportReport export_results(const ExportOptions& o) {
   const Results r = read_results(o.results_h5);
   ExportReport report;
@@ -463,6 +488,7 @@ ExportReport export_results(const ExportOptions& o) {
     auto ds = create_vector(p, "GPKG");
     all_layers(*ds, site_srs, nullptr);
   });
+  stage_paraview(o.results_h5, r.offset, stage, report.notes);
   if (!srs) {
     report.notes.push_back(
         "the site has no CRS PROJ knows (site.origin.crs): GeoJSON (RFC 7946) and KML need WGS 84, "

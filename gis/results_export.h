@@ -5,6 +5,7 @@
 //   hazard.gpkg         layers hazardous_area, buildings, hfd, hfd_sectors (the site's CRS)
 //   hazardous_area.geojson, buildings.geojson   RFC 7946 (WGS 84)
 //   hazard.kml          the four layers for Google Earth (WGS 84)
+//   terrain.vtkhdf, buildings.vtkhdf, trajectories.vtkhdf   ParaView (gis/vtkhdf_export.h)
 // results.h5 holds everything needed (terrain, densities, buildings, the scenario and its CRS).
 #include <filesystem>
 #include <optional>

@@ -200,9 +200,10 @@ TEST_F(ResultsExport, WithoutACrsOnlyLocalFilesAreWrittenAndSaid) {
   const fs::path h5 = run_minimal("");
   const ExportReport rep = export_results({h5, dir_ / "gis", std::nullopt});
   EXPECT_EQ(rep.files,
-            (std::vector<std::string>{"ptn_density.tif", "ptn_classes.tif", "hazard.gpkg"}));
-  ASSERT_EQ(rep.notes.size(), 1u);
-  EXPECT_NE(rep.notes[0].find("no CRS"), std::string::npos);
+            (std::vector<std::string>{"ptn_density.tif", "ptn_classes.tif", "hazard.gpkg",
+                                      "terrain.vtkhdf", "buildings.vtkhdf"}));
+  ASSERT_EQ(rep.notes.size(), 2u);  // and no trajectories were recorded
+  EXPECT_NE(rep.notes[1].find("no CRS"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir_ / "gis/hazard.kml"));
 }
 
@@ -213,8 +214,9 @@ TEST_F(ResultsExport, ACrsLabelPROJDoesNotKnowIsReadAsNoCrs) {
   const ExportReport rep = export_results({h5, dir_ / "gis", std::nullopt});
   EXPECT_EQ(rep.crs, "");
   EXPECT_EQ(rep.files,
-            (std::vector<std::string>{"ptn_density.tif", "ptn_classes.tif", "hazard.gpkg"}));
-  ASSERT_EQ(rep.notes.size(), 2u);
+            (std::vector<std::string>{"ptn_density.tif", "ptn_classes.tif", "hazard.gpkg",
+                                      "terrain.vtkhdf", "buildings.vtkhdf"}));
+  ASSERT_EQ(rep.notes.size(), 3u);  // the label, no trajectories, no CRS
   EXPECT_NE(rep.notes[0].find("\"local\" is not a CRS PROJ knows"), std::string::npos);
 }
 

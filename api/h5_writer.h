@@ -1,0 +1,237 @@
+#pragma once
+// HDF5 C API helpers shared by the files api/ writes (results.h5, the VTKHDF files): handles that
+// close themselves, errors as exceptions, C++ types to HDF5 types, and a file writer. Internal to
+// api/ (its .cpp files include it); callers use api/results_h5.h and api/vtkhdf.h.
+//
+// Every HDF5 call must hold hdf5_mutex(): the library Debian ships is not thread-safe.
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <filesystem>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace fragsim::api::h5 {
+
+// The HDF5 library Debian ships is not built thread-safe: every call into it from this file is
+// serialised (fragsimd reads results on request threads while a job writes its own file).
+inline std::mutex& hdf5_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+// ---- Handles and errors ----
+
+// Silences HDF5's automatic error printing while an api call runs; failures become exceptions.
+class QuietErrors {
+ public:
+  QuietErrors() {
+    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  }
+  ~QuietErrors() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
+  QuietErrors(const QuietErrors&) = delete;
+  QuietErrors& operator=(const QuietErrors&) = delete;
+
+ private:
+  H5E_auto2_t func_ = nullptr;
+  void* data_ = nullptr;
+};
+
+class Handle {
+ public:
+  Handle(hid_t id, herr_t (*close)(hid_t), const std::string& what) : id_(id), close_(close) {
+    if (id_ < 0) throw std::runtime_error("HDF5: " + what);
+  }
+  ~Handle() {
+    if (id_ >= 0) close_(id_);
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  operator hid_t() const { return id_; }  // NOLINT: a handle is used where an id is expected
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+inline void check(herr_t status, const std::string& what) {
+  if (status < 0) throw std::runtime_error("HDF5: " + what);
+}
+
+// Memory type and little-endian file type per C++ type.
+template <class T>
+struct H5Type;
+template <>
+struct H5Type<double> {
+  static hid_t mem() { return H5T_NATIVE_DOUBLE; }
+  static hid_t file() { return H5T_IEEE_F64LE; }
+};
+template <>
+struct H5Type<std::uint8_t> {
+  static hid_t mem() { return H5T_NATIVE_UINT8; }
+  static hid_t file() { return H5T_STD_U8LE; }
+};
+template <>
+struct H5Type<std::int32_t> {
+  static hid_t mem() { return H5T_NATIVE_INT32; }
+  static hid_t file() { return H5T_STD_I32LE; }
+};
+template <>
+struct H5Type<std::uint32_t> {
+  static hid_t mem() { return H5T_NATIVE_UINT32; }
+  static hid_t file() { return H5T_STD_U32LE; }
+};
+template <>
+struct H5Type<std::int64_t> {
+  static hid_t mem() { return H5T_NATIVE_INT64; }
+  static hid_t file() { return H5T_STD_I64LE; }
+};
+template <>
+struct H5Type<std::uint64_t> {
+  static hid_t mem() { return H5T_NATIVE_UINT64; }
+  static hid_t file() { return H5T_STD_U64LE; }
+};
+
+// Fixed-length string type (UTF-8 unless told), null-padded; at least one byte (HDF5 has no
+// empty type).
+inline hid_t string_type(std::size_t size, H5T_cset_t cset = H5T_CSET_UTF8) {
+  const hid_t t = H5Tcopy(H5T_C_S1);
+  if (t < 0) return t;
+  H5Tset_size(t, std::max<std::size_t>(size, 1));
+  H5Tset_strpad(t, H5T_STR_NULLPAD);
+  H5Tset_cset(t, cset);
+  return t;
+}
+
+// ---- Writer ----
+
+class Writer {
+ public:
+  explicit Writer(const std::filesystem::path& path) : name_(path.string()) {
+    const Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose, "property list");
+    check(H5Pset_attr_phase_change(fcpl, 0, 0), "dense attribute storage");
+    const Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "property list");
+    check(H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18), "format version bounds");
+    file_ = H5Fcreate(name_.c_str(), H5F_ACC_EXCL, fcpl, fapl);
+    if (file_ < 0) throw std::runtime_error("HDF5: cannot create " + name_);
+  }
+  ~Writer() {
+    if (file_ >= 0) H5Fclose(file_);
+  }
+  Writer(const Writer&) = delete;
+  Writer& operator=(const Writer&) = delete;
+
+  void close() {
+    const hid_t f = file_;
+    file_ = -1;
+    check(H5Fclose(f), "closing " + name_);
+  }
+
+  hid_t file() const { return file_; }
+
+  Handle group(const std::string& path) {
+    return Handle(H5Gcreate2(file_, path.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                  "cannot create group " + path + " in " + name_);
+  }
+
+  // rows x cols (cols == 0: a 1-D dataset of `rows`; rows == 0 with scalar: a scalar).
+  template <class T>
+  void dataset(const std::string& path, const T* data, std::size_t rows, std::size_t cols = 0) {
+    write(path, H5Type<T>::mem(), H5Type<T>::file(), data, rows, cols, false);
+  }
+  template <class T>
+  void dataset(const std::string& path, const std::vector<T>& v) {
+    dataset(path, v.data(), v.size());
+  }
+  template <class T>
+  void scalar(const std::string& path, T value) {
+    write(path, H5Type<T>::mem(), H5Type<T>::file(), &value, 1, 0, true);
+  }
+  void strings(const std::string& path, const std::vector<std::string>& values) {
+    std::size_t width = 1;
+    for (const auto& s : values) width = std::max(width, s.size());
+    std::vector<char> buffer(values.size() * width, '\0');
+    for (std::size_t k = 0; k < values.size(); ++k)
+      std::copy(values[k].begin(), values[k].end(), buffer.begin() + static_cast<long>(k * width));
+    const Handle type(string_type(width), H5Tclose, "string type");
+    write(path, type, type, buffer.data(), values.size(), 0, false);
+  }
+
+  template <class T>
+  void attribute(hid_t object, const char* name, T value) {
+    const Handle space(H5Screate(H5S_SCALAR), H5Sclose, "dataspace");
+    const Handle attr(H5Acreate2(object, name, H5Type<T>::file(), space, H5P_DEFAULT, H5P_DEFAULT),
+                      H5Aclose, std::string("cannot create attribute ") + name);
+    check(H5Awrite(attr, H5Type<T>::mem(), &value), std::string("writing attribute ") + name);
+  }
+  void attribute(hid_t object, const char* name, const std::string& value) {
+    const Handle type(string_type(value.size()), H5Tclose, "string type");
+    const Handle space(H5Screate(H5S_SCALAR), H5Sclose, "dataspace");
+    const Handle attr(H5Acreate2(object, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                      std::string("cannot create attribute ") + name);
+    std::vector<char> buffer(std::max<std::size_t>(value.size(), 1), '\0');
+    std::copy(value.begin(), value.end(), buffer.begin());
+    check(H5Awrite(attr, type, buffer.data()), std::string("writing attribute ") + name);
+  }
+  void attribute(hid_t object, const char* name, const char* value) {
+    attribute(object, name, std::string(value));
+  }
+  // A 1-D array attribute of 64-bit integers.
+  void attribute(hid_t object, const char* name, const std::vector<std::int64_t>& values) {
+    const hsize_t n = values.size();
+    const Handle space(H5Screate_simple(1, &n, nullptr), H5Sclose, "dataspace");
+    const Handle attr(H5Acreate2(object, name, H5T_STD_I64LE, space, H5P_DEFAULT, H5P_DEFAULT),
+                      H5Aclose, std::string("cannot create attribute ") + name);
+    check(H5Awrite(attr, H5T_NATIVE_INT64, values.data()), std::string("writing attribute ") + name);
+  }
+  // A fixed-length ASCII string attribute (formats that name their types so, e.g. VTKHDF).
+  void ascii_attribute(hid_t object, const char* name, const std::string& value) {
+    const Handle type(string_type(value.size(), H5T_CSET_ASCII), H5Tclose, "string type");
+    const Handle space(H5Screate(H5S_SCALAR), H5Sclose, "dataspace");
+    const Handle attr(H5Acreate2(object, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                      std::string("cannot create attribute ") + name);
+    check(H5Awrite(attr, type, value.c_str()), std::string("writing attribute ") + name);
+  }
+  // Attribute on a dataset by path.
+  void dataset_attribute(const std::string& path, const char* name, const std::string& value) {
+    const Handle d(H5Dopen2(file_, path.c_str(), H5P_DEFAULT), H5Dclose, "cannot open " + path);
+    attribute(d, name, value);
+  }
+
+ private:
+  void write(const std::string& path, hid_t mem_type, hid_t file_type, const void* data,
+             std::size_t rows, std::size_t cols, bool is_scalar) {
+    const int rank = cols == 0 ? 1 : 2;
+    const hsize_t dims[2] = {rows, cols};
+    const Handle space(is_scalar ? H5Screate(H5S_SCALAR) : H5Screate_simple(rank, dims, nullptr),
+                       H5Sclose, "dataspace for " + path);
+    const Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "property list");
+    // Large fields are chunked and compressed (shuffle + deflate); both are deterministic, and
+    // readers see the same values either way.
+    const std::size_t elements = rows * std::max<std::size_t>(cols, 1);
+    if (!is_scalar && elements >= kCompressElements && H5Zfilter_avail(H5Z_FILTER_DEFLATE) > 0) {
+      const std::size_t width = std::max<std::size_t>(cols, 1);
+      const hsize_t chunk[2] = {
+          std::min<hsize_t>(rows, std::max<std::size_t>(1, kChunkElements / width)), cols};
+      check(H5Pset_chunk(dcpl, rank, chunk), "chunking " + path);
+      check(H5Pset_shuffle(dcpl), "shuffle filter for " + path);
+      check(H5Pset_deflate(dcpl, 4), "deflate filter for " + path);
+    }
+    const Handle dset(
+        H5Dcreate2(file_, path.c_str(), file_type, space, H5P_DEFAULT, dcpl, H5P_DEFAULT), H5Dclose,
+        "cannot create dataset " + path + " in " + name_);
+    if (elements > 0)
+      check(H5Dwrite(dset, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), "writing " + path);
+  }
+
+  static constexpr std::size_t kCompressElements = 1 << 16;
+  static constexpr std::size_t kChunkElements = 1 << 16;
+  std::string name_;
+  hid_t file_ = -1;
+};
+
+}  // namespace fragsim::api::h5
