@@ -186,7 +186,8 @@ class Writer {
     const Handle space(H5Screate_simple(1, &n, nullptr), H5Sclose, "dataspace");
     const Handle attr(H5Acreate2(object, name, H5T_STD_I64LE, space, H5P_DEFAULT, H5P_DEFAULT),
                       H5Aclose, std::string("cannot create attribute ") + name);
-    check(H5Awrite(attr, H5T_NATIVE_INT64, values.data()), std::string("writing attribute ") + name);
+    check(H5Awrite(attr, H5T_NATIVE_INT64, values.data()),
+          std::string("writing attribute ") + name);
   }
   // A fixed-length ASCII string attribute (formats that name their types so, e.g. VTKHDF).
   void ascii_attribute(hid_t object, const char* name, const std::string& value) {

@@ -50,9 +50,11 @@ api::VtkUnstructuredGrid terrain_vtk(const fs::path& f, const Vec2& offset) {
   std::vector<double> density = api::read_dataset_double(f, "/ptn/density_per_m2");
   const double threshold = api::read_dataset_double(f, "/hfd/threshold_per_m2").at(0);
   std::vector<double> hazardous(density.size());
-  for (std::size_t k = 0; k < density.size(); ++k) hazardous[k] = density[k] >= threshold ? 1.0 : 0.0;
+  for (std::size_t k = 0; k < density.size(); ++k)
+    hazardous[k] = density[k] >= threshold ? 1.0 : 0.0;
   g.cell_data.emplace_back("density_per_m2", std::move(density));
-  g.cell_data.emplace_back("std_error_per_m2", api::read_dataset_double(f, "/ptn/std_error_per_m2"));
+  g.cell_data.emplace_back("std_error_per_m2",
+                           api::read_dataset_double(f, "/ptn/std_error_per_m2"));
   g.cell_data.emplace_back("area_m2", api::read_dataset_double(f, "/terrain/area_m2"));
   g.cell_data.emplace_back("hazardous", std::move(hazardous));
   return g;
@@ -92,8 +94,8 @@ std::optional<api::VtkUnstructuredGrid> trajectories_vtk(const fs::path& f, cons
   const auto v = api::read_dataset_double(f, "/trajectories/velocity_mps");
   std::vector<double> speed(v.size() / 3);
   for (std::size_t k = 0; k < speed.size(); ++k)
-    speed[k] = std::sqrt(v[3 * k] * v[3 * k] + v[3 * k + 1] * v[3 * k + 1] +
-                         v[3 * k + 2] * v[3 * k + 2]);
+    speed[k] =
+        std::sqrt(v[3 * k] * v[3 * k] + v[3 * k + 1] * v[3 * k + 1] + v[3 * k + 2] * v[3 * k + 2]);
   g.point_data.emplace_back("t_s", api::read_dataset_double(f, "/trajectories/t_s"));
   g.point_data.emplace_back("speed_mps", std::move(speed));
   g.point_data.emplace_back("event", as_double(api::read_dataset_int64(f, "/trajectories/event")));

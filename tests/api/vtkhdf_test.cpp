@@ -29,8 +29,7 @@ TEST(Vtkhdf, LayoutOfTheSpecification) {
   EXPECT_EQ(read_attribute_string(f, "/VTKHDF", "Type"), "UnstructuredGrid");
   EXPECT_EQ(read_dataset_int64(f, "/VTKHDF/NumberOfPoints"), std::vector<std::int64_t>{4});
   EXPECT_EQ(read_dataset_int64(f, "/VTKHDF/NumberOfCells"), std::vector<std::int64_t>{2});
-  EXPECT_EQ(read_dataset_int64(f, "/VTKHDF/NumberOfConnectivityIds"),
-            std::vector<std::int64_t>{6});
+  EXPECT_EQ(read_dataset_int64(f, "/VTKHDF/NumberOfConnectivityIds"), std::vector<std::int64_t>{6});
   EXPECT_EQ(read_dataset_int64(f, "/VTKHDF/Offsets"), (std::vector<std::int64_t>{0, 3, 6}));
   EXPECT_EQ(read_dataset_int64(f, "/VTKHDF/Connectivity"),
             (std::vector<std::int64_t>{0, 1, 2, 0, 2, 3}));

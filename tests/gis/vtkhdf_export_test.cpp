@@ -7,8 +7,8 @@
 
 #include <array>
 #include <cstdio>
-#include <numeric>
 #include <nlohmann/json.hpp>
+#include <numeric>
 
 #include "api/results_h5.h"
 #include "api/run_outputs.h"
@@ -42,7 +42,9 @@ Json vtk_view(const std::vector<fs::path>& files) {
   }
 }
 
-double sum(const std::vector<double>& v) { return std::accumulate(v.begin(), v.end(), 0.0); }
+double sum(const std::vector<double>& v) {
+  return std::accumulate(v.begin(), v.end(), 0.0);
+}
 
 class VtkhdfExport : public ::testing::Test {
  protected:
