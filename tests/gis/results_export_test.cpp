@@ -13,6 +13,7 @@
 #include "api/test_support.h"
 #include "core/run/run.h"
 #include "gis/gdal_support.h"
+#include "gis/run_fixture.h"
 
 namespace fragsim::gis {
 namespace {
@@ -35,13 +36,7 @@ class ResultsExport : public ::testing::Test {
     g["speed_mps"] = {{"dist", "normal"}, {"mean", 60}, {"sigma", 5}};
     g["direction"]["elevation_deg"] = {40, 80};
     g["count"] = 20000;
-    const api::ScenarioDocument doc = api::parse_scenario_document(sc);
-    const auto site = api::validate_scenario(doc.scenario);
-    const run::RunResult result = run::run(doc.scenario);
-    api::OutputDir out(dir_ / "run");
-    api::stage_run_outputs(out, result, *site, doc, api::build_provenance());
-    out.commit();
-    return dir_ / "run" / "results.h5";
+    return testing::write_run(sc, dir_ / "run");
   }
 
   fs::path dir_;

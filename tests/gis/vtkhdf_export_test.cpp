@@ -15,6 +15,7 @@
 #include "api/test_support.h"
 #include "core/run/run.h"
 #include "gis/results_export.h"
+#include "gis/run_fixture.h"
 
 namespace fragsim::gis {
 namespace {
@@ -63,13 +64,7 @@ class VtkhdfExport : public ::testing::Test {
     g["samples"] = 2000;
     sc["settings"]["record_trajectories"] = true;
     sc["settings"]["max_recorded_trajectories"] = 5;
-    const api::ScenarioDocument doc = api::parse_scenario_document(sc);
-    const auto site = api::validate_scenario(doc.scenario);
-    const run::RunResult result = run::run(doc.scenario);
-    api::OutputDir out(dir_ / "run");
-    api::stage_run_outputs(out, result, *site, doc, api::build_provenance());
-    out.commit();
-    return dir_ / "run" / api::kResultsFileName;
+    return testing::write_run(sc, dir_ / "run");
   }
   fs::path dir_;
 };
@@ -130,11 +125,7 @@ TEST_F(VtkhdfExport, VtkReadsTerrainBuildingsAndTrajectoriesAsInResultsH5) {
 TEST_F(VtkhdfExport, NoTrajectoriesNoFileAndSaid) {
   Json sc = api::testing::minimal_example();
   sc["fragment_groups"][0]["samples"] = 200;
-  const api::ScenarioDocument doc = api::parse_scenario_document(sc);
-  const auto site = api::validate_scenario(doc.scenario);
-  api::OutputDir out(dir_ / "run");
-  api::stage_run_outputs(out, run::run(doc.scenario), *site, doc, api::build_provenance());
-  out.commit();
+  testing::write_run(sc, dir_ / "run");
   const ExportReport rep = export_results({dir_ / "run/results.h5", dir_ / "maps", std::nullopt});
   EXPECT_TRUE(fs::is_regular_file(dir_ / "maps/terrain.vtkhdf"));
   EXPECT_FALSE(fs::exists(dir_ / "maps/trajectories.vtkhdf"));
