@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Reads VTKHDF files with VTK's own reader (vtkHDFReader, Debian's python3-vtk9) and prints what
 it sees as JSON, for tests/gis/vtkhdf_export_test.cpp to compare with results.h5: an independent
-reader of the files fragsim writes. Usage: check_vtkhdf.py FILE..."""
+reader of the files fragsim writes. Exits non-zero, naming the file and VTK's message, when the
+reader reports an error or reads no points. Usage: check_vtkhdf.py FILE..."""
 import json
 import sys
 
@@ -19,9 +20,18 @@ def arrays(data):
 
 def describe(path):
     reader = vtk.vtkHDFReader()
+    errors = []
+
+    @vtk.calldata_type(vtk.VTK_STRING)
+    def on_error(obj, event, message):
+        errors.append(message)
+
+    reader.AddObserver("ErrorEvent", on_error)
     reader.SetFileName(path)
     reader.Update()
     grid = reader.GetOutput()
+    if errors or grid is None or grid.GetNumberOfPoints() == 0:
+        sys.exit("check_vtkhdf.py: vtkHDFReader cannot read %s: %s" % (path, " ".join(errors)))
     types = sorted({grid.GetCellType(k) for k in range(grid.GetNumberOfCells())})
     first_cell = []
     if grid.GetNumberOfCells() > 0:
