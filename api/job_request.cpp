@@ -1,5 +1,7 @@
 #include "api/job_request.h"
 
+#include <limits>
+
 #include "api/json_fields.h"
 
 namespace fragsim::api {
@@ -36,6 +38,11 @@ JobRequest parse_job_request(const nlohmann::json& body, const SiteResolver& res
   }
   req.document = parse_scenario_document(req.scenario, &resolve);
   for (const auto& g : req.document.scenario.groups) req.total_samples += g.samples;
+  if (const auto& p = req.document.scenario.settings.precision) {  // at most this many
+    const std::int64_t cap = std::numeric_limits<std::int64_t>::max() / p->max_batches;
+    req.total_samples = req.total_samples > cap ? std::numeric_limits<std::int64_t>::max()
+                                                : req.total_samples * p->max_batches;
+  }
   return req;
 }
 

@@ -21,7 +21,7 @@ struct JobRequest {
   ScenarioDocument document;  // document.site_id set when the scenario named a stored site
   int priority = 0;
   std::optional<std::string> idempotency_key;
-  std::int64_t total_samples = 0;  // over all fragment groups
+  std::int64_t total_samples = 0;  // over all fragment groups (x precision.max_batches)
   nlohmann::json scenario;         // the request without priority and idempotency_key
 };
 

@@ -239,6 +239,8 @@ void write_results_h5(const std::filesystem::path& path, const run::RunResult& r
   w.attribute(root, "seed", std::uint64_t{r.seed});
   w.attribute(root, "samples", std::int64_t{r.samples});
   w.attribute(root, "histories_done", std::int64_t{r.histories_done});
+  w.attribute(root, "batches", std::int64_t{r.batches});
+  w.attribute(root, "stop_reason", run::stop_reason_name(r.stop_reason));
   w.attribute(root, "real_fragments", r.real_fragments);
   w.attribute(root, "cancelled", std::uint8_t{r.cancelled ? std::uint8_t{1} : std::uint8_t{0}});
   w.attribute(root, "scenario_json", scenario_json);

@@ -2,6 +2,7 @@
 // parsing (line/column of malformed JSON, duplicate keys); full validation; normalised output.
 #include "api/scenario_json.h"
 
+#include <algorithm>
 #include <set>
 #include <vector>
 
@@ -35,6 +36,60 @@ flight::AtmosphereSpec parse_atmosphere(const Json& j, const std::string& path) 
   a.wind_mps = o.vec3_or("wind_mps", a.wind_mps);
   check_abs_le(a.wind_mps, limits::kMaxWind_mps, o.at("wind_mps"));
   return a;
+}
+
+// settings.precision (docs/precision.md). Each target is optional; the building ids are checked
+// against the site by the caller.
+run::PrecisionSettings parse_precision(const Json& j, const std::string& path) {
+  const ObjectReader o(j, path, "precision");
+  run::PrecisionSettings p;
+  auto fraction = [&o](const char* key, std::optional<double>& out) {
+    out = o.optional_number(key);
+    if (out) check_gt_le(*out, 0.0, 1.0, o.at(key));
+  };
+  p.hfd_half_band_m = o.optional_number("hfd_half_band_m");
+  if (p.hfd_half_band_m) check_gt(*p.hfd_half_band_m, 0.0, o.at("hfd_half_band_m"));
+  fraction("hfd_half_band_rel", p.hfd_half_band_rel);
+  fraction("building_rel_error", p.building_rel_error);
+  p.building_abs_error = o.optional_number("building_abs_error");
+  if (p.building_abs_error) check_gt(*p.building_abs_error, 0.0, o.at("building_abs_error"));
+  if (const Json* ids = o.find("buildings")) {
+    const Json& a = read_array(*ids, o.at("buildings"));
+    for (std::size_t k = 0; k < a.size(); ++k)
+      p.buildings.push_back(read_string(a[k], index_path(o.at("buildings"), k)));
+    if (!p.building_rel_error && !p.building_abs_error)
+      fail(o.at("buildings"), "needs building_rel_error or building_abs_error");
+  }
+  fraction("ptn_rel_error_at_hfd", p.ptn_rel_error_at_hfd);
+  p.max_batches = o.integer_or("max_batches", p.max_batches, 1, kMaxPrecisionBatches);
+  p.min_batches =
+      o.integer_or("min_batches", std::min(p.min_batches, p.max_batches), 1, p.max_batches);
+  p.max_wall_s = o.number_or("max_wall_s", p.max_wall_s);
+  check_ge_le(p.max_wall_s, 0.0, 1e7, o.at("max_wall_s"));  // 0: none; 1e7 s is 16 weeks
+  return p;
+}
+
+// What settings.precision needs from the rest of the scenario: the named buildings exist; every
+// group has at least 2 histories per batch (a batch's standard error needs two); recorded
+// fragments stay within their limit at the largest number of batches.
+void check_precision(const run::Scenario& sc, std::int64_t total_samples) {
+  const run::PrecisionSettings& p = *sc.settings.precision;
+  for (std::size_t k = 0; k < p.buildings.size(); ++k) {
+    const auto& bs = sc.site.buildings;
+    if (std::none_of(bs.begin(), bs.end(), [&](const auto& b) { return b.id == p.buildings[k]; }))
+      fail(index_path("settings.precision.buildings", k),
+           "no building \"" + p.buildings[k] + "\" in the site");
+  }
+  for (std::size_t g = 0; g < sc.groups.size(); ++g)
+    if (sc.groups[g].samples < 2)
+      fail(index_path("fragment_groups", g) + ".samples",
+           "must be >= 2 with settings.precision (the histories per batch; a batch's standard "
+           "error needs two)");
+  if (sc.settings.record_fragments && total_samples > kMaxRecordedFragments / p.max_batches)
+    fail("settings.record_fragments",
+         "would record up to " + std::to_string(total_samples) + " x " +
+             std::to_string(p.max_batches) + " histories with settings.precision (limit " +
+             std::to_string(kMaxRecordedFragments) + "); turn it off or lower max_batches");
 }
 
 run::Settings parse_settings(const Json& j, const std::string& path) {
@@ -75,6 +130,7 @@ run::Settings parse_settings(const Json& j, const std::string& path) {
   s.max_recorded_trajectories =
       o.integer_or("max_recorded_trajectories", s.max_recorded_trajectories, 0, 1'000'000);
   s.profile = o.bool_or("profile", s.profile);
+  if (const Json* p = o.find("precision")) s.precision = parse_precision(*p, o.at("precision"));
   return s;
 }
 
@@ -233,6 +289,7 @@ ScenarioDocument parse_scenario_document(const nlohmann::json& j, const SiteReso
   }
 
   if (const Json* s = o.find("settings")) sc.settings = parse_settings(*s, "settings");
+  if (sc.settings.precision) check_precision(sc, total_samples);
   if (sc.settings.record_fragments && total_samples > kMaxRecordedFragments)
     fail("settings.record_fragments",
          "would record " + std::to_string(total_samples) + " histories (limit " +
@@ -257,6 +314,23 @@ std::shared_ptr<const scene::Site> validate_scenario(const run::Scenario& scenar
 }
 
 namespace {
+
+Json precision_json(const run::PrecisionSettings& p) {
+  Json j = Json::object();
+  auto put = [&j](const char* key, const std::optional<double>& v) {
+    if (v) j[key] = *v;
+  };
+  put("hfd_half_band_m", p.hfd_half_band_m);
+  put("hfd_half_band_rel", p.hfd_half_band_rel);
+  put("building_rel_error", p.building_rel_error);
+  put("building_abs_error", p.building_abs_error);
+  if (!p.buildings.empty()) j["buildings"] = p.buildings;
+  put("ptn_rel_error_at_hfd", p.ptn_rel_error_at_hfd);
+  j["min_batches"] = p.min_batches;
+  j["max_batches"] = p.max_batches;
+  j["max_wall_s"] = p.max_wall_s;
+  return j;
+}
 
 Json scenario_json(const run::Scenario& sc, const std::string& description,
                    const std::map<std::string, MaterialNotes>* notes) {
@@ -301,6 +375,7 @@ Json scenario_json(const run::Scenario& sc, const std::string& description,
       {"profile", s.profile},
   };
   if (s.hfd_origin_m) settings["hfd_origin_m"] = vec3_json(*s.hfd_origin_m);
+  if (s.precision) settings["precision"] = precision_json(*s.precision);
   out["settings"] = std::move(settings);
   return out;
 }

@@ -27,6 +27,7 @@ inline constexpr const char* kScenarioSchema = "fragsim.scenario/1";
 // Limits on values that are legal in principle but would exhaust a machine (or a daemon).
 inline constexpr std::int64_t kMaxSamplesPerGroup = 1'000'000'000;
 inline constexpr std::int64_t kMaxRecordedFragments = 10'000'000;  // with record_fragments
+inline constexpr std::int64_t kMaxPrecisionBatches = 1'000'000;    // settings.precision
 inline constexpr std::int64_t kMaxThreads = 1024;
 
 // Material provenance the core does not need: kept so that outputs can say which inputs were

@@ -46,7 +46,11 @@ const std::map<std::string, std::vector<std::string>, std::less<>>& scenario_obj
       {"settings",
        {"seed", "person_height_m", "hazardous_ke_j", "hfd_threshold_per_m2", "hfd_origin_m",
         "max_flight_time_s", "integrator", "bounce", "bounce_limits", "threads", "chunk_histories",
-        "record_fragments", "record_trajectories", "max_recorded_trajectories", "profile"}},
+        "record_fragments", "record_trajectories", "max_recorded_trajectories", "profile",
+        "precision"}},
+      {"precision",
+       {"hfd_half_band_m", "hfd_half_band_rel", "building_rel_error", "building_abs_error",
+        "buildings", "ptn_rel_error_at_hfd", "min_batches", "max_batches", "max_wall_s"}},
       {"integrator", {"rtol", "sagitta_m"}},
       {"bounce_limits", {"min_rebound_speed_mps", "max_bounces", "max_ground_steps"}},
   };

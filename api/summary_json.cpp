@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "core/run/precision.h"
 #include "fragsim/version.h"
 
 namespace fragsim::api {
@@ -23,6 +24,38 @@ Json estimate_pair(const run::Estimate& impacts, const run::Estimate& penetratio
           {"expected_penetrations", penetrations.mean},
           {"penetrations_std_error", penetrations.std_error}};
 }
+
+// A number that may be infinite (an ETA that cannot be reached): null in JSON.
+Json finite_or_null(double v) {
+  return std::isfinite(v) ? Json(v) : Json(nullptr);
+}
+
+Json target_json(const run::TargetStatus& t) {
+  Json j = {{"figure", t.figure}};
+  if (!t.building.empty()) j["building"] = t.building;
+  j["basis"] = t.basis;
+  j["value"] = t.value;
+  j["allowed"] = finite_or_null(t.allowed);
+  j["met"] = t.met;
+  j["histories_needed"] = finite_or_null(t.histories_needed);
+  return j;
+}
+
+}  // namespace
+
+nlohmann::ordered_json precision_report_json(const run::PrecisionReport& p) {
+  Json targets = Json::array();
+  for (const auto& t : p.targets) targets.push_back(target_json(t));
+  return {{"batches", p.batches},
+          {"histories", p.histories},
+          {"all_met", p.all_met},
+          {"histories_needed", finite_or_null(p.histories_needed)},
+          {"eta_s", finite_or_null(p.eta_s)},
+          {"decay_exponent", p.decay_exponent},
+          {"targets", std::move(targets)}};
+}
+
+namespace {
 
 // ---- text rendering helpers ----
 
@@ -77,6 +110,41 @@ std::string plus_minus(double mean, double se) {
   return g4(mean) + " ± " + g4(se);
 }
 
+// One line per target kind; building figures summarised by the worst one (largest value/allowed).
+std::string precision_text(const Json& p) {
+  std::string out = "\nPrecision targets (" +
+                    std::string(p.value("all_met", false) ? "all met" : "not all met") + ")\n";
+  const Json* worst = nullptr;
+  double worst_ratio = -1.0;
+  int buildings = 0, buildings_met = 0;
+  const Json targets = p.value("targets", Json::array());
+  for (const auto& t : targets) {
+    const double allowed = num(t, "allowed");
+    if (t.value("figure", "").rfind("building_", 0) == 0) {
+      ++buildings;
+      buildings_met += t.value("met", false) ? 1 : 0;
+      const double ratio = allowed > 0 ? num(t, "value") / allowed : INFINITY;
+      if (ratio > worst_ratio) {
+        worst_ratio = ratio;
+        worst = &t;
+      }
+      continue;
+    }
+    out += "  " + pad_right(t.value("figure", ""), 28) + g4(num(t, "value")) + " (allowed " +
+           g4(allowed) + ")" + (t.value("met", false) ? "  met" : "  NOT MET") + "\n";
+  }
+  if (buildings > 0) {
+    out += "  " + pad_right("building figures", 28) + std::to_string(buildings_met) + " of " +
+           std::to_string(buildings) + " met";
+    if (worst != nullptr)
+      out += "; worst " + worst->value("building", "") + " " + worst->value("figure", "") + " " +
+             worst->value("basis", "") + " " + g4(num(*worst, "value")) + " (allowed " +
+             g4(num(*worst, "allowed")) + ")";
+    out += "\n";
+  }
+  return out;
+}
+
 }  // namespace
 
 Provenance build_provenance() {
@@ -89,6 +157,8 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
               {"cancelled", r.cancelled},
               {"samples", r.samples},
               {"histories_done", r.histories_done},
+              {"batches", r.batches},
+              {"stop_reason", run::stop_reason_name(r.stop_reason)},
               {"real_fragments", r.real_fragments},
               {"seed", r.seed},
               {"hazardous_ke_j", scenario.settings.hazardous_ke_j},
@@ -134,6 +204,7 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
         {"fragments_std_error", r.outcome_fragments[o].std_error}};
   }
   out["outcomes"] = std::move(outcomes);
+  if (r.precision) out["precision"] = precision_report_json(*r.precision);
 
   const run::Timing& t = r.timing;
   Json timing = {{"wall_s", t.wall_s},
@@ -176,7 +247,11 @@ std::string render_summary_text(const nlohmann::ordered_json& s) {
   if (s.value("cancelled", false))
     out += "CANCELLED: partial result of " + std::to_string(s.value("histories_done", 0)) +
            " histories, not a final result\n";
-  line("Samples (histories)", std::to_string(s.value("samples", std::int64_t{0})));
+  std::string samples = std::to_string(s.value("samples", std::int64_t{0}));
+  if (s.value("stop_reason", std::string("samples")) != "samples")
+    samples += " (" + std::to_string(s.value("batches", std::int64_t{1})) +
+               " batches, stopped: " + s.value("stop_reason", std::string()) + ")";
+  line("Samples (histories)", samples);
   line("Real fragments", g4(num(s, "real_fragments")));
   line("Seed", std::to_string(s.value("seed", std::uint64_t{0})));
 
@@ -224,6 +299,8 @@ std::string render_summary_text(const nlohmann::ordered_json& s) {
              pad_left(plus_minus(num(o, "fragments"), num(o, "fragments_std_error")), 24) + "\n";
     }
   }
+
+  if (s.contains("precision") && s["precision"].is_object()) out += precision_text(s["precision"]);
 
   if (s.contains("timing") && s["timing"].is_object()) {
     const Json& t = s["timing"];

@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "core/run/precision.h"
 #include "core/run/result.h"
 #include "core/run/scenario.h"
 
@@ -24,6 +25,10 @@ Provenance build_provenance();
 // Keys keep a fixed, readable order (schema first, outcomes in enum order).
 nlohmann::ordered_json summary_to_json(const run::RunResult& result, const run::Scenario& scenario,
                                        const Provenance& provenance);
+
+// settings.precision: the last batch boundary's check of the targets (summary.json "precision",
+// also the daemon's live job progress).
+nlohmann::ordered_json precision_report_json(const run::PrecisionReport& report);
 
 // A plain-text report of a summary (as made by summary_to_json): headline figures, a table of
 // buildings (expected impacts and penetrations, each +/- one standard error), outcome counts,

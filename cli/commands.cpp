@@ -20,6 +20,7 @@
 #include "api/sha256.h"
 #include "api/summary_json.h"
 #include "core/common/error.h"
+#include "core/run/precision.h"
 #include "core/run/run.h"
 
 namespace fragsim::cli {
@@ -73,23 +74,52 @@ void apply_overrides(const Options& o, run::Scenario& sc) {
                                             std::to_string(api::kMaxRecordedFragments) + ")");
 }
 
+// " batch 4: 7 of 9 targets met, ETA 35 s" (settings.precision).
+std::string precision_progress(const run::PrecisionReport& r) {
+  const auto met = std::count_if(r.targets.begin(), r.targets.end(),
+                                 [](const run::TargetStatus& t) { return t.met; });
+  std::string s = " batch " + std::to_string(r.batches) + ": " + std::to_string(met) + " of " +
+                  std::to_string(r.targets.size()) + " targets met";
+  if (!r.all_met) {
+    char eta[64];
+    if (std::isfinite(r.eta_s))
+      std::snprintf(eta, sizeof eta, ", ETA %.0f s", r.eta_s);
+    else
+      std::snprintf(eta, sizeof eta, ", ETA unknown");
+    s += eta;
+  }
+  return s;
+}
+
 // Progress on stderr, rewritten in place; only when stderr is a terminal.
 class ProgressLine {
  public:
-  explicit ProgressLine(bool enabled) : enabled_(enabled) {}
+  // `enabled`: a line rewritten in place (a terminal). `batch_lines`: otherwise, one line per
+  // batch boundary of a settings.precision run, at most one per progress interval (logs of
+  // overnight runs show the way to the targets).
+  ProgressLine(bool enabled, bool batch_lines) : enabled_(enabled), batch_lines_(batch_lines) {}
   ~ProgressLine() { finish(); }
   ProgressLine(const ProgressLine&) = delete;
   ProgressLine& operator=(const ProgressLine&) = delete;
 
   void update(const run::Progress& p) {
-    if (!enabled_) return;
     const std::lock_guard<std::mutex> lock(mutex_);
+    if (!enabled_) {
+      if (batch_lines_ && p.precision && p.precision->batches != last_batch_) {
+        last_batch_ = p.precision->batches;
+        std::fprintf(stderr, "%lld histories, %.1f s:%s\n",
+                     static_cast<long long>(p.precision->histories), p.elapsed_s,
+                     precision_progress(*p.precision).c_str());
+      }
+      return;
+    }
     const double pct = p.histories_total > 0 ? 100.0 * static_cast<double>(p.histories_done) /
                                                    static_cast<double>(p.histories_total)
                                              : 0.0;
     std::fprintf(stderr, "\r%5.1f%%  %lld / %lld histories  %.1f s ", pct,
                  static_cast<long long>(p.histories_done),
                  static_cast<long long>(p.histories_total), p.elapsed_s);
+    if (p.precision) std::fputs((precision_progress(*p.precision) + "      ").c_str(), stderr);
     std::fflush(stderr);
     shown_ = true;
   }
@@ -101,6 +131,8 @@ class ProgressLine {
 
  private:
   bool enabled_;
+  bool batch_lines_;
+  std::int64_t last_batch_ = 0;
   bool shown_ = false;
   std::mutex mutex_;
 };
@@ -148,7 +180,7 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
   if (!o.quiet) std::cerr << illustrative_note(doc);
 
   api::OutputDir out(o.out);  // removed again (if created here) unless commit() is reached
-  ProgressLine progress(!o.quiet && ::isatty(STDERR_FILENO) == 1);
+  ProgressLine progress(!o.quiet && ::isatty(STDERR_FILENO) == 1, !o.quiet);
   run::RunControl control;
   control.cancel = &cancel;
   control.on_progress = [&progress](const run::Progress& p) { progress.update(p); };

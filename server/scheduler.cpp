@@ -134,7 +134,7 @@ void Scheduler::run_job(const JobRow& job) {
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     cancel_run_ = stopping_ || cancel_pending_.erase(id) > 0;
-    live_ = LiveProgress{id, 0, job.histories_total, 0.0, 0.0};
+    live_ = LiveProgress{id, 0, job.histories_total, 0.0, 0.0, nullptr};
   }
   // Whatever happens below, the worker lets go of the job and wakes a waiting cancel().
   struct Release {
@@ -179,6 +179,7 @@ void Scheduler::run_job(const JobRow& job) {
           live_->elapsed_s = p.elapsed_s;
           live_->histories_per_s =
               p.elapsed_s > 0 ? static_cast<double>(p.histories_done) / p.elapsed_s : 0.0;
+          live_->precision = p.precision;
         }
       }
       const auto now = Clock::now();

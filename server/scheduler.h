@@ -9,12 +9,14 @@
 #include <atomic>
 #include <condition_variable>
 #include <filesystem>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
 #include <string>
 #include <thread>
 
+#include "core/run/precision.h"
 #include "server/site_registry.h"
 #include "server/store.h"
 
@@ -26,6 +28,8 @@ struct LiveProgress {
   std::int64_t histories_total = 0;
   double elapsed_s = 0.0;
   double histories_per_s = 0.0;
+  // settings.precision: the last batch boundary's check of the targets (null before it).
+  std::shared_ptr<const run::PrecisionReport> precision;
 };
 
 class Scheduler {

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <random>
@@ -17,6 +18,7 @@
 #include "api/scenario_json.h"
 #include "api/sha256.h"
 #include "api/site_document.h"
+#include "api/summary_json.h"
 #include "core/scene/site_limits.h"
 #include "fragsim/version.h"
 #include "gis/gdal_support.h"
@@ -495,12 +497,19 @@ OJson Service::job_json(const JobRow& row) {
   std::int64_t done = row.histories_done;
   OJson rate = nullptr;
   OJson eta = nullptr;
+  OJson precision = nullptr;
   if (row.state == JobState::kRunning) {
     if (const auto live = scheduler_.running(); live && live->job_id == row.job_id) {
       done = std::max(done, live->histories_done);
       if (live->histories_per_s > 0) {
         rate = live->histories_per_s;
         eta = static_cast<double>(row.histories_total - done) / live->histories_per_s;
+      }
+      if (live->precision) {  // toward the targets when they come before max_batches
+        precision = api::precision_report_json(*live->precision);
+        const double to_targets = live->precision->eta_s;
+        if (std::isfinite(to_targets) && (eta.is_null() || to_targets < eta.get<double>()))
+          eta = to_targets;
       }
     }
   }
@@ -511,6 +520,7 @@ OJson Service::job_json(const JobRow& row) {
                       : 0.0;
   j["histories_per_s"] = rate;
   j["eta_s"] = eta;
+  j["precision"] = std::move(precision);
   j["attempts"] = row.attempts;
   j["error"] = row.error_code
                    ? OJson{{"code", *row.error_code}, {"message", row.error_message.value_or("")}}
@@ -537,10 +547,11 @@ Response Service::post_job(const Request& req) {
   };
   const api::JobRequest jr = api::parse_job_request(body, resolve);
   if (jr.total_samples > config_.max_samples_per_job)
-    throw LimitError("fragment_groups", "the job asks for " + std::to_string(jr.total_samples) +
-                                            " samples in all; this daemon allows at most " +
-                                            std::to_string(config_.max_samples_per_job) +
-                                            " (--max-samples-per-job)");
+    throw LimitError(jr.document.scenario.settings.precision ? "settings.precision.max_batches"
+                                                             : "fragment_groups",
+                     "the job asks for up to " + std::to_string(jr.total_samples) +
+                         " samples in all; this daemon allows at most " +
+                         std::to_string(config_.max_samples_per_job) + " (--max-samples-per-job)");
   // An inline site gets the full geometry check now, not when the job runs.
   if (!jr.document.site_id) {
     check_terrain_size(jr.document.scenario.site.terrain, "site.terrain");

@@ -6,6 +6,7 @@
 // (each already multiplied by the history's weight count_g/samples_g).
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,18 @@
 #include "core/scene/site_spec.h"
 
 namespace fragsim::run {
+
+struct PrecisionReport;  // core/run/precision.h
+
+// Why a run stopped.
+enum class StopReason : std::uint8_t {
+  kSamples = 0,      // no settings.precision: the groups' samples are done
+  kTargetsMet = 1,   // every precision target holds (settings.precision)
+  kMaxBatches = 2,   // settings.precision.max_batches reached
+  kMaxWallTime = 3,  // settings.precision.max_wall_s reached at a batch boundary
+  kCancelled = 4,    // partial result
+};
+const char* stop_reason_name(StopReason s);
 
 struct Estimate {
   double mean = 0.0;
@@ -127,6 +140,11 @@ struct RunResult {
   std::uint64_t seed = 0;
   bool cancelled = false;  // partial: not a final result
   std::int64_t histories_done = 0;
+  // Batches of the groups' samples (settings.precision; 1 without). A run that stopped after
+  // K batches is bit-identical to one with precision.max_batches = K and no targets.
+  std::int64_t batches = 1;
+  StopReason stop_reason = StopReason::kSamples;
+  std::shared_ptr<const PrecisionReport> precision;  // the last check; null without precision
 
   // PTN density per terrain triangle (paper eqs. 37-39), per m^2.
   std::vector<double> ptn_density_per_m2;

@@ -4,10 +4,12 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <mutex>
 #include <thread>
 
 #include "core/run/history.h"
 #include "core/run/ordered_sequencer.h"
+#include "core/run/precision.h"
 #include "core/tally/stratified_estimator.h"
 
 namespace fragsim::run {
@@ -158,38 +160,253 @@ double hazardous_distance(const scene::Site& site, const std::vector<double>& de
 
 }  // namespace
 
+namespace {
+
+// The work of one batch: every group's `samples` histories, in chunks that never straddle groups.
+// Batch b runs histories [b * samples_g, (b + 1) * samples_g) of group g; batch 0 is the run
+// without settings.precision.
+struct BatchPlan {
+  std::vector<ChunkSpec> chunks;
+  std::int64_t histories = 0;
+  std::int64_t max_batches = 1;
+  std::int64_t total_chunks() const {
+    return static_cast<std::int64_t>(chunks.size()) * max_batches;
+  }
+};
+
+BatchPlan plan_batches(const Scenario& sc) {
+  BatchPlan plan;
+  const std::int64_t chunk = std::max<std::int64_t>(1, sc.settings.chunk_histories);
+  for (std::uint32_t g = 0; g < sc.groups.size(); ++g) {
+    const std::int64_t n = sc.groups[g].samples;
+    plan.histories += n;
+    for (std::int64_t first = 0; first < n; first += chunk) {
+      const std::int64_t cnt = std::min(chunk, n - first);
+      plan.chunks.push_back({g, first, cnt, first + cnt == n});
+    }
+  }
+  if (sc.settings.precision)
+    plan.max_batches = std::max<std::int64_t>(1, sc.settings.precision->max_batches);
+  return plan;
+}
+
+int thread_count(const Settings& st, std::int64_t chunks) {
+  int threads = st.threads > 0 ? st.threads : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::clamp(threads, 1, 1024);
+  threads = static_cast<int>(std::min<std::int64_t>(threads, chunks));
+  return std::max(threads, 1);
+}
+
+// Horizontal distance of every terrain triangle's centroid from the HFD origin (local), computed
+// as hazardous_distance does, for the precision checks at batch boundaries.
+std::vector<double> centroid_distances(const scene::Site& site, const Vec3& origin) {
+  std::vector<double> d(site.terrain_triangle_count());
+  for (std::uint32_t t = 0; t < d.size(); ++t) {
+    const Vec3 c = site.terrain_triangle_centroid(t);
+    d[t] = std::hypot(c.x() - origin.x(), c.y() - origin.y());
+  }
+  return d;
+}
+
+double hfd_of(const std::vector<double>& density, const std::vector<double>& distance,
+              double threshold) {
+  double best = 0.0;
+  for (std::size_t t = 0; t < density.size(); ++t)
+    if (density[t] >= threshold && density[t] > 0.0) best = std::max(best, distance[t]);
+  return best;
+}
+
+Vec3 hfd_origin_input(const Scenario& sc, const scene::Site& site) {
+  if (sc.settings.hfd_origin_m) return *sc.settings.hfd_origin_m;
+  return sc.groups.empty() ? site.local_origin() : sc.groups[0].frame.origin_m;
+}
+
+// Checks the precision targets at each batch boundary (under the sequencer's lock) and decides
+// whether the run stops there.
+class PrecisionControl {
+ public:
+  PrecisionControl(const Scenario& sc, const scene::Site& site, const Reducer& reducer,
+                   Clock::time_point t_start)
+      : sc_(sc), site_(site), reducer_(reducer), t_start_(t_start) {
+    if (!sc.settings.precision) return;
+    p_ = &*sc.settings.precision;
+    if (p_->hfd_half_band_m || p_->hfd_half_band_rel || p_->ptn_rel_error_at_hfd)
+      distance_ = centroid_distances(site, site.to_local(hfd_origin_input(sc, site)));
+  }
+
+  // After batch `batches` (1-based) has been folded: true when the run stops here.
+  bool batch_done(std::int64_t batches) {
+    if (p_ == nullptr) return true;  // one batch
+    const double elapsed = std::chrono::duration<double>(Clock::now() - t_start_).count();
+    const std::int64_t histories = reducer_.histories_done_;
+    auto report = std::make_shared<PrecisionReport>(
+        tracker_.update(check_targets(*p_, snapshot(batches)), batches, histories,
+                        elapsed > 0.0 ? static_cast<double>(histories) / elapsed : 0.0));
+    const bool met = p_->has_targets() && report->all_met && batches >= p_->min_batches;
+    if (met) {
+      reason_ = StopReason::kTargetsMet;
+    } else if (batches >= p_->max_batches) {
+      reason_ = StopReason::kMaxBatches;
+    } else if (p_->max_wall_s > 0.0 && elapsed >= p_->max_wall_s) {
+      reason_ = StopReason::kMaxWallTime;
+    }
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      report_ = std::move(report);
+    }
+    return reason_ != StopReason::kSamples;
+  }
+
+  std::shared_ptr<const PrecisionReport> report() const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    return report_;
+  }
+  StopReason reason() const { return reason_; }
+
+ private:
+  PrecisionSnapshot snapshot(std::int64_t batches) const {
+    PrecisionSnapshot s;
+    s.batches = batches;
+    s.histories = reducer_.histories_done_;
+    const double scale = 1.0 / static_cast<double>(batches);
+    const Settings& st = sc_.settings;
+    if (!distance_.empty()) {
+      std::vector<double> density = reducer_.ptn_.means(), se = reducer_.ptn_.std_errors();
+      for (std::size_t t = 0; t < density.size(); ++t) {
+        density[t] *= scale;
+        se[t] *= scale;
+      }
+      std::vector<double> shifted(density.size());
+      s.hfd_m = hfd_of(density, distance_, st.hfd_threshold_per_m2);
+      for (std::size_t t = 0; t < density.size(); ++t) shifted[t] = density[t] - se[t];
+      s.hfd_lower_m = hfd_of(shifted, distance_, st.hfd_threshold_per_m2);
+      for (std::size_t t = 0; t < density.size(); ++t) shifted[t] = density[t] + se[t];
+      s.hfd_upper_m = hfd_of(shifted, distance_, st.hfd_threshold_per_m2);
+      s.ptn_rel_error_at_hfd =
+          ptn_rel_error_near_hfd(density, se, distance_, st.hfd_threshold_per_m2, s.hfd_m);
+    }
+    const auto& bs = site_.buildings();
+    for (std::size_t b = 0; b < bs.size(); ++b) {
+      const std::size_t base = b * kBuildingFigures;
+      auto est = [&](std::size_t bin) {
+        return Estimate{reducer_.buildings_.mean(bin) * scale,
+                        reducer_.buildings_.std_error(bin) * scale};
+      };
+      s.buildings.push_back({bs[b].id, est(base + kImpacts), est(base + kPenetrations)});
+    }
+    for (const auto& g : sc_.groups)
+      s.zero_count_bound +=
+          3.0 * g.count / (static_cast<double>(g.samples) * static_cast<double>(batches));
+    return s;
+  }
+
+  const Scenario& sc_;
+  const scene::Site& site_;
+  const Reducer& reducer_;
+  Clock::time_point t_start_;
+  const PrecisionSettings* p_ = nullptr;
+  std::vector<double> distance_;
+  PrecisionTracker tracker_;
+  StopReason reason_ = StopReason::kSamples;
+  mutable std::mutex mutex_;
+  std::shared_ptr<const PrecisionReport> report_;
+};
+
+// Turns the folded tallies of `batches` batches into the result's figures.
+void fill_figures(const Scenario& sc, const scene::Site& site, const Reducer& reducer,
+                  std::int64_t batches, RunResult& r) {
+  const Settings& st = sc.settings;
+  const double scale = 1.0 / static_cast<double>(std::max<std::int64_t>(1, batches));
+  r.ptn_density_per_m2 = reducer.ptn_.means();
+  r.ptn_std_error_per_m2 = reducer.ptn_.std_errors();
+  for (std::size_t t = 0; t < r.ptn_density_per_m2.size(); ++t) {
+    r.ptn_density_per_m2[t] *= scale;
+    r.ptn_std_error_per_m2[t] *= scale;
+    if (r.ptn_density_per_m2[t] > r.max_ptn_density_per_m2) {
+      r.max_ptn_density_per_m2 = r.ptn_density_per_m2[t];
+      r.max_ptn_triangle = static_cast<std::int64_t>(t);
+    }
+  }
+  if (r.max_ptn_triangle >= 0) {
+    r.max_ptn_location_m = site.to_input(
+        site.terrain_triangle_centroid(static_cast<std::uint32_t>(r.max_ptn_triangle)));
+  }
+
+  r.hfd_origin_m = hfd_origin_input(sc, site);
+  const Vec3 hfd_origin = site.to_local(r.hfd_origin_m);
+  r.hazardous_fragment_distance_m = hazardous_distance(
+      site, r.ptn_density_per_m2, st.hfd_threshold_per_m2, hfd_origin, &r.hfd_by_sector_m);
+  std::vector<double> shifted(r.ptn_density_per_m2.size());
+  for (std::size_t t = 0; t < shifted.size(); ++t)
+    shifted[t] = r.ptn_density_per_m2[t] - r.ptn_std_error_per_m2[t];
+  r.hfd_lower_m = hazardous_distance(site, shifted, st.hfd_threshold_per_m2, hfd_origin, nullptr);
+  for (std::size_t t = 0; t < shifted.size(); ++t)
+    shifted[t] = r.ptn_density_per_m2[t] + r.ptn_std_error_per_m2[t];
+  r.hfd_upper_m = hazardous_distance(site, shifted, st.hfd_threshold_per_m2, hfd_origin, nullptr);
+
+  auto est = [&](const tally::StratifiedEstimator& e, std::size_t bin) {
+    return Estimate{e.mean(bin) * scale, e.std_error(bin) * scale};
+  };
+  const auto& bs = site.buildings();
+  r.buildings.resize(bs.size());
+  for (std::size_t b = 0; b < bs.size(); ++b) {
+    const std::size_t base = b * kBuildingFigures;
+    BuildingResult& br = r.buildings[b];
+    br.id = bs[b].id;
+    br.impacts = est(reducer.buildings_, base + kImpacts);
+    br.penetrations = est(reducer.buildings_, base + kPenetrations);
+    for (int s = 0; s < scene::kSurfaceTypeCount; ++s) {
+      br.impacts_by_surface[static_cast<std::size_t>(s)] =
+          est(reducer.buildings_, base + kImpactsBySurface + s);
+      br.penetrations_by_surface[static_cast<std::size_t>(s)] =
+          est(reducer.buildings_, base + kPenetrationsBySurface + s);
+    }
+    br.residual_ke_j = est(reducer.buildings_, base + kResidualKe);
+  }
+  for (std::size_t o = 0; o < kOutcomeCount; ++o) {
+    r.outcome_fragments[o] = est(reducer.outcomes_, o);
+    r.outcome_histories[o] = reducer.outcome_histories_[o];
+  }
+}
+
+}  // namespace
+
+const char* stop_reason_name(StopReason s) {
+  switch (s) {
+    case StopReason::kSamples: return "samples";
+    case StopReason::kTargetsMet: return "targets_met";
+    case StopReason::kMaxBatches: return "max_batches";
+    case StopReason::kMaxWallTime: return "max_wall_time";
+    case StopReason::kCancelled: return "cancelled";
+  }
+  return "unknown";
+}
+
 RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
               const RunControl& control) {
   const auto t_start = Clock::now();
   const scene::Site& site = *site_ptr;
   const Settings& st = sc.settings;
   const RunContext ctx(sc, site);
-
-  // Chunks never straddle groups; their size only affects scheduling, never the result.
-  const std::int64_t chunk = std::max<std::int64_t>(1, st.chunk_histories);
-  std::vector<ChunkSpec> chunks;
-  std::int64_t total = 0;
-  for (std::uint32_t g = 0; g < sc.groups.size(); ++g) {
-    const std::int64_t n = sc.groups[g].samples;
-    total += n;
-    for (std::int64_t first = 0; first < n; first += chunk) {
-      const std::int64_t cnt = std::min(chunk, n - first);
-      chunks.push_back({g, first, cnt, first + cnt == n});
-    }
-  }
+  const BatchPlan plan = plan_batches(sc);
+  const auto per_batch = static_cast<std::int64_t>(plan.chunks.size());
+  const std::int64_t total = plan.histories * plan.max_batches;
   // Trajectories are recorded for the first max_recorded_trajectories histories in global order.
   std::vector<std::int64_t> group_offset(sc.groups.size(), 0);
   for (std::size_t g = 1; g < sc.groups.size(); ++g)
     group_offset[g] = group_offset[g - 1] + sc.groups[g - 1].samples;
-
-  int threads = st.threads > 0 ? st.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::clamp(threads, 1, 1024);
-  threads =
-      static_cast<int>(std::min<std::int64_t>(threads, static_cast<std::int64_t>(chunks.size())));
-  threads = std::max(threads, 1);
+  const int threads = thread_count(st, plan.total_chunks());
 
   Reducer reducer(sc, site);
-  auto fold = [&reducer](ChunkOutput& c) { reducer.fold(c); };
+  PrecisionControl precision(sc, site, reducer, t_start);
+  std::atomic<bool> finished{false};  // the last batch is folded: later chunks are not needed
+  std::int64_t batches = 0;           // folded, under the sequencer's lock
+  auto fold = [&](ChunkOutput& c) {
+    if (finished.load(std::memory_order_relaxed)) return;
+    reducer.fold(c);
+    if (c.last_of_group && c.group + 1 == sc.groups.size() && precision.batch_done(++batches))
+      finished.store(true);
+  };
   OrderedSequencer<ChunkOutput, decltype(fold)> sequencer(fold);
 
   std::atomic<std::int64_t> next_chunk{0};
@@ -202,16 +419,26 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
   auto cancelled = [&]() {
     return control.cancel != nullptr && control.cancel->load(std::memory_order_relaxed);
   };
+  auto progress = [&](std::int64_t done, double elapsed_s) {
+    Progress p;
+    p.histories_done = done;
+    p.histories_total = total;
+    p.elapsed_s = elapsed_s;
+    p.precision = precision.report();
+    control.on_progress(p);
+  };
 
   auto worker = [&]() {
     HistoryScratch scratch;
-    while (!stop.load(std::memory_order_relaxed)) {
+    while (!stop.load(std::memory_order_relaxed) && !finished.load(std::memory_order_relaxed)) {
       const std::int64_t k = next_chunk.fetch_add(1);
-      if (k >= static_cast<std::int64_t>(chunks.size())) break;
-      const ChunkSpec& cs = chunks[static_cast<std::size_t>(k)];
+      if (k >= plan.total_chunks()) break;
+      const std::int64_t batch = k / per_batch;
+      const ChunkSpec& cs = plan.chunks[static_cast<std::size_t>(k % per_batch)];
+      const std::int64_t first = batch * sc.groups[cs.group].samples + cs.first;
       ChunkOutput out;
       out.group = cs.group;
-      out.first_history = cs.first;
+      out.first_history = first;
       out.count = cs.count;
       out.last_of_group = cs.last_of_group;
       const auto& grp = sc.groups[cs.group];
@@ -219,13 +446,13 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
       out.ptn_end.reserve(static_cast<std::size_t>(cs.count));
       out.outcomes.reserve(static_cast<std::size_t>(cs.count));
       out.building_index.reserve(static_cast<std::size_t>(cs.count));
-      for (std::int64_t h = cs.first; h < cs.first + cs.count; ++h) {
+      for (std::int64_t h = first; h < first + cs.count; ++h) {
         if (cancelled()) {
           stop.store(true);
           return;  // the unfinished chunk is dropped; folded chunks form a clean prefix
         }
-        const bool rec =
-            st.record_trajectories && group_offset[cs.group] + h < st.max_recorded_trajectories;
+        const bool rec = st.record_trajectories && batch == 0 &&
+                         group_offset[cs.group] + h < st.max_recorded_trajectories;
         simulate_history(ctx, cs.group, h, rec, scratch, out);
       }
       sequencer.submit(k, std::move(out));
@@ -234,9 +461,8 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
         const std::int64_t now =
             std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t_start).count();
         std::int64_t last = last_report_ns.load();
-        if (now - last >= report_every_ns && last_report_ns.compare_exchange_strong(last, now)) {
-          control.on_progress({done, total, static_cast<double>(now) * 1e-9});
-        }
+        if (now - last >= report_every_ns && last_report_ns.compare_exchange_strong(last, now))
+          progress(done, static_cast<double>(now) * 1e-9);
       }
     }
   };
@@ -247,65 +473,16 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
   for (auto& th : pool) th.join();
 
   RunResult r;
-  r.cancelled = cancelled() || stop.load();
+  r.cancelled = !finished.load() && (cancelled() || stop.load());
   reducer.close_group();  // a group cut short by cancellation
-  r.samples = total;
+  r.samples = r.cancelled ? total : plan.histories * batches;
   r.histories_done = reducer.histories_done_;
   r.seed = st.seed;
+  r.batches = r.cancelled ? batches + 1 : batches;  // the partial batch counts (one's estimate)
+  r.stop_reason = r.cancelled ? StopReason::kCancelled : precision.reason();
+  r.precision = precision.report();
   for (const auto& g : sc.groups) r.real_fragments += g.count;
-
-  r.ptn_density_per_m2 = reducer.ptn_.means();
-  r.ptn_std_error_per_m2 = reducer.ptn_.std_errors();
-  for (std::size_t t = 0; t < r.ptn_density_per_m2.size(); ++t) {
-    if (r.ptn_density_per_m2[t] > r.max_ptn_density_per_m2) {
-      r.max_ptn_density_per_m2 = r.ptn_density_per_m2[t];
-      r.max_ptn_triangle = static_cast<std::int64_t>(t);
-    }
-  }
-  if (r.max_ptn_triangle >= 0) {
-    r.max_ptn_location_m = site.to_input(
-        site.terrain_triangle_centroid(static_cast<std::uint32_t>(r.max_ptn_triangle)));
-  }
-
-  const Vec3 hfd_origin_input =
-      st.hfd_origin_m ? *st.hfd_origin_m
-                      : (sc.groups.empty() ? site.local_origin() : sc.groups[0].frame.origin_m);
-  r.hfd_origin_m = hfd_origin_input;
-  const Vec3 hfd_origin = site.to_local(hfd_origin_input);
-  r.hazardous_fragment_distance_m = hazardous_distance(
-      site, r.ptn_density_per_m2, st.hfd_threshold_per_m2, hfd_origin, &r.hfd_by_sector_m);
-  {
-    std::vector<double> shifted(r.ptn_density_per_m2.size());
-    for (std::size_t t = 0; t < shifted.size(); ++t)
-      shifted[t] = r.ptn_density_per_m2[t] - r.ptn_std_error_per_m2[t];
-    r.hfd_lower_m = hazardous_distance(site, shifted, st.hfd_threshold_per_m2, hfd_origin, nullptr);
-    for (std::size_t t = 0; t < shifted.size(); ++t)
-      shifted[t] = r.ptn_density_per_m2[t] + r.ptn_std_error_per_m2[t];
-    r.hfd_upper_m = hazardous_distance(site, shifted, st.hfd_threshold_per_m2, hfd_origin, nullptr);
-  }
-
-  const auto& bs = site.buildings();
-  r.buildings.resize(bs.size());
-  for (std::size_t b = 0; b < bs.size(); ++b) {
-    const std::size_t base = b * kBuildingFigures;
-    auto est = [&](std::size_t bin) {
-      return Estimate{reducer.buildings_.mean(bin), reducer.buildings_.std_error(bin)};
-    };
-    BuildingResult& br = r.buildings[b];
-    br.id = bs[b].id;
-    br.impacts = est(base + kImpacts);
-    br.penetrations = est(base + kPenetrations);
-    for (int s = 0; s < scene::kSurfaceTypeCount; ++s) {
-      br.impacts_by_surface[static_cast<std::size_t>(s)] = est(base + kImpactsBySurface + s);
-      br.penetrations_by_surface[static_cast<std::size_t>(s)] =
-          est(base + kPenetrationsBySurface + s);
-    }
-    br.residual_ke_j = est(base + kResidualKe);
-  }
-  for (std::size_t o = 0; o < kOutcomeCount; ++o) {
-    r.outcome_fragments[o] = {reducer.outcomes_.mean(o), reducer.outcomes_.std_error(o)};
-    r.outcome_histories[o] = reducer.outcome_histories_[o];
-  }
+  fill_figures(sc, site, reducer, r.batches, r);
   r.fragments = std::move(reducer.records_);
   r.trajectories = std::move(reducer.trajectories_);
   r.stats = reducer.stats_;
@@ -319,9 +496,7 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
     r.timing.fragments_per_s = static_cast<double>(r.histories_done) / r.timing.wall_s;
     r.timing.fragments_per_s_per_thread = r.timing.fragments_per_s / threads;
   }
-  if (control.on_progress) {
-    control.on_progress({r.histories_done, total, r.timing.wall_s});
-  }
+  if (control.on_progress) progress(r.histories_done, r.timing.wall_s);
   return r;
 }
 

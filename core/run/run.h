@@ -15,6 +15,8 @@ struct Progress {
   std::int64_t histories_done = 0;
   std::int64_t histories_total = 0;
   double elapsed_s = 0.0;
+  // settings.precision: the last batch boundary's check of the targets (null before the first).
+  std::shared_ptr<const PrecisionReport> precision;
 };
 
 struct RunControl {

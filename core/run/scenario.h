@@ -4,6 +4,7 @@
 // what it needs to (geometry) and trusts the api layer for the rest.
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "core/common/types.h"
@@ -12,6 +13,26 @@
 #include "core/scene/site_spec.h"
 
 namespace fragsim::run {
+
+// settings.precision (docs/precision.md): run in batches, each batch `samples` histories of every
+// group, until every requested target holds at a batch boundary, or a cap is reached. A target
+// that is not given is not checked; with no target at all the run is exactly max_batches batches.
+// Relative/absolute pairs hold when either holds.
+struct PrecisionSettings {
+  std::optional<double> hfd_half_band_m;       // (hfd_upper - hfd_lower) / 2 <= this
+  std::optional<double> hfd_half_band_rel;     // ... <= this * HFD
+  std::optional<double> building_rel_error;    // se <= this * mean, impacts and penetrations
+  std::optional<double> building_abs_error;    // ... or se <= this (real fragments)
+  std::vector<std::string> buildings;          // building ids the targets apply to; empty: all
+  std::optional<double> ptn_rel_error_at_hfd;  // rms se/density, hazardous triangles near the HFD
+  std::int64_t min_batches = 2;
+  std::int64_t max_batches = 100;
+  double max_wall_s = 0.0;  // 0: no wall-time cap (a wall-time stop depends on the machine)
+  bool has_targets() const {
+    return hfd_half_band_m || hfd_half_band_rel || building_rel_error || building_abs_error ||
+           ptn_rel_error_at_hfd;
+  }
+};
 
 struct Settings {
   std::uint64_t seed = 1;
@@ -44,6 +65,7 @@ struct Settings {
   // (the demo: about 22 steps per history; 100 bounces and 1e5 ground steps are the default
   // caps), and at ~1 us a unit it bounds a history to about a second. Tests lower it.
   std::int64_t max_history_work = 1'000'000;
+  std::optional<PrecisionSettings> precision;  // absent: one batch (the groups' samples)
 };
 
 struct Scenario {

@@ -235,6 +235,72 @@ TEST(ScenarioJson, BounceLimits) {
   EXPECT_EQ(parse_error(j).first, "settings.bounce_limits.max_bounce");
 }
 
+TEST(ScenarioJson, Precision) {
+  Json j = minimal_example();
+  j["settings"]["precision"] = {{"hfd_half_band_m", 5},
+                                {"building_rel_error", 0.05},
+                                {"building_abs_error", 0.01},
+                                {"buildings", {"B1"}},
+                                {"ptn_rel_error_at_hfd", 0.1},
+                                {"max_batches", 50},
+                                {"min_batches", 3},
+                                {"max_wall_s", 600}};
+  const api::ScenarioDocument doc = parse_scenario_document(j);
+  ASSERT_TRUE(doc.scenario.settings.precision);
+  const run::PrecisionSettings& p = *doc.scenario.settings.precision;
+  EXPECT_EQ(p.hfd_half_band_m, 5.0);
+  EXPECT_FALSE(p.hfd_half_band_rel);
+  EXPECT_EQ(p.building_rel_error, 0.05);
+  EXPECT_EQ(p.buildings, std::vector<std::string>{"B1"});
+  EXPECT_EQ(p.min_batches, 3);
+  EXPECT_EQ(p.max_batches, 50);
+  EXPECT_EQ(p.max_wall_s, 600.0);
+  // The normalised scenario keeps it and reads back the same.
+  const Json echoed = scenario_to_json(doc);
+  EXPECT_EQ(echoed["settings"]["precision"]["buildings"], Json({"B1"}));
+  EXPECT_EQ(scenario_to_json(parse_scenario_document(echoed)), echoed);
+
+  // Defaults: max_batches 100, min_batches 2 (never above max_batches).
+  Json d = minimal_example();
+  d["settings"]["precision"] = {{"max_batches", 1}};
+  const auto dp = *parse_scenario_document(d).scenario.settings.precision;
+  EXPECT_EQ(dp.max_batches, 1);
+  EXPECT_EQ(dp.min_batches, 1);
+  EXPECT_FALSE(dp.has_targets());
+}
+
+TEST(ScenarioJson, PrecisionErrorsNameTheField) {
+  auto with_precision = [](Json p) {
+    Json j = minimal_example();
+    j["settings"]["record_fragments"] = false;
+    j["settings"]["precision"] = std::move(p);
+    return j;
+  };
+  EXPECT_EQ(parse_error(with_precision({{"building_rel_error", 0}})),
+            (FieldMessage{"settings.precision.building_rel_error", "must be > 0 (got 0)"}));
+  EXPECT_EQ(parse_error(with_precision({{"hfd_half_band_rel", 2}})),
+            (FieldMessage{"settings.precision.hfd_half_band_rel", "must be <= 1 (got 2)"}));
+  EXPECT_EQ(parse_error(with_precision({{"max_batches", 0}})).first,
+            "settings.precision.max_batches");
+  EXPECT_EQ(parse_error(with_precision({{"max_batches", 5}, {"min_batches", 6}})).first,
+            "settings.precision.min_batches");
+  EXPECT_EQ(parse_error(with_precision({{"max_wall_s", -1}})).first,
+            "settings.precision.max_wall_s");
+  EXPECT_EQ(parse_error(with_precision({{"building_abs_error", 0.1}, {"buildings", {"B2"}}})),
+            (FieldMessage{"settings.precision.buildings[0]", "no building \"B2\" in the site"}));
+  EXPECT_EQ(parse_error(with_precision({{"buildings", {"B1"}}})),
+            (FieldMessage{"settings.precision.buildings",
+                          "needs building_rel_error or building_abs_error"}));
+  EXPECT_EQ(parse_error(with_precision({{"hfd_half_band", 5}})).first,
+            "settings.precision.hfd_half_band");
+  Json one = with(with_precision({{"max_batches", 10}}), "/fragment_groups/0/samples", 1);
+  EXPECT_EQ(parse_error(one).first, "fragment_groups[0].samples");
+  // Recorded fragments are counted at the largest number of batches.
+  Json rec = with_precision({{"max_batches", 10000}});
+  rec["settings"]["record_fragments"] = true;
+  EXPECT_EQ(parse_error(rec).first, "settings.record_fragments");
+}
+
 // A terrain that names "hard" or "soft" without defining it gets the built-in ground material,
 // and the normalised scenario records its values.
 TEST(ScenarioJson, BuiltinGroundMaterials) {

@@ -3,6 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+#include <memory>
+
 #include "fragsim/version.h"
 #include "test_support.h"
 
@@ -188,6 +191,49 @@ TEST(SummaryText, NoBuildings) {
   const std::string text =
       render_summary_text(summary_to_json(r, run::Scenario{}, build_provenance()));
   EXPECT_NE(text.find("Buildings: none"), std::string::npos) << text;
+}
+
+TEST(SummaryJson, PrecisionStopAndTargets) {
+  run::RunResult r = synthetic_result();
+  EXPECT_EQ(summary_to_json(r, run::Scenario{}, build_provenance())["stop_reason"], "samples");
+  EXPECT_FALSE(summary_to_json(r, run::Scenario{}, build_provenance()).contains("precision"));
+  r.batches = 7;
+  r.stop_reason = run::StopReason::kMaxBatches;
+  auto report = std::make_shared<run::PrecisionReport>();
+  report->batches = 7;
+  report->histories = 14000;
+  report->histories_needed = std::numeric_limits<double>::infinity();
+  report->eta_s = std::numeric_limits<double>::infinity();
+  run::TargetStatus hfd{"hfd_half_band_m", "", "half_band_m", 4.5, 3.0, false, 31500.0};
+  run::TargetStatus b{"building_penetrations",
+                      "far_store",
+                      "zero_count_bound",
+                      0.02,
+                      -std::numeric_limits<double>::infinity(),
+                      false,
+                      std::numeric_limits<double>::infinity()};
+  report->targets = {hfd, b};
+  r.precision = report;
+  const Json j = summary_to_json(r, run::Scenario{}, build_provenance());
+  EXPECT_EQ(j["batches"], 7);
+  EXPECT_EQ(j["stop_reason"], "max_batches");
+  const Json& p = j["precision"];
+  EXPECT_EQ(p["batches"], 7);
+  EXPECT_FALSE(p["all_met"].get<bool>());
+  EXPECT_TRUE(p["eta_s"].is_null()) << "an unreachable target has no ETA";
+  ASSERT_EQ(p["targets"].size(), 2u);
+  EXPECT_EQ(p["targets"][0]["figure"], "hfd_half_band_m");
+  EXPECT_FALSE(p["targets"][0].contains("building"));
+  EXPECT_EQ(p["targets"][0]["histories_needed"], 31500.0);
+  EXPECT_EQ(p["targets"][1]["building"], "far_store");
+  EXPECT_TRUE(p["targets"][1]["allowed"].is_null());
+  // Text: the stop, the HFD target line, the building figures' worst one.
+  const std::string text = render_summary_text(j);
+  EXPECT_NE(text.find("(7 batches, stopped: max_batches)"), std::string::npos) << text;
+  EXPECT_NE(text.find("hfd_half_band_m"), std::string::npos) << text;
+  EXPECT_NE(text.find("NOT MET"), std::string::npos) << text;
+  EXPECT_NE(text.find("0 of 1 met; worst far_store building_penetrations"), std::string::npos)
+      << text;
 }
 
 }  // namespace

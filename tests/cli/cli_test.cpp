@@ -285,4 +285,23 @@ TEST_F(Cli, InterruptCancelsWithoutLeavingOutput) {
   EXPECT_FALSE(fs::exists(out)) << "output left behind";
 }
 
+// settings.precision: a line per batch boundary on stderr (not a terminal here; at most one per
+// progress interval, and the last), and the stop in the report.
+TEST_F(Cli, PrecisionRunReportsEachBatchAndWhyItStopped) {
+  Json j = minimal_example();
+  j["settings"]["record_fragments"] = false;
+  j["fragment_groups"][0]["samples"] = 200;
+  j["settings"]["precision"] = {{"building_abs_error", 1e3}, {"min_batches", 3}};
+  const fs::path scenario = scenario_file("precision.json", j.dump());
+  const fs::path out = dir_ / "out";
+  const CliResult r = run({"run", scenario.string(), "--out", out.string(), "--threads", "2"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("batch 3: 2 of 2 targets met"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("600 (3 batches, stopped: targets_met)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("Precision targets (all met)"), std::string::npos) << r.out;
+  const Json summary = Json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary["stop_reason"], "targets_met");
+  EXPECT_EQ(summary["samples"], 600);
+}
+
 }  // namespace

@@ -795,11 +795,12 @@ TEST_F(ServiceJobs, PostJobIs202WithLocationAndJobStatus) {
   EXPECT_TRUE(api::is_job_id(id)) << id;
   EXPECT_EQ(header(r, "Location"), "/v1/jobs/" + id);
 
-  const std::vector<std::string> keys = {
-      "job_id",          "site_id",     "state",           "priority",     "idempotency_key",
-      "owner",           "created_utc", "started_utc",     "finished_utc", "histories_done",
-      "histories_total", "progress",    "histories_per_s", "eta_s",        "attempts",
-      "error",           "links"};
+  const std::vector<std::string> keys = {"job_id",          "site_id",         "state",
+                                         "priority",        "idempotency_key", "owner",
+                                         "created_utc",     "started_utc",     "finished_utc",
+                                         "histories_done",  "histories_total", "progress",
+                                         "histories_per_s", "eta_s",           "precision",
+                                         "attempts",        "error",           "links"};
   for (const auto& key : keys) EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j.size(), keys.size()) << j.dump();
   EXPECT_EQ(j["site_id"], site);
@@ -840,6 +841,42 @@ TEST_F(ServiceJobs, InlineSiteJobHasNullSiteId) {
   ASSERT_EQ(r.status, 202) << r.body;
   EXPECT_TRUE(body_of(r)["site_id"].is_null());
   EXPECT_EQ(body_of(get("/v1/sites"))["sites"].size(), 0u);  // not registered
+}
+
+TEST_F(ServiceJobs, PrecisionJobShowsItsTargetsAndStopsWithItsReason) {
+  start();
+  const std::string site = add_site();
+  Json body = job_on(site, 200);
+  body["settings"]["record_fragments"] = false;
+  body["settings"]["precision"] = {{"building_abs_error", 1e-9}, {"max_batches", 400}};
+  const Response r = post("/v1/jobs", body);
+  ASSERT_EQ(r.status, 202) << r.body;
+  const std::string id = body_of(r)["job_id"];
+  EXPECT_EQ(body_of(r)["histories_total"], 200 * 400) << "the most the job may run";
+  // While it runs, the job shows the last check of its targets (out of reach here).
+  const Json running = wait_for(id, [](const Json& j) {
+    return j["state"] != "queued" && j["state"] != "running" ? true : !j["precision"].is_null();
+  });
+  ASSERT_EQ(running["state"], "running") << running.dump();
+  const Json& p = running["precision"];
+  EXPECT_GE(p["batches"].get<int>(), 1);
+  EXPECT_FALSE(p["all_met"].get<bool>());
+  ASSERT_FALSE(p["targets"].empty());
+  EXPECT_EQ(p["targets"][0]["figure"], "building_impacts");
+  EXPECT_EQ(del("/v1/jobs/" + id).status, 200);
+
+  // Reachable targets: done, with the reason and the last check in the summary.
+  body["settings"]["precision"] = {{"building_abs_error", 100.0}, {"max_batches", 50}};
+  const std::string done = add_job(body);
+  ASSERT_EQ(wait_for_state(done, "done")["state"], "done");
+  const Response served = get("/v1/jobs/" + done + "/summary");
+  ASSERT_TRUE(served.file.has_value()) << served.status << " " << served.body;
+  const Json summary = Json::parse(api::testing::read_text(*served.file));
+  EXPECT_EQ(summary["stop_reason"], "targets_met");
+  EXPECT_EQ(summary["batches"], 2) << "min_batches 2";
+  EXPECT_EQ(summary["samples"], 400);
+  EXPECT_TRUE(summary["precision"]["all_met"].get<bool>());
+  EXPECT_TRUE(job(done)["precision"].is_null()) << "live only";
 }
 
 TEST_F(ServiceJobs, IdempotencyKey) {
