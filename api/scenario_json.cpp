@@ -64,8 +64,22 @@ run::PrecisionSettings parse_precision(const Json& j, const std::string& path) {
   p.max_batches = o.integer_or("max_batches", p.max_batches, 1, kMaxPrecisionBatches);
   p.min_batches =
       o.integer_or("min_batches", std::min(p.min_batches, p.max_batches), 1, p.max_batches);
+  if (const Json* d = o.find("direction_importance")) {
+    const ObjectReader r(*d, o.at("direction_importance"), "direction_importance");
+    run::DirectionImportanceSettings di;
+    di.elevation_cells =
+        static_cast<int>(r.integer_or("elevation_cells", di.elevation_cells, 1, 90));
+    di.azimuth_cells = static_cast<int>(r.integer_or("azimuth_cells", di.azimuth_cells, 1, 360));
+    di.speed_cells = static_cast<int>(r.integer_or("speed_cells", di.speed_cells, 1, 16));
+    di.defensive_fraction = r.number_or("defensive_fraction", di.defensive_fraction);
+    check_gt_le(di.defensive_fraction, 0.0, 1.0, r.at("defensive_fraction"));
+    p.direction_importance = di;
+  }
   p.max_wall_s = o.number_or("max_wall_s", p.max_wall_s);
   check_ge_le(p.max_wall_s, 0.0, 1e7, o.at("max_wall_s"));  // 0: none; 1e7 s is 16 weeks
+  if (p.direction_importance && p.max_batches < 2)
+    fail(o.at("max_batches"),
+         "must be >= 2 with direction_importance (batch 0 is the pilot it learns from)");
   return p;
 }
 
@@ -329,6 +343,11 @@ Json precision_json(const run::PrecisionSettings& p) {
   j["min_batches"] = p.min_batches;
   j["max_batches"] = p.max_batches;
   j["max_wall_s"] = p.max_wall_s;
+  if (const auto& d = p.direction_importance)
+    j["direction_importance"] = {{"elevation_cells", d->elevation_cells},
+                                 {"azimuth_cells", d->azimuth_cells},
+                                 {"speed_cells", d->speed_cells},
+                                 {"defensive_fraction", d->defensive_fraction}};
   return j;
 }
 

@@ -158,6 +158,7 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
               {"samples", r.samples},
               {"histories_done", r.histories_done},
               {"batches", r.batches},
+              {"pilot_histories", r.pilot_histories},
               {"stop_reason", run::stop_reason_name(r.stop_reason)},
               {"real_fragments", r.real_fragments},
               {"seed", r.seed},

@@ -69,7 +69,8 @@ Quat body_to_site(const FragmentGroupSpec& group, const Mat3& frame, const Rando
 }  // namespace
 
 FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
-                             std::uint64_t history, std::uint64_t seed) {
+                             std::uint64_t history, std::uint64_t seed,
+                             const DirectionCells* cells) {
   // One Philox stream per (seed, group, history); each variable reads its own fixed slot, so
   // the value of one never depends on whether another is fixed or random (docs/architecture.md,
   // "Reproducibility"). No heap allocation: this runs once per history.
@@ -84,10 +85,20 @@ FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group
   const double mass = group.mass_kg.sample(rng.uniform(kSlotMass), kMassRange.lo, kMassRange.hi);
   f.body = mass_properties(group.shape, mass, group.area_m2);
 
-  const double speed =
-      group.speed_mps.sample(rng.uniform(kSlotSpeed), kSpeedRange.lo, kSpeedRange.hi);
-  const Vec3 dir_local = sample_direction(group.direction, rng.uniform(kSlotDirection, 0),
-                                          rng.uniform(kSlotDirection, 1));
+  double u_speed = rng.uniform(kSlotSpeed);
+  double u_elevation = rng.uniform(kSlotDirection, 0), u_azimuth = rng.uniform(kSlotDirection, 1);
+  if (cells != nullptr) {
+    const double u_cell = cells->uniform() ? 0.5 : rng.uniform(kSlotDirectionCell);
+    const DirectionCells::Draw d = cells->draw(u_elevation, u_azimuth, u_speed, u_cell);
+    u_elevation = d.u_elevation;
+    u_azimuth = d.u_azimuth;
+    u_speed = d.u_speed;
+    f.direction_cell = d.cell;
+    f.likelihood_ratio = d.likelihood_ratio;
+    f.weight *= d.likelihood_ratio;
+  }
+  const double speed = group.speed_mps.sample(u_speed, kSpeedRange.lo, kSpeedRange.hi);
+  const Vec3 dir_local = sample_direction(group.direction, u_elevation, u_azimuth);
   const Mat3 rot = frame_rotation(group.frame);
 
   f.position_m = group.frame.origin_m;

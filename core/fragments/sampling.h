@@ -6,6 +6,7 @@
 
 #include "core/common/random.h"
 #include "core/common/types.h"
+#include "core/fragments/direction_cells.h"
 #include "core/fragments/group.h"
 
 namespace fragsim::fragments {
@@ -17,9 +18,10 @@ enum Slot : std::uint32_t {
   kSlotOrientation = 3,  // k=0,1 and kSlotOrientation2 k=0: uniform random rotation (not read
                          // when the group fixes its attitude)
   kSlotOrientation2 = 4,
-  kSlotSpin = 5,        // k=0 magnitude
-  kSlotSpinAxis = 6,    // k=0,1 axis on the sphere (body frame)
-  kSlotFirstFree = 16,  // later issues (bounce) use slots from here
+  kSlotSpin = 5,           // k=0 magnitude
+  kSlotSpinAxis = 6,       // k=0,1 axis on the sphere (body frame)
+  kSlotDirectionCell = 7,  // k=0: the cell of an importance-sampled direction (DirectionCells)
+  kSlotFirstFree = 16,     // later issues (bounce) use slots from here
 };
 
 // Physical ranges sample_fragment passes to Distribution::sample (validate the group's
@@ -79,9 +81,15 @@ struct FragmentInit {
   Vec3 omega_body_radps{0, 0, 0};
   double launch_speed_mps = 0.0;   // sampled explosion-induced speed (before frame velocity)
   Vec3 launch_direction{1, 0, 0};  // unit, site axes, explosion-induced part
+  // With DirectionCells: the direction's cell, and p/q (already in `weight`).
+  std::uint32_t direction_cell = 0;
+  double likelihood_ratio = 1.0;
 };
 
+// `cells`: draw the direction from its importance density (direction_cells.h); null or uniform:
+// the plain draw (bit for bit), with the cell reported when given.
 FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
-                             std::uint64_t history, std::uint64_t seed);
+                             std::uint64_t history, std::uint64_t seed,
+                             const DirectionCells* cells = nullptr);
 
 }  // namespace fragsim::fragments

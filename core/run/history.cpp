@@ -28,7 +28,8 @@ constexpr double kLaunchContact_m = 1e-6;
 }  // namespace
 
 History::History(const RunContext& ctx, std::uint32_t group, std::int64_t history,
-                 bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out)
+                 bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out,
+                 const fragments::DirectionCells* cells)
     : ctx_(ctx),
       sc_(*ctx.scenario),
       st_(sc_.settings),
@@ -40,7 +41,7 @@ History::History(const RunContext& ctx, std::uint32_t group, std::int64_t histor
       out_(out),
       prof_(st_.profile),
       init_(fragments::sample_fragment(sc_.groups[group], group,
-                                       static_cast<std::uint64_t>(history), st_.seed)),
+                                       static_cast<std::uint64_t>(history), st_.seed, cells)),
       mass_(init_.body.mass_kg),
       weight_(init_.weight),
       g_(sc_.gravity_mps2),
@@ -310,6 +311,8 @@ void History::fold_tallies() {
       out_.building_index.push_back(-1);
     }
     out_.outcomes.push_back(end_.outcome);
+    out_.weights.push_back(weight_);
+    out_.cells.push_back(init_.direction_cell);
   }
 }
 
@@ -361,8 +364,9 @@ RunContext::RunContext(const Scenario& sc, const scene::Site& s)
 }
 
 void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,
-                      bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out) {
-  detail::History h(ctx, group, history, record_trajectory, scratch, out);
+                      bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out,
+                      const fragments::DirectionCells* cells) {
+  detail::History h(ctx, group, history, record_trajectory, scratch, out, cells);
   h.simulate();
 }
 

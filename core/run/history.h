@@ -32,7 +32,10 @@ struct ChunkOutput {
   std::int64_t first_history = 0;
   std::int64_t count = 0;
   bool last_of_group = false;
-  double weight = 0.0;
+  double weight = 0.0;                 // count / samples of the group
+  std::vector<double> weights;         // per history: weight x likelihood ratio (== weight without
+                                       // importance sampling)
+  std::vector<std::uint32_t> cells;    // per history: launch direction cell (importance sampling)
   std::vector<std::uint32_t> ptn_end;  // per history: end offset into ptn
   std::vector<PtnContribution> ptn;
   std::vector<std::int32_t> building_index;  // per history: index into buildings, or -1
@@ -67,7 +70,9 @@ struct HistoryScratch {
   std::uint32_t stamp = 0;
 };
 
+// `cells`: the group's launch-direction cells for this batch (importance sampling), or null.
 void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,
-                      bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out);
+                      bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out,
+                      const fragments::DirectionCells* cells = nullptr);
 
 }  // namespace fragsim::run

@@ -143,6 +143,9 @@ struct RunResult {
   // Batches of the groups' samples (settings.precision; 1 without). A run that stopped after
   // K batches is bit-identical to one with precision.max_batches = K and no targets.
   std::int64_t batches = 1;
+  // Histories of the importance-sampling pilot batch (learnt from, not in the estimates; 0
+  // without settings.precision.direction_importance). samples counts the others.
+  std::int64_t pilot_histories = 0;
   StopReason stop_reason = StopReason::kSamples;
   std::shared_ptr<const PrecisionReport> precision;  // the last check; null without precision
 

@@ -4,10 +4,14 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <map>
+#include <memory>
 #include <mutex>
 #include <thread>
 
 #include "core/run/history.h"
+#include "core/run/importance.h"
 #include "core/run/ordered_sequencer.h"
 #include "core/run/precision.h"
 #include "core/tally/stratified_estimator.h"
@@ -80,19 +84,20 @@ class Reducer {
       for (std::uint32_t k = begin; k < end; ++k) ptn_.add(c.ptn[k].triangle, c.ptn[k].value);
       begin = end;
       const std::int32_t bi = c.building_index[static_cast<std::size_t>(i)];
+      const double w = c.weights[static_cast<std::size_t>(i)];  // with the likelihood ratio
       if (bi >= 0) {
         const BuildingContribution& b = c.buildings[static_cast<std::size_t>(bi)];
         const std::size_t base = static_cast<std::size_t>(b.building) * kBuildingFigures;
-        buildings_.add(base + kImpacts, c.weight);
-        buildings_.add(base + kImpactsBySurface + b.surface, c.weight);
+        buildings_.add(base + kImpacts, w);
+        buildings_.add(base + kImpactsBySurface + b.surface, w);
         if (b.penetrated) {
-          buildings_.add(base + kPenetrations, c.weight);
-          buildings_.add(base + kPenetrationsBySurface + b.surface, c.weight);
-          buildings_.add(base + kResidualKe, c.weight * b.residual_ke_j);
+          buildings_.add(base + kPenetrations, w);
+          buildings_.add(base + kPenetrationsBySurface + b.surface, w);
+          buildings_.add(base + kResidualKe, w * b.residual_ke_j);
         }
       }
       const auto o = static_cast<std::size_t>(c.outcomes[static_cast<std::size_t>(i)]);
-      outcomes_.add(o, c.weight);
+      outcomes_.add(o, w);
       ++outcome_histories_[o];
     }
     group_histories_ += c.count;
@@ -230,19 +235,24 @@ class PrecisionControl {
       : sc_(sc), site_(site), reducer_(reducer), t_start_(t_start) {
     if (!sc.settings.precision) return;
     p_ = &*sc.settings.precision;
-    if (p_->hfd_half_band_m || p_->hfd_half_band_rel || p_->ptn_rel_error_at_hfd)
+    if (p_->hfd_half_band_m || p_->hfd_half_band_rel || p_->ptn_rel_error_at_hfd ||
+        p_->direction_importance)
       distance_ = centroid_distances(site, site.to_local(hfd_origin_input(sc, site)));
   }
 
-  // After batch `batches` (1-based) has been folded: true when the run stops here.
-  bool batch_done(std::int64_t batches) {
+  // After batch `batches` (1-based) has been folded, `tallied` of them into the estimates (all
+  // but an importance-sampling pilot): true when the run stops here.
+  bool batch_done(std::int64_t batches, std::int64_t tallied, std::int64_t histories_run) {
     if (p_ == nullptr) return true;  // one batch
+    if (tallied == 0) return false;  // the pilot: nothing to check yet
     const double elapsed = std::chrono::duration<double>(Clock::now() - t_start_).count();
     const std::int64_t histories = reducer_.histories_done_;
+    const PrecisionSnapshot snap = snapshot(tallied);
+    hfd_m_ = snap.hfd_m;
     auto report = std::make_shared<PrecisionReport>(
-        tracker_.update(check_targets(*p_, snapshot(batches)), batches, histories,
-                        elapsed > 0.0 ? static_cast<double>(histories) / elapsed : 0.0));
-    const bool met = p_->has_targets() && report->all_met && batches >= p_->min_batches;
+        tracker_.update(check_targets(*p_, snap), batches, histories,
+                        elapsed > 0.0 ? static_cast<double>(histories_run) / elapsed : 0.0));
+    const bool met = p_->has_targets() && report->all_met && tallied >= p_->min_batches;
     if (met) {
       reason_ = StopReason::kTargetsMet;
     } else if (batches >= p_->max_batches) {
@@ -262,6 +272,8 @@ class PrecisionControl {
     return report_;
   }
   StopReason reason() const { return reason_; }
+  double hfd_m() const { return hfd_m_; }  // at the last boundary (0 unless computed)
+  const std::vector<double>& distances() const { return distance_; }
 
  private:
   PrecisionSnapshot snapshot(std::int64_t batches) const {
@@ -308,9 +320,63 @@ class PrecisionControl {
   std::vector<double> distance_;
   PrecisionTracker tracker_;
   StopReason reason_ = StopReason::kSamples;
+  double hfd_m_ = 0.0;
   mutable std::mutex mutex_;
   std::shared_ptr<const PrecisionReport> report_;
 };
+
+// The launch-direction cells of each batch (importance sampling), published at the boundary
+// before it; a worker with a chunk of a batch whose cells are not known yet waits for them.
+class SamplingPlans {
+ public:
+  using Cells = std::vector<fragments::DirectionCells>;  // per group
+
+  void publish(std::int64_t batch, Cells cells) {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      plans_.emplace(batch, std::make_unique<Cells>(std::move(cells)));
+    }
+    cv_.notify_all();
+  }
+  void abort() {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      aborted_ = true;
+    }
+    cv_.notify_all();
+  }
+  // The batch's cells; null when the run ended (abort) or `stop()` says so while waiting.
+  template <class Stop>
+  const Cells* get(std::int64_t batch, Stop stop) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (;;) {
+      if (const auto it = plans_.find(batch); it != plans_.end()) return it->second.get();
+      if (aborted_ || stop()) return nullptr;
+      cv_.wait_for(lock, std::chrono::milliseconds(20));  // also polls stop()
+    }
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::map<std::int64_t, std::unique_ptr<Cells>> plans_;
+  bool aborted_ = false;
+};
+
+// Feeds a folded chunk's histories to the importance learner.
+void learn(DirectionLearner& learner, const ChunkOutput& c) {
+  std::uint32_t begin = 0;
+  for (std::size_t i = 0; i < static_cast<std::size_t>(c.count); ++i) {
+    const std::uint32_t end = c.ptn_end[i];
+    const std::int32_t bi = c.building_index[i];
+    const std::int32_t building =
+        bi >= 0 ? static_cast<std::int32_t>(c.buildings[static_cast<std::size_t>(bi)].building)
+                : -1;
+    learner.add(c.group, c.cells[i], c.weights[i] / c.weight, building, c.ptn.data() + begin,
+                c.ptn.data() + end);
+    begin = end;
+  }
+}
 
 // Turns the folded tallies of `batches` batches into the result's figures.
 void fill_figures(const Scenario& sc, const scene::Site& site, const Reducer& reducer,
@@ -399,13 +465,34 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
 
   Reducer reducer(sc, site);
   PrecisionControl precision(sc, site, reducer, t_start);
+  std::unique_ptr<DirectionLearner> learner;
+  SamplingPlans plans;
+  if (st.precision && st.precision->direction_importance) {
+    learner = std::make_unique<DirectionLearner>(sc, site, precision.distances());
+    plans.publish(0, learner->uniform());
+  }
   std::atomic<bool> finished{false};  // the last batch is folded: later chunks are not needed
-  std::int64_t batches = 0;           // folded, under the sequencer's lock
+  // Under the sequencer's lock: batches folded; of them, the importance-sampling pilot (batch 0,
+  // learnt from, not tallied: docs/precision.md) and its histories.
+  std::int64_t batches = 0, pilot_batches = 0, pilot_histories = 0;
   auto fold = [&](ChunkOutput& c) {
     if (finished.load(std::memory_order_relaxed)) return;
-    reducer.fold(c);
-    if (c.last_of_group && c.group + 1 == sc.groups.size() && precision.batch_done(++batches))
+    const bool pilot = learner && batches == 0;
+    if (learner) learn(*learner, c);
+    if (pilot)
+      pilot_histories += c.count;
+    else
+      reducer.fold(c);
+    if (!c.last_of_group || c.group + 1 != sc.groups.size()) return;
+    ++batches;
+    pilot_batches += pilot ? 1 : 0;
+    if (precision.batch_done(batches, batches - pilot_batches,
+                             reducer.histories_done_ + pilot_histories)) {
       finished.store(true);
+      plans.abort();
+    } else if (learner) {
+      plans.publish(batches, learner->plan(precision.hfd_m()));
+    }
   };
   OrderedSequencer<ChunkOutput, decltype(fold)> sequencer(fold);
 
@@ -436,6 +523,14 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
       const std::int64_t batch = k / per_batch;
       const ChunkSpec& cs = plan.chunks[static_cast<std::size_t>(k % per_batch)];
       const std::int64_t first = batch * sc.groups[cs.group].samples + cs.first;
+      const SamplingPlans::Cells* cells = nullptr;
+      if (learner) {
+        cells = plans.get(batch, cancelled);
+        if (cells == nullptr) {
+          if (cancelled()) stop.store(true);
+          return;  // the run has ended (or is cancelled)
+        }
+      }
       ChunkOutput out;
       out.group = cs.group;
       out.first_history = first;
@@ -446,14 +541,17 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
       out.ptn_end.reserve(static_cast<std::size_t>(cs.count));
       out.outcomes.reserve(static_cast<std::size_t>(cs.count));
       out.building_index.reserve(static_cast<std::size_t>(cs.count));
+      out.weights.reserve(static_cast<std::size_t>(cs.count));
+      out.cells.reserve(static_cast<std::size_t>(cs.count));
       for (std::int64_t h = first; h < first + cs.count; ++h) {
         if (cancelled()) {
           stop.store(true);
           return;  // the unfinished chunk is dropped; folded chunks form a clean prefix
         }
-        const bool rec = st.record_trajectories && batch == 0 &&
+        const bool rec = st.record_trajectories && batch == (learner ? 1 : 0) &&
                          group_offset[cs.group] + h < st.max_recorded_trajectories;
-        simulate_history(ctx, cs.group, h, rec, scratch, out);
+        simulate_history(ctx, cs.group, h, rec, scratch, out,
+                         cells ? &(*cells)[cs.group] : nullptr);
       }
       sequencer.submit(k, std::move(out));
       const std::int64_t done = histories_done.fetch_add(cs.count) + cs.count;
@@ -475,14 +573,16 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
   RunResult r;
   r.cancelled = !finished.load() && (cancelled() || stop.load());
   reducer.close_group();  // a group cut short by cancellation
-  r.samples = r.cancelled ? total : plan.histories * batches;
-  r.histories_done = reducer.histories_done_;
+  const std::int64_t tallied = batches - pilot_batches;
+  r.samples = r.cancelled ? total : plan.histories * tallied;
+  r.histories_done = reducer.histories_done_ + pilot_histories;
+  r.pilot_histories = pilot_histories;
   r.seed = st.seed;
   r.batches = r.cancelled ? batches + 1 : batches;  // the partial batch counts (one's estimate)
   r.stop_reason = r.cancelled ? StopReason::kCancelled : precision.reason();
   r.precision = precision.report();
   for (const auto& g : sc.groups) r.real_fragments += g.count;
-  fill_figures(sc, site, reducer, r.batches, r);
+  fill_figures(sc, site, reducer, r.cancelled ? tallied + 1 : tallied, r);
   r.fragments = std::move(reducer.records_);
   r.trajectories = std::move(reducer.trajectories_);
   r.stats = reducer.stats_;

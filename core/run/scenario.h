@@ -18,6 +18,17 @@ namespace fragsim::run {
 // group, until every requested target holds at a batch boundary, or a cap is reached. A target
 // that is not given is not checked; with no target at all the run is exactly max_batches batches.
 // Relative/absolute pairs hold when either holds.
+// settings.precision.direction_importance (docs/precision.md, "Importance sampling"): from
+// batch 1 on, each group's launch directions (and speeds) are drawn from a piecewise-constant
+// density over elevation x azimuth (x speed) cells, learnt from the batches before, mixed with
+// the group's own density.
+struct DirectionImportanceSettings {
+  int elevation_cells = 24;  // 24 x 72 measured best on the demo (docs/benchmarks.md)
+  int azimuth_cells = 72;
+  int speed_cells = 1;              // cells across the speed distribution's quantiles
+  double defensive_fraction = 0.3;  // share of the group's own density in the mixture
+};
+
 struct PrecisionSettings {
   std::optional<double> hfd_half_band_m;       // (hfd_upper - hfd_lower) / 2 <= this
   std::optional<double> hfd_half_band_rel;     // ... <= this * HFD
@@ -28,6 +39,7 @@ struct PrecisionSettings {
   std::int64_t min_batches = 2;
   std::int64_t max_batches = 100;
   double max_wall_s = 0.0;  // 0: no wall-time cap (a wall-time stop depends on the machine)
+  std::optional<DirectionImportanceSettings> direction_importance;
   bool has_targets() const {
     return hfd_half_band_m || hfd_half_band_rel || building_rel_error || building_abs_error ||
            ptn_rel_error_at_hfd;

@@ -1,0 +1,46 @@
+#pragma once
+// Importance sampling of launch directions and speeds (settings.precision.direction_importance,
+// docs/precision.md). A group's direction and speed are drawn from three uniforms (u_elevation,
+// u_azimuth, u_speed) on the unit cube, where their density is uniform (sample_direction, and
+// the speed distribution's inverse CDF). DirectionCells cuts the cube into n_elevation x
+// n_azimuth x n_speed cells and draws from a piecewise-constant density q instead: a cell c with
+// probability q_c, then a uniform point in it. The history's weight is multiplied by the
+// likelihood ratio p_c / q_c = (1/N) / q_c, so every estimate stays unbiased for any q with
+// q_c > 0 in every cell (docs/precision.md, "Importance sampling").
+#include <cstdint>
+#include <vector>
+
+namespace fragsim::fragments {
+
+class DirectionCells {
+ public:
+  // Uniform: directions are drawn as without importance sampling (likelihood ratio exactly 1);
+  // only the cell of each direction is reported.
+  DirectionCells(int n_elevation, int n_azimuth, int n_speed = 1);
+  // Cell probabilities q (size n_elevation * n_azimuth * n_speed, index (i_e * n_a + i_a) * n_s
+  // + i_s, all > 0; normalised here).
+  DirectionCells(int n_elevation, int n_azimuth, int n_speed, std::vector<double> q);
+
+  int n_elevation() const { return n_e_; }
+  int n_azimuth() const { return n_a_; }
+  int n_speed() const { return n_s_; }
+  int cells() const { return n_e_ * n_a_ * n_s_; }
+  bool uniform() const { return q_.empty(); }
+  double probability(std::uint32_t cell) const;  // q_c
+
+  std::uint32_t cell_of(double u_elevation, double u_azimuth, double u_speed) const;
+
+  struct Draw {
+    double u_elevation = 0.5, u_azimuth = 0.5, u_speed = 0.5;  // where in the unit cube
+    double likelihood_ratio = 1.0;                             // p_c / q_c
+    std::uint32_t cell = 0;
+  };
+  // u_elevation, u_azimuth, u_speed place the point inside the cell that u_cell picks.
+  Draw draw(double u_elevation, double u_azimuth, double u_speed, double u_cell) const;
+
+ private:
+  int n_e_, n_a_, n_s_;
+  std::vector<double> q_, cdf_;  // empty: uniform
+};
+
+}  // namespace fragsim::fragments

@@ -1,0 +1,68 @@
+#pragma once
+// Learning the launch-direction importance densities (settings.precision.direction_importance,
+// docs/precision.md "Importance sampling"). Every folded history adds, for its group and launch
+// cell, what it contributed to the figures the targets look at: a hit of each building, and its
+// PTN density contributions by distance from the HFD origin. At a batch boundary, each group's
+// density for the next batch is
+//   q_c = delta' / N + (1 - delta') * s_c / sum_c' s_c',   s_c = sqrt(a_c) spread to neighbours,
+//   a_c = sum_f E[x_f^2 | c] / E[x_f]^2,
+// the piecewise-constant density that minimises the sum over the figures f of their relative
+// variances (q_c proportional to p_c sqrt(a_c), p_c = 1/N), mixed with the group's own density
+// (defensive share delta' >= delta, larger while few histories have touched a figure) so that no
+// likelihood ratio exceeds 1/delta.
+#include <cstdint>
+#include <vector>
+
+#include "core/fragments/direction_cells.h"
+#include "core/run/history.h"
+#include "core/run/scenario.h"
+#include "core/scene/site.h"
+
+namespace fragsim::run {
+
+class DirectionLearner {
+ public:
+  // `distance_m`: horizontal distance of each terrain triangle's centroid from the HFD origin.
+  DirectionLearner(const Scenario& sc, const scene::Site& site, std::vector<double> distance_m);
+
+  // One folded history of `group`: its launch cell, likelihood ratio, the building it hit (-1:
+  // none) and its PTN contributions [begin, end) (values include the likelihood ratio).
+  void add(std::uint32_t group, std::uint32_t cell, double likelihood_ratio, std::int32_t building,
+           const PtnContribution* begin, const PtnContribution* end);
+
+  // The densities for the next batch, per group; `hfd_m` places the ring of triangles whose
+  // density decides the HFD ([0.85, 1.15] HFD; none when 0).
+  std::vector<fragments::DirectionCells> plan(double hfd_m) const;
+
+  // Uniform cells (batch 0 and groups with nothing learnt): the plain draw, cells reported.
+  std::vector<fragments::DirectionCells> uniform() const;
+
+ private:
+  static constexpr int kDistanceBins = 300;  // ln-spaced by 5 %: 1 m ... 2e6 m
+  static int distance_bin(double d_m);
+  static constexpr int kEvidence = 5;  // histories of evidence for half the learnt share
+  static constexpr double kNeighbourTrust = 20.0;  // histories of a cell that halve the floor
+  std::vector<double> spread_to_neighbours(const std::vector<double>& s,
+                                           const std::vector<std::int64_t>& n, bool wraps) const;
+  struct GroupStats {
+    std::vector<std::int64_t> n;        // per cell: histories
+    std::vector<std::int64_t> hits;     // per cell x building: hits
+    std::vector<double> ring_sq;        // per cell x distance bin: sum of x^2 (x without p/q)
+    std::vector<double> building_mean;  // per building: sum of p/q * hit (-> E under p)
+    std::vector<double> bin_mean;       // per distance bin: sum of p/q * x
+    std::int64_t histories = 0;
+    bool wraps = false;           // the group's azimuth range is the full circle
+    std::int64_t touching = 0;    // histories that hit a used building or have PTN contributions
+    std::vector<double> scratch;  // per distance bin: this history's x
+    std::vector<int> touched;     // the bins of scratch in use
+  };
+  const DirectionImportanceSettings settings_;
+  int cells_;
+  std::size_t buildings_;
+  std::vector<char> building_used_;  // a figure of the targets (all when no building target)
+  bool ring_used_;
+  std::vector<double> distance_m_;
+  std::vector<GroupStats> groups_;
+};
+
+}  // namespace fragsim::run
