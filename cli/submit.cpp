@@ -103,6 +103,17 @@ void download_maps(Client& client, const std::string& job_id, const std::filesys
   out.commit();
 }
 
+// "  batch 4: 7 of 9 targets met" from the job's live precision report (settings.precision).
+std::string precision_line(const Json& p) {
+  int met = 0, total = 0;
+  for (const auto& t : p.value("targets", Json::array())) {
+    ++total;
+    met += t.value("met", false) ? 1 : 0;
+  }
+  return "  batch " + std::to_string(p.value("batches", 0LL)) + ": " + std::to_string(met) +
+         " of " + std::to_string(total) + " targets met";
+}
+
 }  // namespace
 
 int submit_command(const Options& o, const std::atomic<bool>& cancel) {
@@ -154,6 +165,8 @@ int submit_command(const Options& o, const std::atomic<bool>& cancel) {
           std::cerr << buf;
           if (job["eta_s"].is_number())
             std::cerr << "  eta " << static_cast<int>(job["eta_s"].get<double>() + 0.5) << " s";
+          if (const auto p = job.find("precision"); p != job.end() && p->is_object())
+            std::cerr << precision_line(*p);
         }
         std::cerr << "\n";
         last_line = now;
