@@ -94,6 +94,7 @@ def main():
           f"{'T5 plain s':>11s} {'T5 IS s':>9s} {'gain':>7s}")
     fp, fi = figures(plain), figures(imp)
     gains = []
+    study = [0.0, 0.0]  # the slowest building figure or the HFD: when a study would be done
     for name in fp:
         (mp, sp, absolute), (mi, si, _) = fp[name], fi[name]
         t5p, t5i = time_to(mp, sp, tp, absolute), time_to(mi, si, ti, absolute)
@@ -102,11 +103,16 @@ def main():
             mp, mi = sp, si  # the figure is the half band itself
             z = float("nan")
         gain = t5p / t5i if t5p and t5i else None
+        if not name.startswith("outcome") and t5p and t5i:
+            study = [max(study[0], t5p), max(study[1], t5i)]
         if gain:
             gains.append(gain)
         fmt = lambda v: f"{v:11.1f}" if v is not None else f"{'-':>11s}"
         print(f"{name:42s} {mp:10.4g} ± {sp:<9.3g} {mi:10.4g} ± {si:<9.3g} {z:6.2f} "
               f"{fmt(t5p)} {fmt(t5i)[2:]} {(f'{gain:7.1f}' if gain else '      -')}")
+    if study[1] > 0:
+        print(f"slowest building figure or HFD: plain {study[0]:.1f} s, importance sampling "
+              f"{study[1]:.1f} s: {study[0] / study[1]:.1f} x")
     if gains:
         gains.sort()
         print(f"gain in time to precision: median {gains[len(gains) // 2]:.1f}, "
