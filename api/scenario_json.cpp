@@ -106,6 +106,21 @@ void check_precision(const run::Scenario& sc, std::int64_t total_samples) {
              std::to_string(kMaxRecordedFragments) + "); turn it off or lower max_batches");
 }
 
+// settings.stratified_launch: every group has at least 2 histories (per batch), so that a stratum
+// holds two; `speed` stratifies equal cells, so it cannot go with learnt ones.
+void check_stratified_launch(const run::Scenario& sc) {
+  for (std::size_t g = 0; g < sc.groups.size(); ++g)
+    if (sc.groups[g].samples < 2)
+      fail(index_path("fragment_groups", g) + ".samples",
+           "must be >= 2 with settings.stratified_launch (a stratum's standard error needs two "
+           "histories)");
+  if (sc.settings.stratified_launch->speed && sc.settings.precision &&
+      sc.settings.precision->direction_importance)
+    fail("settings.stratified_launch.speed",
+         "cannot be true with settings.precision.direction_importance (the strata follow its "
+         "cells; give it speed_cells instead)");
+}
+
 run::Settings parse_settings(const Json& j, const std::string& path) {
   const ObjectReader o(j, path, "settings");
   run::Settings s;
@@ -145,6 +160,14 @@ run::Settings parse_settings(const Json& j, const std::string& path) {
       o.integer_or("max_recorded_trajectories", s.max_recorded_trajectories, 0, 1'000'000);
   s.profile = o.bool_or("profile", s.profile);
   if (const Json* p = o.find("precision")) s.precision = parse_precision(*p, o.at("precision"));
+  if (const Json* l = o.find("stratified_launch")) {
+    const ObjectReader r(*l, o.at("stratified_launch"), "stratified_launch");
+    run::StratifiedLaunchSettings sl;
+    sl.histories_per_stratum =
+        r.integer_or("histories_per_stratum", sl.histories_per_stratum, 2, kMaxSamplesPerGroup);
+    sl.speed = r.bool_or("speed", sl.speed);
+    s.stratified_launch = sl;
+  }
   return s;
 }
 
@@ -304,6 +327,7 @@ ScenarioDocument parse_scenario_document(const nlohmann::json& j, const SiteReso
 
   if (const Json* s = o.find("settings")) sc.settings = parse_settings(*s, "settings");
   if (sc.settings.precision) check_precision(sc, total_samples);
+  if (sc.settings.stratified_launch) check_stratified_launch(sc);
   if (sc.settings.record_fragments && total_samples > kMaxRecordedFragments)
     fail("settings.record_fragments",
          "would record " + std::to_string(total_samples) + " histories (limit " +
@@ -395,6 +419,9 @@ Json scenario_json(const run::Scenario& sc, const std::string& description,
   };
   if (s.hfd_origin_m) settings["hfd_origin_m"] = vec3_json(*s.hfd_origin_m);
   if (s.precision) settings["precision"] = precision_json(*s.precision);
+  if (const auto& l = s.stratified_launch)
+    settings["stratified_launch"] = {{"histories_per_stratum", l->histories_per_stratum},
+                                     {"speed", l->speed}};
   out["settings"] = std::move(settings);
   return out;
 }

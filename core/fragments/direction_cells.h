@@ -10,6 +10,12 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/fragments/group.h"
+
+// Stratified launch sampling (settings.stratified_launch, docs/precision.md) reuses the cells:
+// stratum j of J fixes u_cell in [j/J, (j+1)/J), which, through the cells' cumulative q, sends
+// the strata to the cells in proportion to q.
+
 namespace fragsim::fragments {
 
 class DirectionCells {
@@ -20,6 +26,15 @@ class DirectionCells {
   // Cell probabilities q (size n_elevation * n_azimuth * n_speed, index (i_e * n_a + i_a) * n_s
   // + i_s, all > 0; normalised here).
   DirectionCells(int n_elevation, int n_azimuth, int n_speed, std::vector<double> q);
+
+  // Cells of equal probability, drawn through q like learnt ones (so that a stratified u_cell
+  // stratifies the cells: settings.stratified_launch); the likelihood ratio is exactly 1.
+  static DirectionCells equal(int n_elevation, int n_azimuth, int n_speed = 1);
+  // Equal cells for `strata` strata of u_cell over the directions of `d`: about one cell per
+  // stratum, never more cells than strata, shaped so that a cell spans about as much elevation
+  // as azimuth on the sphere (one row or column where a range has zero width); with
+  // `with_speed`, as many speed cells as elevation cells.
+  static DirectionCells for_strata(std::int64_t strata, const DirectionSpec& d, bool with_speed);
 
   int n_elevation() const { return n_e_; }
   int n_azimuth() const { return n_a_; }
@@ -37,6 +52,10 @@ class DirectionCells {
   };
   // u_elevation, u_azimuth, u_speed place the point inside the cell that u_cell picks.
   Draw draw(double u_elevation, double u_azimuth, double u_speed, double u_cell) const;
+  // As draw, with the azimuth within the cell taken from where u_cell falls in the cell's share
+  // of the cumulative q (uniform on [0, 1) given the cell, so the density is unchanged): strata
+  // of u_cell finer than the cells then also stratify the azimuth within each cell. Needs q.
+  Draw draw_filling(double u_elevation, double u_speed, double u_cell) const;
 
  private:
   int n_e_, n_a_, n_s_;

@@ -69,8 +69,8 @@ Quat body_to_site(const FragmentGroupSpec& group, const Mat3& frame, const Rando
 }  // namespace
 
 FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
-                             std::uint64_t history, std::uint64_t seed,
-                             const DirectionCells* cells) {
+                             std::uint64_t history, std::uint64_t seed, const DirectionCells* cells,
+                             const LaunchStratum* stratum) {
   // One Philox stream per (seed, group, history); each variable reads its own fixed slot, so
   // the value of one never depends on whether another is fixed or random (docs/architecture.md,
   // "Reproducibility"). No heap allocation: this runs once per history.
@@ -88,8 +88,16 @@ FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group
   double u_speed = rng.uniform(kSlotSpeed);
   double u_elevation = rng.uniform(kSlotDirection, 0), u_azimuth = rng.uniform(kSlotDirection, 1);
   if (cells != nullptr) {
-    const double u_cell = cells->uniform() ? 0.5 : rng.uniform(kSlotDirectionCell);
-    const DirectionCells::Draw d = cells->draw(u_elevation, u_azimuth, u_speed, u_cell);
+    double u_cell = cells->uniform() ? 0.5 : rng.uniform(kSlotDirectionCell);
+    if (stratum != nullptr) {
+      u_cell = std::min(
+          (static_cast<double>(stratum->index) + u_cell) / static_cast<double>(stratum->count),
+          std::nextafter(1.0, 0.0));
+      f.weight *= stratum->weight_factor;
+    }
+    const DirectionCells::Draw d = stratum != nullptr
+                                       ? cells->draw_filling(u_elevation, u_speed, u_cell)
+                                       : cells->draw(u_elevation, u_azimuth, u_speed, u_cell);
     u_elevation = d.u_elevation;
     u_azimuth = d.u_azimuth;
     u_speed = d.u_speed;

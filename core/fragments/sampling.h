@@ -86,10 +86,21 @@ struct FragmentInit {
   double likelihood_ratio = 1.0;
 };
 
+// Stratum `index` of `count` equal strata of u_cell (settings.stratified_launch); `weight_factor`
+// corrects the weight of a stratum holding more or fewer histories than the batch's share
+// (samples / count): 1 for all but a last stratum that takes a remainder.
+struct LaunchStratum {
+  std::int64_t index = 0;
+  std::int64_t count = 1;
+  double weight_factor = 1.0;
+};
+
 // `cells`: draw the direction from its importance density (direction_cells.h); null or uniform:
-// the plain draw (bit for bit), with the cell reported when given.
+// the plain draw (bit for bit), with the cell reported when given. `stratum` (needs non-uniform
+// cells, e.g. DirectionCells::equal): u_cell is drawn within the stratum.
 FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
                              std::uint64_t history, std::uint64_t seed,
-                             const DirectionCells* cells = nullptr);
+                             const DirectionCells* cells = nullptr,
+                             const LaunchStratum* stratum = nullptr);
 
 }  // namespace fragsim::fragments

@@ -29,7 +29,7 @@ constexpr double kLaunchContact_m = 1e-6;
 
 History::History(const RunContext& ctx, std::uint32_t group, std::int64_t history,
                  bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out,
-                 const fragments::DirectionCells* cells)
+                 const fragments::DirectionCells* cells, const fragments::LaunchStratum* stratum)
     : ctx_(ctx),
       sc_(*ctx.scenario),
       st_(sc_.settings),
@@ -40,8 +40,8 @@ History::History(const RunContext& ctx, std::uint32_t group, std::int64_t histor
       scratch_(scratch),
       out_(out),
       prof_(st_.profile),
-      init_(fragments::sample_fragment(sc_.groups[group], group,
-                                       static_cast<std::uint64_t>(history), st_.seed, cells)),
+      init_(fragments::sample_fragment(
+          sc_.groups[group], group, static_cast<std::uint64_t>(history), st_.seed, cells, stratum)),
       mass_(init_.body.mass_kg),
       weight_(init_.weight),
       g_(sc_.gravity_mps2),
@@ -365,8 +365,9 @@ RunContext::RunContext(const Scenario& sc, const scene::Site& s)
 
 void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,
                       bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out,
-                      const fragments::DirectionCells* cells) {
-  detail::History h(ctx, group, history, record_trajectory, scratch, out, cells);
+                      const fragments::DirectionCells* cells,
+                      const fragments::LaunchStratum* stratum) {
+  detail::History h(ctx, group, history, record_trajectory, scratch, out, cells, stratum);
   h.simulate();
 }
 

@@ -70,9 +70,11 @@ struct HistoryScratch {
   std::uint32_t stamp = 0;
 };
 
-// `cells`: the group's launch-direction cells for this batch (importance sampling), or null.
+// `cells`: the group's launch-direction cells for this batch (importance sampling), or null;
+// `stratum`: the history's launch stratum (settings.stratified_launch), or null.
 void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,
                       bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out,
-                      const fragments::DirectionCells* cells = nullptr);
+                      const fragments::DirectionCells* cells = nullptr,
+                      const fragments::LaunchStratum* stratum = nullptr);
 
 }  // namespace fragsim::run

@@ -109,7 +109,8 @@ class GroundTally;  // history_ground.cpp
 class History {
  public:
   History(const RunContext& ctx, std::uint32_t group, std::int64_t history, bool record_trajectory,
-          HistoryScratch& scratch, ChunkOutput& out, const fragments::DirectionCells* cells);
+          HistoryScratch& scratch, ChunkOutput& out, const fragments::DirectionCells* cells,
+          const fragments::LaunchStratum* stratum);
   void simulate();
 
  private:

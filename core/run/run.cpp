@@ -67,18 +67,57 @@ enum BuildingFigure : int {
   kBuildingFigures = kResidualKe + 1,
 };
 
+// settings.stratified_launch: group g's histories of a batch, i = 0 ... samples_g - 1, fall in
+// J_g = max(1, samples_g / m) strata of m consecutive histories, the last taking the remainder.
+// A stratum has probability 1/J_g and n_j histories, so a history's weight is count_g / (J_g n_j),
+// i.e. count_g / samples_g times samples_g / (J_g n_j) (exactly 1 but in a remainder stratum).
+class LaunchStrata {
+ public:
+  explicit LaunchStrata(const Scenario& sc) {
+    if (!sc.settings.stratified_launch) return;
+    m_ = std::max<std::int64_t>(2, sc.settings.stratified_launch->histories_per_stratum);
+    for (const auto& g : sc.groups) {
+      samples_.push_back(g.samples);
+      count_.push_back(std::max<std::int64_t>(1, g.samples / m_));
+    }
+  }
+  bool on() const { return m_ > 0; }
+  std::int64_t strata(std::uint32_t g) const { return count_[g]; }
+
+  fragments::LaunchStratum of(std::uint32_t g, std::int64_t i) const {
+    const std::int64_t j_count = count_[g];
+    fragments::LaunchStratum s;
+    s.index = std::min(i / m_, j_count - 1);
+    s.count = j_count;
+    const std::int64_t n = s.index == j_count - 1 ? samples_[g] - m_ * (j_count - 1) : m_;
+    s.weight_factor = static_cast<double>(samples_[g]) / static_cast<double>(j_count * n);
+    return s;
+  }
+  // History i is the last of a stratum that is not the group's last (that one ends with the
+  // group, whose close ends it).
+  bool ends_inner_stratum(std::uint32_t g, std::int64_t i) const {
+    return on() && (i + 1) % m_ == 0 && (i + 1) / m_ < count_[g];
+  }
+
+ private:
+  std::int64_t m_ = 0;
+  std::vector<std::int64_t> samples_, count_;
+};
+
 // The ordered fold: everything order-dependent happens here, in (group, history) order.
 class Reducer {
  public:
-  Reducer(const Scenario& sc, const scene::Site& site)
+  Reducer(const Scenario& sc, const scene::Site& site, const LaunchStrata& strata)
       : ptn_(site.terrain_triangle_count()),
         buildings_(site.buildings().size() * kBuildingFigures),
-        outcomes_(kOutcomeCount) {
-    (void)sc;
+        outcomes_(kOutcomeCount),
+        strata_(strata) {
+    for (const auto& g : sc.groups) samples_.push_back(g.samples);
   }
 
   void fold(ChunkOutput& c) {
     std::uint32_t begin = 0;
+    const std::int64_t samples = samples_[c.group];
     for (std::int64_t i = 0; i < c.count; ++i) {
       const std::uint32_t end = c.ptn_end[static_cast<std::size_t>(i)];
       for (std::uint32_t k = begin; k < end; ++k) ptn_.add(c.ptn[k].triangle, c.ptn[k].value);
@@ -99,8 +138,9 @@ class Reducer {
       const auto o = static_cast<std::size_t>(c.outcomes[static_cast<std::size_t>(i)]);
       outcomes_.add(o, w);
       ++outcome_histories_[o];
+      ++group_histories_;
+      if (strata_.ends_inner_stratum(c.group, (c.first_history + i) % samples)) close_group();
     }
-    group_histories_ += c.count;
     histories_done_ += c.count;
     if (c.last_of_group) close_group();
     for (auto& r : c.records) records_.push_back(r);
@@ -121,7 +161,7 @@ class Reducer {
     tally_s_ += c.tally_s;
   }
 
-  // Closes a group cut short by cancellation.
+  // Closes the group, or its current launch stratum (also a group cut short by cancellation).
   void close_group() {
     if (group_histories_ == 0) return;
     ptn_.end_group(group_histories_);
@@ -138,6 +178,10 @@ class Reducer {
   std::vector<TrajectoryRecord> trajectories_;
   RunStats stats_;
   double integration_s_ = 0.0, geometry_s_ = 0.0, tally_s_ = 0.0;
+
+ private:
+  const LaunchStrata& strata_;
+  std::vector<std::int64_t> samples_;
 };
 
 // Largest horizontal distance from `origin` of a triangle centroid with density >= threshold,
@@ -363,6 +407,16 @@ class SamplingPlans {
   bool aborted_ = false;
 };
 
+// Cells a stratified draw can use: uniform ones (the importance-sampling pilot, groups with
+// nothing learnt) become equal cells of the same grid, drawn through their cumulative q.
+SamplingPlans::Cells drawable(SamplingPlans::Cells cells, const LaunchStrata& strata) {
+  if (!strata.on()) return cells;
+  for (auto& c : cells)
+    if (c.uniform())
+      c = fragments::DirectionCells::equal(c.n_elevation(), c.n_azimuth(), c.n_speed());
+  return cells;
+}
+
 // Feeds a folded chunk's histories to the importance learner.
 void learn(DirectionLearner& learner, const ChunkOutput& c) {
   std::uint32_t begin = 0;
@@ -463,14 +517,21 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
     group_offset[g] = group_offset[g - 1] + sc.groups[g - 1].samples;
   const int threads = thread_count(st, plan.total_chunks());
 
-  Reducer reducer(sc, site);
+  const LaunchStrata strata(sc);
+  Reducer reducer(sc, site, strata);
   PrecisionControl precision(sc, site, reducer, t_start);
   std::unique_ptr<DirectionLearner> learner;
   SamplingPlans plans;
   if (st.precision && st.precision->direction_importance) {
     learner = std::make_unique<DirectionLearner>(sc, site, precision.distances());
-    plans.publish(0, learner->uniform());
+    plans.publish(0, drawable(learner->uniform(), strata));
   }
+  // Stratified without importance sampling: fixed equal cells, about one per stratum.
+  SamplingPlans::Cells strata_cells;
+  if (strata.on() && !learner)
+    for (std::uint32_t g = 0; g < sc.groups.size(); ++g)
+      strata_cells.push_back(fragments::DirectionCells::for_strata(
+          strata.strata(g), sc.groups[g].direction, st.stratified_launch->speed));
   std::atomic<bool> finished{false};  // the last batch is folded: later chunks are not needed
   // Under the sequencer's lock: batches folded; of them, the importance-sampling pilot (batch 0,
   // learnt from, not tallied: docs/precision.md) and its histories.
@@ -491,7 +552,7 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
       finished.store(true);
       plans.abort();
     } else if (learner) {
-      plans.publish(batches, learner->plan(precision.hfd_m()));
+      plans.publish(batches, drawable(learner->plan(precision.hfd_m()), strata));
     }
   };
   OrderedSequencer<ChunkOutput, decltype(fold)> sequencer(fold);
@@ -523,7 +584,7 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
       const std::int64_t batch = k / per_batch;
       const ChunkSpec& cs = plan.chunks[static_cast<std::size_t>(k % per_batch)];
       const std::int64_t first = batch * sc.groups[cs.group].samples + cs.first;
-      const SamplingPlans::Cells* cells = nullptr;
+      const SamplingPlans::Cells* cells = strata_cells.empty() ? nullptr : &strata_cells;
       if (learner) {
         cells = plans.get(batch, cancelled);
         if (cells == nullptr) {
@@ -550,8 +611,11 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
         }
         const bool rec = st.record_trajectories && batch == (learner ? 1 : 0) &&
                          group_offset[cs.group] + h < st.max_recorded_trajectories;
-        simulate_history(ctx, cs.group, h, rec, scratch, out,
-                         cells ? &(*cells)[cs.group] : nullptr);
+        const fragments::LaunchStratum ls =
+            strata.on() ? strata.of(cs.group, h - batch * sc.groups[cs.group].samples)
+                        : fragments::LaunchStratum{};
+        simulate_history(ctx, cs.group, h, rec, scratch, out, cells ? &(*cells)[cs.group] : nullptr,
+                         strata.on() ? &ls : nullptr);
       }
       sequencer.submit(k, std::move(out));
       const std::int64_t done = histories_done.fetch_add(cs.count) + cs.count;

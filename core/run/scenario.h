@@ -46,6 +46,17 @@ struct PrecisionSettings {
   }
 };
 
+// settings.stratified_launch (docs/precision.md, "Stratified launch sampling"): within each batch,
+// group g's samples_g histories form J_g = samples_g / histories_per_stratum strata of the launch
+// cell variable u_cell, each holding histories_per_stratum consecutive histories (the last also
+// the remainder); each stratum is closed as a stratum of the estimators, so the standard errors
+// are those of stratified sampling. Without importance sampling the cells are equal, about one
+// per stratum (DirectionCells::for_strata); with it, the learnt cells.
+struct StratifiedLaunchSettings {
+  std::int64_t histories_per_stratum = 2;  // >= 2: the within-stratum variance needs two
+  bool speed = false;  // equal cells across speed too (only without importance sampling)
+};
+
 struct Settings {
   std::uint64_t seed = 1;
   double person_height_m = 1.8;  // H_r of the PTN prisms (paper eq. 37)
@@ -78,6 +89,7 @@ struct Settings {
   // caps), and at ~1 us a unit it bounds a history to about a second. Tests lower it.
   std::int64_t max_history_work = 1'000'000;
   std::optional<PrecisionSettings> precision;  // absent: one batch (the groups' samples)
+  std::optional<StratifiedLaunchSettings> stratified_launch;  // absent: independent histories
 };
 
 struct Scenario {

@@ -19,6 +19,7 @@ class StratifiedEstimator {
  public:
   explicit StratifiedEstimator(std::size_t bins = 0) { resize(bins); }
   void resize(std::size_t bins) {
+    touched_.clear();
     s_.assign(bins, 0.0);
     q_.assign(bins, 0.0);
     mean_.assign(bins, 0.0);
@@ -27,20 +28,25 @@ class StratifiedEstimator {
   std::size_t size() const { return s_.size(); }
 
   void add(std::size_t bin, double x) {
+    if (x == 0.0) return;  // changes neither sum
+    if (q_[bin] == 0.0) touched_.push_back(bin);
     s_[bin] += x;
     q_[bin] += x * x;
   }
 
-  // Closes the current group of n histories.
+  // Closes the current group (stratum) of n histories. Visits only the bins the stratum touched,
+  // so a run may close many small strata (settings.stratified_launch); each bin's update reads
+  // only that bin, so the order of the visit cannot change a result.
   void end_group(std::int64_t n) {
     const double dn = static_cast<double>(n);
-    for (std::size_t b = 0; b < s_.size(); ++b) {
+    for (const std::size_t b : touched_) {
       if (s_[b] == 0.0 && q_[b] == 0.0) continue;
       mean_[b] += s_[b];
       if (n > 1) var_[b] += std::max(0.0, dn / (dn - 1.0) * (q_[b] - s_[b] * s_[b] / dn));
       s_[b] = 0.0;
       q_[b] = 0.0;
     }
+    touched_.clear();
   }
 
   double mean(std::size_t bin) const { return mean_[bin]; }
@@ -53,8 +59,9 @@ class StratifiedEstimator {
   }
 
  private:
-  std::vector<double> s_, q_;       // current group
-  std::vector<double> mean_, var_;  // closed groups
+  std::vector<double> s_, q_;         // current group
+  std::vector<std::size_t> touched_;  // bins with q_ > 0 in the current group
+  std::vector<double> mean_, var_;    // closed groups
 };
 
 }  // namespace fragsim::tally

@@ -301,6 +301,31 @@ TEST(ScenarioJson, PrecisionErrorsNameTheField) {
   EXPECT_EQ(parse_error(rec).first, "settings.record_fragments");
 }
 
+TEST(ScenarioJson, StratifiedLaunch) {
+  Json j = minimal_example();
+  j["settings"]["stratified_launch"] = Json::object();
+  const auto doc = parse_scenario_document(j);
+  ASSERT_TRUE(doc.scenario.settings.stratified_launch);
+  EXPECT_EQ(doc.scenario.settings.stratified_launch->histories_per_stratum, 2);
+  EXPECT_FALSE(doc.scenario.settings.stratified_launch->speed);
+  const Json echoed = scenario_to_json(doc);
+  EXPECT_EQ(echoed["settings"]["stratified_launch"],
+            Json({{"histories_per_stratum", 2}, {"speed", false}}));
+  EXPECT_EQ(scenario_to_json(parse_scenario_document(echoed)), echoed);
+
+  j["settings"]["stratified_launch"] = {{"histories_per_stratum", 1}};
+  EXPECT_EQ(parse_error(j), (FieldMessage{"settings.stratified_launch.histories_per_stratum",
+                                          "must be >= 2 (got 1)"}));
+  j["settings"]["stratified_launch"] = {{"per_stratum", 4}};
+  EXPECT_EQ(parse_error(j).first, "settings.stratified_launch.per_stratum");
+  j["settings"]["stratified_launch"] = {{"speed", true}};
+  j["settings"]["precision"] = {{"max_batches", 4}, {"direction_importance", Json::object()}};
+  EXPECT_EQ(parse_error(j).first, "settings.stratified_launch.speed");
+  Json one = with(minimal_example(), "/fragment_groups/0/samples", 1);
+  one["settings"]["stratified_launch"] = Json::object();
+  EXPECT_EQ(parse_error(one).first, "fragment_groups[0].samples");
+}
+
 // A terrain that names "hard" or "soft" without defining it gets the built-in ground material,
 // and the normalised scenario records its values.
 TEST(ScenarioJson, BuiltinGroundMaterials) {

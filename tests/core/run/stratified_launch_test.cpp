@@ -1,0 +1,156 @@
+// Stratified launch sampling (settings.stratified_launch) and importance sampling
+// (settings.precision.direction_importance), alone and together, against a closed form: a cone of
+// straight rays (no gravity) at a box. Each method must be unbiased, report honest standard errors
+// and, where it should, beat plain Monte Carlo (docs/precision.md).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "core/run/run.h"
+#include "validation/scenario_fixtures.h"
+
+namespace fragsim::run {
+namespace {
+
+// Rays from (0, 0, 3) at azimuth |phi| <= 20 deg and elevation 0 ... 20 deg (uniform on the
+// sphere), straight lines (gravity 0, no wind). A box with its front face at x = 50,
+// y in [-5, 5], 10 m tall. A ray hits the front face iff |tan phi| <= 5/50 and it is still below
+// 10 m at x = 50, i.e. tan(theta) <= 7 cos(phi) / 50; no ray misses the front face and hits a
+// side or the roof (a ray crossing y = +-5 within x in [50, 60] has |tan phi| <= 0.1 and meets
+// the front first; one above the front face rises over the roof). With sin(theta) uniform on
+// [0, sin 20 deg] and phi uniform on [-20, 20] deg:
+//   P(hit) = 1 / (2 phi_max sin 20deg) * integral over |phi| <= atan 0.1 of
+//            sin(atan(0.14 cos phi)) dphi.
+constexpr double kCount = 1000.0;
+double closed_form_impacts() {
+  const double phi_max = 20.0 * kDegToRad, phi_hit = std::atan(0.1);
+  const int n = 20000;
+  double integral = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double phi = -phi_hit + 2.0 * phi_hit * (i + 0.5) / n;
+    integral += std::sin(std::atan(0.14 * std::cos(phi)));
+  }
+  integral *= 2.0 * phi_hit / n;
+  return kCount * integral / (2.0 * phi_max * std::sin(20.0 * kDegToRad));
+}
+
+enum class Method { kPlain, kStratified, kImportance, kBoth };
+const char* name(Method m) {
+  switch (m) {
+    case Method::kPlain: return "plain";
+    case Method::kStratified: return "stratified";
+    case Method::kImportance: return "importance";
+    case Method::kBoth: return "importance+stratified";
+  }
+  return "";
+}
+
+// Every method simulates 4 x 300 histories: 4 batches (importance sampling: a pilot and 3).
+Scenario cone_at_box(std::uint64_t seed, Method m) {
+  Scenario sc = validation::flat_site_scenario(200.0, 10.0);
+  sc.gravity_mps2 = 0.0;
+  scene::MaterialSpec wall;
+  wall.penetration_ke_per_area_j_per_m2 = 1.0e5;
+  sc.site.materials["wall"] = wall;
+  sc.site.materials["roof"] = wall;
+  sc.site.buildings = {validation::box_building("box", 50, -5, 60, 5, 10.0)};
+  auto g = validation::sphere_group(Vec3(0.0, 0.0, 3.0), 0.2, 800.0, kCount, 300);
+  g.direction.elevation_min_deg = 0.0;
+  g.direction.elevation_max_deg = 20.0;
+  g.direction.azimuth_min_deg = -20.0;
+  g.direction.azimuth_max_deg = 20.0;
+  sc.groups = {g};
+  sc.settings.seed = seed;
+  sc.settings.threads = 1;
+  PrecisionSettings p;
+  p.max_batches = 4;
+  p.min_batches = 4;
+  p.building_rel_error = 0.001;  // names the building as the figure; never met
+  if (m == Method::kImportance || m == Method::kBoth)
+    p.direction_importance = DirectionImportanceSettings{8, 24, 1, 0.3};
+  sc.settings.precision = p;
+  if (m == Method::kStratified || m == Method::kBoth) sc.settings.stratified_launch.emplace();
+  return sc;
+}
+
+struct Spread {
+  double mean = 0, sd = 0, rms_se = 0;
+};
+
+Spread over_seeds(Method m, int seeds) {
+  std::vector<Estimate> e;
+  for (int k = 0; k < seeds; ++k) e.push_back(run(cone_at_box(500 + k, m)).buildings[0].impacts);
+  Spread s;
+  for (const auto& x : e) {
+    s.mean += x.mean;
+    s.rms_se += x.std_error * x.std_error;
+  }
+  const double n = static_cast<double>(seeds);
+  s.mean /= n;
+  s.rms_se = std::sqrt(s.rms_se / n);
+  for (const auto& x : e) s.sd += (x.mean - s.mean) * (x.mean - s.mean);
+  s.sd = std::sqrt(s.sd / (n - 1.0));
+  return s;
+}
+
+TEST(StratifiedLaunch, EveryMethodIsUnbiasedAndHonestAgainstTheClosedForm) {
+  constexpr int kSeeds = 20;
+  const double expected = closed_form_impacts();
+  // About 12 % of the rays hit: 0.2855 of the azimuths (2 atan 0.1 / 40 deg) times about 0.405
+  // of the elevations (sin(atan 0.14) / sin 20 deg).
+  ASSERT_NEAR(expected / kCount, 0.1156, 0.0005);
+  std::vector<Spread> s;
+  for (const Method m : {Method::kPlain, Method::kStratified, Method::kImportance, Method::kBoth}) {
+    s.push_back(over_seeds(m, kSeeds));
+    const Spread& x = s.back();
+    // Unbiased: the mean over the seeds within 3 of its standard errors of the closed form.
+    EXPECT_LE(std::abs(x.mean - expected), 3.0 * x.sd / std::sqrt(kSeeds))
+        << name(m) << ": " << x.mean << " vs " << expected << " (sd " << x.sd << ")";
+    // Honest: the spread across seeds matches the reported standard error (20 seeds: the sample
+    // sd is within about +-32 % of the true one at 2 sigma; the bounds allow a little more).
+    EXPECT_GT(x.sd / x.rms_se, 0.6) << name(m) << ": sd " << x.sd << ", se " << x.rms_se;
+    EXPECT_LT(x.sd / x.rms_se, 1.5) << name(m) << ": sd " << x.sd << ", se " << x.rms_se;
+    RecordProperty(std::string("variance_") + name(m), std::to_string(x.rms_se * x.rms_se));
+  }
+  // Variance over plain Monte Carlo, same histories simulated (measured: stratified 7.4 x less,
+  // importance 4.5 x, both 20 x): stratification pays alone and on top of importance sampling.
+  const auto se = [&](Method m) { return s[static_cast<std::size_t>(m)].rms_se; };
+  EXPECT_GT(std::pow(se(Method::kPlain) / se(Method::kStratified), 2), 4.0);
+  EXPECT_GT(std::pow(se(Method::kPlain) / se(Method::kImportance), 2), 2.5);
+  EXPECT_GT(std::pow(se(Method::kImportance) / se(Method::kBoth), 2), 2.5);
+}
+
+TEST(StratifiedLaunch, ReproducibleAtAnyThreadCountAndChunking) {
+  for (const Method m : {Method::kStratified, Method::kBoth}) {
+    Scenario a = cone_at_box(3, m);
+    Scenario b = a;
+    b.settings.threads = 2;
+    b.settings.chunk_histories = 7;  // chunks that cut strata in two
+    const RunResult ra = run(a), rb = run(b);
+    EXPECT_EQ(ra.buildings[0].impacts.mean, rb.buildings[0].impacts.mean) << name(m);
+    EXPECT_EQ(ra.buildings[0].impacts.std_error, rb.buildings[0].impacts.std_error) << name(m);
+    EXPECT_EQ(ra.ptn_density_per_m2, rb.ptn_density_per_m2) << name(m);
+    EXPECT_EQ(ra.ptn_std_error_per_m2, rb.ptn_std_error_per_m2) << name(m);
+  }
+}
+
+// An odd number of histories: the last stratum holds three, and its weights make up for it
+// (a stratum's probability is 1/J whatever it holds): the expected hits of a figure that every
+// history makes, the ground count, are exact.
+TEST(StratifiedLaunch, ARemainderStratumKeepsTheTotals) {
+  Scenario sc = cone_at_box(9, Method::kStratified);
+  sc.settings.precision.reset();
+  sc.groups[0].samples = 301;  // 150 strata, the last of 3
+  sc.groups[0].direction.elevation_min_deg = -20.0;
+  sc.groups[0].direction.elevation_max_deg = -10.0;  // every ray goes into the ground
+  const RunResult r = run(sc);
+  const auto& ground = r.outcome_fragments[static_cast<std::size_t>(Outcome::kGround)];
+  EXPECT_NEAR(ground.mean, kCount, 1e-9 * kCount);
+  EXPECT_NEAR(ground.std_error, 0.0, 1e-9 * kCount);
+  EXPECT_EQ(r.outcome_histories[static_cast<std::size_t>(Outcome::kGround)], 301);
+}
+
+}  // namespace
+}  // namespace fragsim::run
