@@ -1,40 +1,75 @@
 #!/usr/bin/env python3
-"""Time to precision: plain Monte Carlo against importance sampling of launch directions.
+"""Time to precision: plain Monte Carlo against stratified and importance sampling.
 
-Runs a scenario (default: the demo) twice with settings.precision and no targets, so that both
-runs do exactly --batches batches of the groups' samples: once plain, once with
-direction_importance (its pilot batch included in its time). For every figure with a nonzero
-mean it prints the standard error and the wall time each run would need for a 5 % relative
-standard error, extrapolated as T5 = T * (se / (0.05 * mean))^2 (se ~ 1/sqrt(n)), and the ratio
-of the two: the gain in figure of merit 1/(se^2 T). Figures: the HFD half band (target 1 m
-instead of 5 %), each building's expected impacts and penetrations, the building and left_site
-outcome counts. docs/benchmarks.md, "Time to precision".
+Runs a scenario (default: the demo) with settings.precision and no targets, so that every run
+does exactly --batches batches of the groups' samples, once per method:
+  plain        independent histories;
+  stratified   settings.stratified_launch (2 histories per stratum of launch cells);
+  importance   settings.precision.direction_importance (its pilot batch included in its time);
+  both         importance sampling with stratified launch cells.
+For every figure with a nonzero mean it prints the wall time each run would need for a 5 %
+relative standard error, extrapolated as T5 = T * (se / (0.05 * mean))^2 (se ~ 1/sqrt(n)), and
+the gain T5(plain) / T5(method), i.e. the ratio of the figures of merit 1/(se^2 T). Figures: the
+HFD half band (target 1 m instead of 5 %), each building's expected impacts and penetrations,
+the PTN density at several distances (the median T5 over the terrain triangles whose centroid is
+within [d, 1.1 d) of the HFD origin and whose density is nonzero in every run; read from
+results.h5 with h5dump, Debian's hdf5-tools), the building and left_site outcome counts. It also
+prints, per method, z = (mean - plain mean) / combined se for every figure.
+docs/benchmarks.md, "Time to precision".
 
     bench/time_to_precision.py [--cli build/cli/fragsim] [--scenario examples/demo/scenario.json]
                                [--batches 10] [--threads 2] [--seed N] [--cells 24x72]
-                               [--defensive 0.3]
+                               [--defensive 0.3] [--methods plain,stratified,importance,both]
+                               [--distances 50,100,150,200]
 """
 import argparse
 import json
+import math
 import os
+import re
 import subprocess
 import sys
 import tempfile
 
 
-def run(cli, scenario, precision, threads, seed, out):
+def run(cli, scenario, settings, threads, seed, out):
     s = json.loads(json.dumps(scenario))
-    s["settings"]["precision"] = precision
+    s["settings"].update(settings)
     s["settings"]["record_fragments"] = False
     s["settings"]["threads"] = threads
     if seed is not None:
         s["settings"]["seed"] = seed
+    os.makedirs(out, exist_ok=True)
     path = os.path.join(out, "scenario.json")
     with open(path, "w") as f:
         json.dump(s, f)
     subprocess.run([cli, "run", path, "--out", out, "--quiet"], check=True)
     with open(os.path.join(out, "summary.json")) as f:
         return json.load(f)
+
+
+def h5(path, dataset):
+    """The values of a dataset of results.h5, flattened, through h5dump."""
+    text = subprocess.run(["h5dump", "-y", "-w", "0", "-m", "%.17g", "-d", dataset, path],
+                          check=True, capture_output=True, text=True).stdout
+    body = text[text.index("DATA {") + 6:text.rindex("}", 0, text.rindex("}"))]
+    return [float(v) for v in re.split(r"[,\s]+", body.strip().rstrip("}").strip()) if v]
+
+
+def ring_triangles(out, origin, distances):
+    """Per distance d: the triangles whose centroid lies within [d, 1.1 d) of the origin."""
+    path = os.path.join(out, "results.h5")
+    v = h5(path, "/terrain/vertices_m")
+    t = [int(x) for x in h5(path, "/terrain/triangles")]
+    rings = {d: [] for d in distances}
+    for k in range(len(t) // 3):
+        cx = sum(v[3 * t[3 * k + i]] for i in range(3)) / 3 - origin[0]
+        cy = sum(v[3 * t[3 * k + i] + 1] for i in range(3)) / 3 - origin[1]
+        r = math.hypot(cx, cy)
+        for d in distances:
+            if d <= r < 1.1 * d:
+                rings[d].append(k)
+    return rings
 
 
 def figures(summary):
@@ -58,6 +93,37 @@ def time_to(mean, se, wall, absolute):
     return wall * (se / target) ** 2
 
 
+def ptn_times(runs, rings):
+    """Per distance: per method the median T5 over the ring's triangles nonzero in every run."""
+    density = {m: h5(os.path.join(d, "results.h5"), "/ptn/density_per_m2")
+               for m, (_, d) in runs.items()}
+    se = {m: h5(os.path.join(d, "results.h5"), "/ptn/std_error_per_m2")
+          for m, (_, d) in runs.items()}
+    out = {}
+    for dist, tris in rings.items():
+        use = [k for k in tris if all(density[m][k] > 0 and se[m][k] > 0 for m in runs)]
+        if not use:
+            continue
+        times = {}
+        for m, (s, _) in runs.items():
+            wall = s["timing"]["wall_s"]
+            t5 = sorted(time_to(density[m][k], se[m][k], wall, None) for k in use)
+            times[m] = t5[len(t5) // 2]
+        out[f"PTN density at {dist:g} m ({len(use)} triangles)"] = times
+    return out
+
+
+METHODS = {
+    "plain": lambda a, di: {"precision": {"max_batches": a.batches}},
+    "stratified": lambda a, di: {"precision": {"max_batches": a.batches},
+                                 "stratified_launch": {"histories_per_stratum": 2}},
+    "importance": lambda a, di: {"precision": {"max_batches": a.batches,
+                                               "direction_importance": di}},
+    "both": lambda a, di: {"precision": {"max_batches": a.batches, "direction_importance": di},
+                           "stratified_launch": {"histories_per_stratum": 2}},
+}
+
+
 def main():
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -68,56 +134,78 @@ def main():
     ap.add_argument("--seed", type=int, default=None)
     ap.add_argument("--cells", default="", help="elevation x azimuth [x speed] cells, e.g. 24x72x4")
     ap.add_argument("--defensive", type=float, default=None)
+    ap.add_argument("--methods", default="plain,stratified,importance,both")
+    ap.add_argument("--distances", default="50,100,150,200", help="PTN rings, m")
     a = ap.parse_args()
+    methods = a.methods.split(",")
+    if methods[0] != "plain" or any(m not in METHODS for m in methods):
+        ap.error("--methods: plain first, then any of " + ", ".join(list(METHODS)[1:]))
     with open(a.scenario) as f:
         scenario = json.load(f)
+    di = {}
+    if a.cells:
+        parts = [int(x) for x in a.cells.split("x")]
+        di.update(elevation_cells=parts[0], azimuth_cells=parts[1])
+        if len(parts) > 2:
+            di["speed_cells"] = parts[2]
+    if a.defensive is not None:
+        di["defensive_fraction"] = a.defensive
     with tempfile.TemporaryDirectory() as tmp:
-        plain_dir, is_dir = os.path.join(tmp, "plain"), os.path.join(tmp, "is")
-        os.makedirs(plain_dir)
-        os.makedirs(is_dir)
-        plain = run(a.cli, scenario, {"max_batches": a.batches}, a.threads, a.seed, plain_dir)
-        di = {}
-        if a.cells:
-            parts = [int(x) for x in a.cells.split("x")]
-            di.update(elevation_cells=parts[0], azimuth_cells=parts[1])
-            if len(parts) > 2:
-                di["speed_cells"] = parts[2]
-        if a.defensive is not None:
-            di["defensive_fraction"] = a.defensive
-        imp = run(a.cli, scenario, {"max_batches": a.batches, "direction_importance": di},
-                  a.threads, a.seed, is_dir)
-    tp, ti = plain["timing"]["wall_s"], imp["timing"]["wall_s"]
-    print(f"{a.batches} batches; plain: {plain['histories_done']} histories in {tp:.2f} s; "
-          f"importance sampling: {imp['histories_done']} histories "
-          f"({imp['pilot_histories']} pilot) in {ti:.2f} s; {a.threads} threads")
-    print(f"{'figure':42s} {'plain mean ± se':>22s} {'IS mean ± se':>22s} {'z':>6s} "
-          f"{'T5 plain s':>11s} {'T5 IS s':>9s} {'gain':>7s}")
-    fp, fi = figures(plain), figures(imp)
-    gains = []
-    study = [0.0, 0.0]  # the slowest building figure or the HFD: when a study would be done
-    for name in fp:
-        (mp, sp, absolute), (mi, si, _) = fp[name], fi[name]
-        t5p, t5i = time_to(mp, sp, tp, absolute), time_to(mi, si, ti, absolute)
-        z = (mi - mp) / (sp * sp + si * si) ** 0.5 if sp > 0 or si > 0 else 0.0
-        if name.startswith("HFD"):
-            mp, mi = sp, si  # the figure is the half band itself
-            z = float("nan")
-        gain = t5p / t5i if t5p and t5i else None
-        if not name.startswith("outcome") and t5p and t5i:
-            study = [max(study[0], t5p), max(study[1], t5i)]
-        if gain:
-            gains.append(gain)
-        fmt = lambda v: f"{v:11.1f}" if v is not None else f"{'-':>11s}"
-        print(f"{name:42s} {mp:10.4g} ± {sp:<9.3g} {mi:10.4g} ± {si:<9.3g} {z:6.2f} "
-              f"{fmt(t5p)} {fmt(t5i)[2:]} {(f'{gain:7.1f}' if gain else '      -')}")
-    if study[1] > 0:
-        print(f"slowest building figure or HFD: plain {study[0]:.1f} s, importance sampling "
-              f"{study[1]:.1f} s: {study[0] / study[1]:.1f} x")
-    if gains:
-        gains.sort()
-        print(f"gain in time to precision: median {gains[len(gains) // 2]:.1f}, "
-              f"min {gains[0]:.1f}, max {gains[-1]:.1f} over {len(gains)} figures")
+        runs = {}
+        for m in methods:
+            out = os.path.join(tmp, m)
+            runs[m] = (run(a.cli, scenario, METHODS[m](a, di), a.threads, a.seed, out), out)
+        plain = runs["plain"][0]
+        rings = ring_triangles(runs["plain"][1], plain["hfd_origin_m"],
+                               [float(x) for x in a.distances.split(",")])
+        ptn = ptn_times(runs, rings)
+    report(a, methods, runs, ptn)
     return 0
+
+
+def report(a, methods, runs, ptn):
+    print(f"{a.batches} batches, {a.threads} threads; " + "; ".join(
+        f"{m}: {s['histories_done']} histories ({s['pilot_histories']} pilot) in "
+        f"{s['timing']['wall_s']:.2f} s" for m, (s, _) in runs.items()))
+    figs = {m: figures(s) for m, (s, _) in runs.items()}
+    rest = methods[1:]
+    print(f"{'figure':44s} {'plain mean ± se':>22s} {'T5 plain s':>10s} " +
+          " ".join(f"{m[:10] + ' gain':>15s} {'z':>5s}" for m in rest))
+    gains = {m: [] for m in rest}
+    study = {m: 0.0 for m in methods}  # the slowest building figure or the HFD
+    for name, (mp, sp, absolute) in figs["plain"].items():
+        t5 = {m: time_to(figs[m][name][0], figs[m][name][1], runs[m][0]["timing"]["wall_s"],
+                         absolute) for m in methods}
+        if all(t5.values()) and not name.startswith("outcome"):
+            for m in methods:
+                study[m] = max(study[m], t5[m])
+        if not t5["plain"]:
+            continue
+        shown = sp if name.startswith("HFD") else mp
+        line = f"{name:44s} {shown:10.4g} ± {sp:<9.3g} {t5['plain']:10.1f} "
+        for m in rest:
+            mm, sm, _ = figs[m][name]
+            z = (mm - mp) / math.hypot(sp, sm) if not name.startswith("HFD") else float("nan")
+            g = t5["plain"] / t5[m] if t5[m] else None
+            if g:
+                gains[m].append(g)
+            line += f"{(f'{g:15.1f}' if g else '              -')} {z:5.2f} "
+        print(line)
+    for name, times in ptn.items():
+        line = f"{name:44s} {'':22s} {times['plain']:10.1f} "
+        for m in rest:
+            g = times["plain"] / times[m]
+            gains[m].append(g)
+            line += f"{g:15.1f} {'':5s} "
+        print(line)
+    print("slowest building figure or HFD (when a study with those targets is done): " +
+          ", ".join(f"{m} {study[m]:.1f} s" for m in methods) + "; gains " +
+          ", ".join(f"{m} {study['plain'] / study[m]:.1f} x" for m in rest if study[m] > 0))
+    for m in rest:
+        g = sorted(gains[m])
+        if g:
+            print(f"{m}: gain in time to precision median {g[len(g) // 2]:.1f}, min {g[0]:.1f}, "
+                  f"max {g[-1]:.1f} over {len(g)} figures")
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ PACKAGES=(
   clang llvm libclang-rt-14-dev  # sanitizer builds and libFuzzer (deploy/sanitize.sh, fuzz.sh)
   clang-format-14          # the formatting check of CI (deploy/check-format.sh)
   python3-vtk9             # tests: VTK's own reader checks the ParaView (VTKHDF) export
+  hdf5-tools               # h5dump: bench/time_to_precision.py reads the PTN grid of results.h5
 )
 missing=()
 for p in "${PACKAGES[@]}"; do
