@@ -71,6 +71,7 @@ run::PrecisionSettings parse_precision(const Json& j, const std::string& path) {
         static_cast<int>(r.integer_or("elevation_cells", di.elevation_cells, 1, 90));
     di.azimuth_cells = static_cast<int>(r.integer_or("azimuth_cells", di.azimuth_cells, 1, 360));
     di.speed_cells = static_cast<int>(r.integer_or("speed_cells", di.speed_cells, 1, 16));
+    di.mass_cells = static_cast<int>(r.integer_or("mass_cells", di.mass_cells, 1, 16));
     di.defensive_fraction = r.number_or("defensive_fraction", di.defensive_fraction);
     check_gt_le(di.defensive_fraction, 0.0, 1.0, r.at("defensive_fraction"));
     p.direction_importance = di;
@@ -371,6 +372,7 @@ Json precision_json(const run::PrecisionSettings& p) {
     j["direction_importance"] = {{"elevation_cells", d->elevation_cells},
                                  {"azimuth_cells", d->azimuth_cells},
                                  {"speed_cells", d->speed_cells},
+                                 {"mass_cells", d->mass_cells},
                                  {"defensive_fraction", d->defensive_fraction}};
   return j;
 }

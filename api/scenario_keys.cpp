@@ -54,7 +54,7 @@ const std::map<std::string, std::vector<std::string>, std::less<>>& scenario_obj
         "buildings", "ptn_rel_error_at_hfd", "min_batches", "max_batches", "max_wall_s",
         "direction_importance"}},
       {"direction_importance",
-       {"elevation_cells", "azimuth_cells", "speed_cells", "defensive_fraction"}},
+       {"elevation_cells", "azimuth_cells", "speed_cells", "mass_cells", "defensive_fraction"}},
       {"integrator", {"rtol", "sagitta_m"}},
       {"bounce_limits", {"min_rebound_speed_mps", "max_bounces", "max_ground_steps"}},
   };

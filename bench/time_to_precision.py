@@ -18,7 +18,7 @@ prints, per method, z = (mean - plain mean) / combined se for every figure.
 docs/benchmarks.md, "Time to precision".
 
     bench/time_to_precision.py [--cli build/cli/fragsim] [--scenario examples/demo/scenario.json]
-                               [--batches 10] [--threads 2] [--seed N] [--cells 24x72]
+                               [--batches 10] [--threads 2] [--seed N] [--cells 24x72[x1[x4]]]
                                [--defensive 0.3] [--methods plain,stratified,importance,both]
                                [--distances 50,100,150,200]
 """
@@ -132,7 +132,8 @@ def main():
     ap.add_argument("--batches", type=int, default=10)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--seed", type=int, default=None)
-    ap.add_argument("--cells", default="", help="elevation x azimuth [x speed] cells, e.g. 24x72x4")
+    ap.add_argument("--cells", default="",
+                    help="elevation x azimuth [x speed [x mass]] cells, e.g. 24x72x1x4")
     ap.add_argument("--defensive", type=float, default=None)
     ap.add_argument("--methods", default="plain,stratified,importance,both")
     ap.add_argument("--distances", default="50,100,150,200", help="PTN rings, m")
@@ -148,6 +149,8 @@ def main():
         di.update(elevation_cells=parts[0], azimuth_cells=parts[1])
         if len(parts) > 2:
             di["speed_cells"] = parts[2]
+        if len(parts) > 3:
+            di["mass_cells"] = parts[3]
     if a.defensive is not None:
         di["defensive_fraction"] = a.defensive
     with tempfile.TemporaryDirectory() as tmp:

@@ -7,11 +7,15 @@
 
 namespace fragsim::fragments {
 
-DirectionCells::DirectionCells(int n_elevation, int n_azimuth, int n_speed)
-    : n_e_(std::max(1, n_elevation)), n_a_(std::max(1, n_azimuth)), n_s_(std::max(1, n_speed)) {}
+DirectionCells::DirectionCells(int n_elevation, int n_azimuth, int n_speed, int n_mass)
+    : n_e_(std::max(1, n_elevation)),
+      n_a_(std::max(1, n_azimuth)),
+      n_s_(std::max(1, n_speed)),
+      n_m_(std::max(1, n_mass)) {}
 
-DirectionCells::DirectionCells(int n_elevation, int n_azimuth, int n_speed, std::vector<double> q)
-    : DirectionCells(n_elevation, n_azimuth, n_speed) {
+DirectionCells::DirectionCells(int n_elevation, int n_azimuth, int n_speed, int n_mass,
+                               std::vector<double> q)
+    : DirectionCells(n_elevation, n_azimuth, n_speed, n_mass) {
   if (q.size() != static_cast<std::size_t>(cells()))
     throw std::invalid_argument("DirectionCells: q has the wrong size");
   const double total = std::accumulate(q.begin(), q.end(), 0.0);
@@ -24,9 +28,9 @@ DirectionCells::DirectionCells(int n_elevation, int n_azimuth, int n_speed, std:
   cdf_.back() = 1.0;
 }
 
-DirectionCells DirectionCells::equal(int n_elevation, int n_azimuth, int n_speed) {
-  const DirectionCells shape(n_elevation, n_azimuth, n_speed);
-  return DirectionCells(shape.n_e_, shape.n_a_, shape.n_s_,
+DirectionCells DirectionCells::equal(int n_elevation, int n_azimuth, int n_speed, int n_mass) {
+  const DirectionCells shape(n_elevation, n_azimuth, n_speed, n_mass);
+  return DirectionCells(shape.n_e_, shape.n_a_, shape.n_s_, shape.n_m_,
                         std::vector<double>(static_cast<std::size_t>(shape.cells()), 1.0));
 }
 
@@ -72,43 +76,48 @@ double DirectionCells::probability(std::uint32_t cell) const {
   return q_.empty() ? 1.0 / cells() : q_[cell];
 }
 
-std::uint32_t DirectionCells::cell_of(double u_elevation, double u_azimuth, double u_speed) const {
+std::uint32_t DirectionCells::cell_of(double u_elevation, double u_azimuth, double u_speed,
+                                      double u_mass) const {
   const int i = std::clamp(static_cast<int>(u_elevation * n_e_), 0, n_e_ - 1);
   const int j = std::clamp(static_cast<int>(u_azimuth * n_a_), 0, n_a_ - 1);
   const int k = std::clamp(static_cast<int>(u_speed * n_s_), 0, n_s_ - 1);
-  return static_cast<std::uint32_t>((i * n_a_ + j) * n_s_ + k);
+  const int l = std::clamp(static_cast<int>(u_mass * n_m_), 0, n_m_ - 1);
+  return static_cast<std::uint32_t>(((i * n_a_ + j) * n_s_ + k) * n_m_ + l);
 }
 
 DirectionCells::Draw DirectionCells::draw(double u_elevation, double u_azimuth, double u_speed,
-                                          double u_cell) const {
+                                          double u_cell, double u_mass) const {
   Draw d;
   if (q_.empty()) {
     d.u_elevation = u_elevation;
     d.u_azimuth = u_azimuth;
     d.u_speed = u_speed;
-    d.cell = cell_of(u_elevation, u_azimuth, u_speed);
+    d.u_mass = u_mass;
+    d.cell = cell_of(u_elevation, u_azimuth, u_speed, u_mass);
     return d;
   }
   const auto it = std::upper_bound(cdf_.begin(), cdf_.end(), u_cell);
   const auto c = static_cast<std::uint32_t>(
       std::min<std::ptrdiff_t>(it - cdf_.begin(), static_cast<std::ptrdiff_t>(cdf_.size()) - 1));
-  const int k = static_cast<int>(c) % n_s_, ij = static_cast<int>(c) / n_s_;
+  const int ci = static_cast<int>(c);
+  const int l = ci % n_m_, k = ci / n_m_ % n_s_, ij = ci / n_m_ / n_s_;
   const int i = ij / n_a_, j = ij % n_a_;
   d.u_elevation = (i + u_elevation) / n_e_;
   d.u_azimuth = (j + u_azimuth) / n_a_;
   d.u_speed = (k + u_speed) / n_s_;
+  d.u_mass = (l + u_mass) / n_m_;
   d.likelihood_ratio = (1.0 / cells()) / q_[c];
   d.cell = c;
   return d;
 }
 
-DirectionCells::Draw DirectionCells::draw_filling(double u_elevation, double u_speed,
-                                                  double u_cell) const {
+DirectionCells::Draw DirectionCells::draw_filling(double u_elevation, double u_speed, double u_cell,
+                                                  double u_mass) const {
   if (q_.empty()) throw std::logic_error("DirectionCells::draw_filling needs cell probabilities");
-  Draw d = draw(u_elevation, 0.5, u_speed, u_cell);
+  Draw d = draw(u_elevation, 0.5, u_speed, u_cell, u_mass);
   const double lo = d.cell == 0 ? 0.0 : cdf_[d.cell - 1];
   const double f = (u_cell - lo) / (cdf_[d.cell] - lo);
-  const int j = static_cast<int>(d.cell) / n_s_ % n_a_;
+  const int j = static_cast<int>(d.cell) / n_m_ / n_s_ % n_a_;
   d.u_azimuth = (j + std::clamp(f, 0.0, std::nextafter(1.0, 0.0))) / n_a_;
   return d;
 }

@@ -82,9 +82,7 @@ FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group
   f.weight = group.count / static_cast<double>(group.samples);
   f.shape = group.shape.type;
 
-  const double mass = group.mass_kg.sample(rng.uniform(kSlotMass), kMassRange.lo, kMassRange.hi);
-  f.body = mass_properties(group.shape, mass, group.area_m2);
-
+  double u_mass = rng.uniform(kSlotMass);
   double u_speed = rng.uniform(kSlotSpeed);
   double u_elevation = rng.uniform(kSlotDirection, 0), u_azimuth = rng.uniform(kSlotDirection, 1);
   if (cells != nullptr) {
@@ -95,16 +93,19 @@ FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group
           std::nextafter(1.0, 0.0));
       f.weight *= stratum->weight_factor;
     }
-    const DirectionCells::Draw d = stratum != nullptr
-                                       ? cells->draw_filling(u_elevation, u_speed, u_cell)
-                                       : cells->draw(u_elevation, u_azimuth, u_speed, u_cell);
+    const DirectionCells::Draw d =
+        stratum != nullptr ? cells->draw_filling(u_elevation, u_speed, u_cell, u_mass)
+                           : cells->draw(u_elevation, u_azimuth, u_speed, u_cell, u_mass);
     u_elevation = d.u_elevation;
     u_azimuth = d.u_azimuth;
     u_speed = d.u_speed;
+    u_mass = d.u_mass;
     f.direction_cell = d.cell;
     f.likelihood_ratio = d.likelihood_ratio;
     f.weight *= d.likelihood_ratio;
   }
+  const double mass = group.mass_kg.sample(u_mass, kMassRange.lo, kMassRange.hi);
+  f.body = mass_properties(group.shape, mass, group.area_m2);
   const double speed = group.speed_mps.sample(u_speed, kSpeedRange.lo, kSpeedRange.hi);
   const Vec3 dir_local = sample_direction(group.direction, u_elevation, u_azimuth);
   const Mat3 rot = frame_rotation(group.frame);

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/fragments/sampling.h"
+
 namespace fragsim::run {
 
 DirectionLearner::DirectionLearner(const Scenario& sc, const scene::Site& site,
                                    std::vector<double> distance_m)
     : settings_(*sc.settings.precision->direction_importance),
-      cells_(settings_.elevation_cells * settings_.azimuth_cells * settings_.speed_cells),
+      cells_(settings_.elevation_cells * settings_.azimuth_cells * settings_.speed_cells *
+             settings_.mass_cells),
       buildings_(site.buildings().size()),
       distance_m_(std::move(distance_m)) {
   const PrecisionSettings& p = *sc.settings.precision;
@@ -31,6 +34,7 @@ DirectionLearner::DirectionLearner(const Scenario& sc, const scene::Site& site,
     GroupStats& g = groups_[k];
     const auto& d = sc.groups[k].direction;
     g.wraps = d.azimuth_max_deg - d.azimuth_min_deg >= 360.0 - 1e-9;
+    g.neighbours = neighbour_lists(g.wraps);
     g.n.assign(static_cast<std::size_t>(cells_), 0);
     g.hits.assign(static_cast<std::size_t>(cells_) * buildings_, 0);
     g.building_mean.assign(buildings_, 0.0);
@@ -39,7 +43,88 @@ DirectionLearner::DirectionLearner(const Scenario& sc, const scene::Site& site,
       g.bin_mean.assign(kDistanceBins, 0.0);
       g.scratch.assign(kDistanceBins, 0.0);
     }
+    prior_.push_back(site_prior(sc.groups[k], site));
   }
+}
+
+namespace {
+
+// Azimuths (rad, site axes) as an interval centre +- half.
+struct AzimuthSpan {
+  double centre = 0.0, half = kPi;  // the default: every azimuth
+  bool overlaps(const AzimuthSpan& o) const {
+    return std::abs(std::remainder(centre - o.centre, 2.0 * kPi)) <= half + o.half;
+  }
+};
+
+// The span of the horizontal directions from `origin` to the points, about the direction to
+// `toward`; every azimuth when a point is within 1 m of the origin horizontally.
+template <class Points>
+AzimuthSpan span_of(const Points& points, const Vec3& origin, const Vec3& toward) {
+  const double c = std::atan2(toward.y() - origin.y(), toward.x() - origin.x());
+  double lo = 0.0, hi = 0.0;
+  for (const Vec3& p : points) {
+    const double dx = p.x() - origin.x(), dy = p.y() - origin.y();
+    if (std::hypot(dx, dy) < 1.0) return {};
+    const double d = std::remainder(std::atan2(dy, dx) - c, 2.0 * kPi);
+    lo = std::min(lo, d);
+    hi = std::max(hi, d);
+  }
+  return {c + 0.5 * (lo + hi), 0.5 * (hi - lo)};
+}
+
+std::vector<Vec3> building_points(const scene::Site& site, const scene::Building& b) {
+  std::vector<Vec3> out;
+  for (std::uint32_t t = b.first_triangle; t < b.first_triangle + b.triangle_count; ++t)
+    for (const std::uint32_t v : site.building_triangles()[t].v)
+      out.push_back(site.building_vertices()[v]);
+  return out;
+}
+
+// The site azimuths of the launch velocities from direction cell (i, j) of the group, at the
+// group's median speed: the span of its corners and centre (every azimuth when one of them is
+// vertical).
+AzimuthSpan cell_span(const fragments::FragmentGroupSpec& g, int i, int j, int ne, int na) {
+  const Mat3 rot = fragments::frame_rotation(g.frame);
+  const double speed =
+      g.speed_mps.sample(0.5, fragments::kSpeedRange.lo, fragments::kSpeedRange.hi);
+  std::vector<Vec3> ends;
+  for (const double fe : {0.0, 0.5, 1.0})
+    for (const double fa : {0.0, 0.5, 1.0}) {
+      const Vec3 v =
+          speed * (rot * fragments::sample_direction(g.direction, (i + fe) / ne, (j + fa) / na)) +
+          g.frame.velocity_mps;
+      if (std::hypot(v.x(), v.y()) <= 1e-9 * (v.norm() + 1.0)) return {};
+      ends.push_back(v);
+    }
+  return span_of(ends, Vec3::Zero(), ends[4]);  // ends[4]: the centre
+}
+
+}  // namespace
+
+std::vector<double> DirectionLearner::site_prior(const fragments::FragmentGroupSpec& group,
+                                                 const scene::Site& site) const {
+  const int ne = settings_.elevation_cells, na = settings_.azimuth_cells;
+  const int inner = settings_.speed_cells * settings_.mass_cells;
+  std::vector<AzimuthSpan> cells;
+  for (int i = 0; i < ne; ++i)
+    for (int j = 0; j < na; ++j) cells.push_back(cell_span(group, i, j, ne, na));
+  const Vec3 origin = site.to_local(group.frame.origin_m);
+  std::vector<double> w(cells.size(), ring_used_ ? 1.0 / static_cast<double>(cells.size()) : 0.0);
+  for (std::size_t b = 0; b < buildings_; ++b) {
+    if (!building_used_[b]) continue;
+    const scene::Building& bd = site.buildings()[b];
+    const AzimuthSpan span =
+        span_of(building_points(site, bd), origin, 0.5 * (bd.bounds.lo + bd.bounds.hi));
+    std::vector<std::size_t> hit;
+    for (std::size_t c = 0; c < cells.size(); ++c)
+      if (cells[c].overlaps(span)) hit.push_back(c);
+    for (const std::size_t c : hit) w[c] += 1.0 / static_cast<double>(hit.size());
+  }
+  std::vector<double> out;
+  out.reserve(cells.size() * static_cast<std::size_t>(inner));
+  for (const double v : w) out.insert(out.end(), static_cast<std::size_t>(inner), v);
+  return out;
 }
 
 int DirectionLearner::distance_bin(double d_m) {
@@ -80,44 +165,99 @@ void DirectionLearner::add(std::uint32_t group, std::uint32_t cell, double likel
   }
 }
 
-std::vector<double> DirectionLearner::spread_to_neighbours(const std::vector<double>& s,
-                                                           const std::vector<std::int64_t>& n,
-                                                           bool wraps) const {
-  // Up to half of each cell's weight reaches its neighbours (azimuth wraps round when the range
-  // is the full circle): a figure seen in one cell is often also in the next, and a cell holding
-  // part of it that few histories have visited would otherwise get only the defensive share.
-  // The floor fades as the cell's own histories show what it holds.
+// Each cell's neighbourhood: itself and the cells within one step in each of the four
+// dimensions (azimuth wraps round when the range is the full circle).
+std::vector<std::vector<std::uint32_t>> DirectionLearner::neighbour_lists(bool wraps) const {
   const int ne = settings_.elevation_cells, na = settings_.azimuth_cells,
-            ns = settings_.speed_cells;
-  auto index = [&](int i, int j, int k) { return static_cast<std::size_t>((i * na + j) * ns + k); };
-  std::vector<double> out(s);
+            ns = settings_.speed_cells, nm = settings_.mass_cells;
+  auto index = [&](int i, int j, int k, int l) {
+    return static_cast<std::uint32_t>(((i * na + j) * ns + k) * nm + l);
+  };
+  std::vector<std::vector<std::uint32_t>> out(static_cast<std::size_t>(cells_));
   for (int i = 0; i < ne; ++i)
     for (int j = 0; j < na; ++j)
-      for (int k = 0; k < ns; ++k) {
-        double m = 0.0;
-        for (int di = -1; di <= 1; ++di)
-          for (int dj = -1; dj <= 1; ++dj)
-            for (int dk = -1; dk <= 1; ++dk) {
-              const int ii = i + di, kk = k + dk;
+      for (int k = 0; k < ns; ++k)
+        for (int l = 0; l < nm; ++l) {
+          std::vector<std::uint32_t>& list = out[index(i, j, k, l)];
+          for (int ii = std::max(0, i - 1); ii <= std::min(ne - 1, i + 1); ++ii)
+            for (int dj = -1; dj <= 1; ++dj) {
               int jj = j + dj;
-              if (ii < 0 || ii >= ne || kk < 0 || kk >= ns) continue;
               if (jj < 0 || jj >= na) {
                 if (!wraps) continue;
                 jj = (jj + na) % na;
               }
-              m = std::max(m, s[index(ii, jj, kk)]);
+              for (int kk = std::max(0, k - 1); kk <= std::min(ns - 1, k + 1); ++kk)
+                for (int ll = std::max(0, l - 1); ll <= std::min(nm - 1, l + 1); ++ll)
+                  list.push_back(index(ii, jj, kk, ll));
             }
-        const std::size_t c = index(i, j, k);
-        const double own = static_cast<double>(n[c]) / kNeighbourTrust;
-        out[c] = std::max(out[c], 0.5 * m / (1.0 + own));
-      }
+          std::sort(list.begin(), list.end());
+          list.erase(std::unique(list.begin(), list.end()), list.end());
+        }
   return out;
+}
+
+std::vector<double> DirectionLearner::spread_to_neighbours(const std::vector<double>& s,
+                                                           const GroupStats& g) const {
+  // Up to half of each cell's weight reaches its neighbours: a figure seen in one cell is often
+  // also in the next, and a cell holding part of it that few histories have visited would
+  // otherwise get only the defensive share. The floor fades as the cell's own histories show
+  // what it holds.
+  std::vector<double> out(s);
+  for (std::size_t c = 0; c < out.size(); ++c) {
+    double m = 0.0;
+    for (const std::uint32_t nb : g.neighbours[c]) m = std::max(m, s[nb]);
+    const double own = static_cast<double>(g.n[c]) / kNeighbourTrust;
+    out[c] = std::max(out[c], 0.5 * m / (1.0 + own));
+  }
+  return out;
+}
+
+// A building's hit rate per cell, shrunk toward its neighbourhood's (empirical Bayes):
+//   r_c = (hits_c + A rbar_c) / (n_c + A),  rbar_c = hits / histories over the neighbourhood,
+// A = kPriorHistories. A cell at the edge of a building's region, where hits are rarer and none
+// may have been seen yet, then keeps a share in proportion to what its neighbours show, instead
+// of only the defensive share (whose hits would carry likelihood ratios of 1/delta).
+std::vector<double> DirectionLearner::smoothed_hit_rates(const GroupStats& g,
+                                                         std::size_t building) const {
+  std::vector<double> r(static_cast<std::size_t>(cells_), 0.0);
+  for (std::size_t c = 0; c < r.size(); ++c) {
+    double hits = 0.0, n = 0.0;
+    for (const std::uint32_t nb : g.neighbours[c]) {
+      hits += static_cast<double>(g.hits[nb * buildings_ + building]);
+      n += static_cast<double>(g.n[nb]);
+    }
+    const double rbar = n > 0.0 ? hits / n : 0.0;
+    r[c] = (static_cast<double>(g.hits[c * buildings_ + building]) + kPriorHistories * rbar) /
+           (static_cast<double>(g.n[c]) + kPriorHistories);
+  }
+  return r;
 }
 
 std::vector<fragments::DirectionCells> DirectionLearner::uniform() const {
   return std::vector<fragments::DirectionCells>(
       groups_.size(), fragments::DirectionCells(settings_.elevation_cells, settings_.azimuth_cells,
-                                                settings_.speed_cells));
+                                                settings_.speed_cells, settings_.mass_cells));
+}
+
+std::vector<fragments::DirectionCells> DirectionLearner::pilot() const {
+  std::vector<fragments::DirectionCells> out;
+  const auto cells = static_cast<std::size_t>(cells_);
+  const double delta = settings_.defensive_fraction;
+  for (const std::vector<double>& prior : prior_) {
+    double total = 0.0;
+    for (const double v : prior) total += v;
+    if (!(total > 0.0)) {
+      out.emplace_back(settings_.elevation_cells, settings_.azimuth_cells, settings_.speed_cells,
+                       settings_.mass_cells);
+      continue;
+    }
+    std::vector<double> q(cells);
+    for (std::size_t c = 0; c < cells; ++c)
+      q[c] = delta / static_cast<double>(cells) + (1.0 - delta) * prior[c] / total;
+    out.emplace_back(settings_.elevation_cells, settings_.azimuth_cells, settings_.speed_cells,
+                     settings_.mass_cells, std::move(q));
+  }
+  return out;
 }
 
 std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m) const {
@@ -134,10 +274,8 @@ std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m) cons
     for (std::size_t b = 0; b < buildings_ && n > 0; ++b) {
       const double mean = g.building_mean[b] / n;  // E_p[hit]
       if (!building_used_[b] || !(mean > 0.0)) continue;
-      for (std::size_t c = 0; c < cells; ++c)
-        if (g.n[c] > 0)
-          a[c] += static_cast<double>(g.hits[c * buildings_ + b]) / static_cast<double>(g.n[c]) /
-                  (mean * mean);
+      const std::vector<double> rate = smoothed_hit_rates(g, b);
+      for (std::size_t c = 0; c < cells; ++c) a[c] += rate[c] / (mean * mean);
     }
     double ring_mean = 0.0;
     for (int k = ring_lo; k <= ring_hi; ++k) ring_mean += g.bin_mean[static_cast<std::size_t>(k)];
@@ -152,11 +290,12 @@ std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m) cons
       }
     }
     for (double& v : a) v = std::sqrt(v);
-    a = spread_to_neighbours(a, g.n, g.wraps);
+    a = spread_to_neighbours(a, g);
     double total = 0.0;
     for (const double v : a) total += v;
     if (!(total > 0.0) || !std::isfinite(total)) {
-      out.emplace_back(settings_.elevation_cells, settings_.azimuth_cells, settings_.speed_cells);
+      out.emplace_back(settings_.elevation_cells, settings_.azimuth_cells, settings_.speed_cells,
+                       settings_.mass_cells);
       continue;
     }
     // Trust the learnt shape as far as the evidence goes: with H histories that touched a
@@ -168,7 +307,7 @@ std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m) cons
     for (std::size_t c = 0; c < cells; ++c)
       q[c] = delta / static_cast<double>(cells) + (1.0 - delta) * a[c] / total;
     out.emplace_back(settings_.elevation_cells, settings_.azimuth_cells, settings_.speed_cells,
-                     std::move(q));
+                     settings_.mass_cells, std::move(q));
   }
   return out;
 }

@@ -34,16 +34,30 @@ class DirectionLearner {
   // density decides the HFD ([0.85, 1.15] HFD; none when 0).
   std::vector<fragments::DirectionCells> plan(double hfd_m) const;
 
-  // Uniform cells (batch 0 and groups with nothing learnt): the plain draw, cells reported.
+  // Uniform cells (groups with nothing learnt): the plain draw, cells reported.
   std::vector<fragments::DirectionCells> uniform() const;
+
+  // The densities of the pilot (batch 0), from the site alone: a fragment without wind keeps
+  // the azimuth of its launch velocity until its first impact, so it can reach a building
+  // directly only from the cells whose site azimuths overlap the building's azimuth span as
+  // seen from the launch origin. Every building a target names gets an equal share of the
+  // learnt part, spread evenly over its cells (and the HFD ring, when a target needs it, a
+  // share over all cells), mixed with the group's own density as in plan().
+  std::vector<fragments::DirectionCells> pilot() const;
 
  private:
   static constexpr int kDistanceBins = 300;  // ln-spaced by 5 %: 1 m ... 2e6 m
   static int distance_bin(double d_m);
   static constexpr int kEvidence = 5;  // histories of evidence for half the learnt share
   static constexpr double kNeighbourTrust = 20.0;  // histories of a cell that halve the floor
-  std::vector<double> spread_to_neighbours(const std::vector<double>& s,
-                                           const std::vector<std::int64_t>& n, bool wraps) const;
+  // Histories of prior weight on a cell's hit rate, centred on its neighbourhood's rate.
+  static constexpr double kPriorHistories = 20.0;
+  std::vector<double> site_prior(const fragments::FragmentGroupSpec& group,
+                                 const scene::Site& site) const;
+  struct GroupStats;
+  std::vector<std::vector<std::uint32_t>> neighbour_lists(bool wraps) const;
+  std::vector<double> spread_to_neighbours(const std::vector<double>& s, const GroupStats& g) const;
+  std::vector<double> smoothed_hit_rates(const GroupStats& g, std::size_t building) const;
   struct GroupStats {
     std::vector<std::int64_t> n;        // per cell: histories
     std::vector<std::int64_t> hits;     // per cell x building: hits
@@ -51,7 +65,8 @@ class DirectionLearner {
     std::vector<double> building_mean;  // per building: sum of p/q * hit (-> E under p)
     std::vector<double> bin_mean;       // per distance bin: sum of p/q * x
     std::int64_t histories = 0;
-    bool wraps = false;           // the group's azimuth range is the full circle
+    bool wraps = false;  // the group's azimuth range is the full circle
+    std::vector<std::vector<std::uint32_t>> neighbours;  // per cell: itself and its neighbours
     std::int64_t touching = 0;    // histories that hit a used building or have PTN contributions
     std::vector<double> scratch;  // per distance bin: this history's x
     std::vector<int> touched;     // the bins of scratch in use
@@ -63,6 +78,7 @@ class DirectionLearner {
   bool ring_used_;
   std::vector<double> distance_m_;
   std::vector<GroupStats> groups_;
+  std::vector<std::vector<double>> prior_;  // per group and cell: the pilot's learnt part
 };
 
 }  // namespace fragsim::run

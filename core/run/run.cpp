@@ -413,7 +413,7 @@ SamplingPlans::Cells drawable(SamplingPlans::Cells cells, const LaunchStrata& st
   if (!strata.on()) return cells;
   for (auto& c : cells)
     if (c.uniform())
-      c = fragments::DirectionCells::equal(c.n_elevation(), c.n_azimuth(), c.n_speed());
+      c = fragments::DirectionCells::equal(c.n_elevation(), c.n_azimuth(), c.n_speed(), c.n_mass());
   return cells;
 }
 
@@ -524,7 +524,7 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
   SamplingPlans plans;
   if (st.precision && st.precision->direction_importance) {
     learner = std::make_unique<DirectionLearner>(sc, site, precision.distances());
-    plans.publish(0, drawable(learner->uniform(), strata));
+    plans.publish(0, drawable(learner->pilot(), strata));
   }
   // Stratified without importance sampling: fixed equal cells, about one per stratum.
   SamplingPlans::Cells strata_cells;

@@ -27,6 +27,7 @@ struct DirectionImportanceSettings {
   int azimuth_cells = 72;
   int speed_cells = 1;              // cells across the speed distribution's quantiles
   double defensive_fraction = 0.3;  // share of the group's own density in the mixture
+  int mass_cells = 4;  // cells across the mass distribution's quantiles (docs/benchmarks.md §8)
 };
 
 struct PrecisionSettings {

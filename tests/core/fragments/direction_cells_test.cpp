@@ -55,6 +55,30 @@ TEST(DirectionCells, CellsForStrataFollowTheGroupsRanges) {
   }
 }
 
+// Mass cells are the innermost index; a drawn point lies in the drawn cell in all four
+// dimensions, and without q the mass uniform passes through unchanged.
+TEST(DirectionCells, MassCellsAreTheInnermostDimension) {
+  const DirectionCells plain(2, 3, 2, 4);
+  ASSERT_EQ(plain.cells(), 48);
+  EXPECT_EQ(plain.cell_of(0.6, 0.5, 0.2, 0.9), ((1u * 3u + 1u) * 2u + 0u) * 4u + 3u);
+  EXPECT_EQ(plain.draw(0.6, 0.5, 0.2, 0.3, 0.9).u_mass, 0.9);
+  std::vector<double> q(48, 1.0);
+  q[47] = 20.0;  // the last cell: elevation 1, azimuth 2, speed 1, mass 3
+  const DirectionCells c(2, 3, 2, 4, q);
+  for (int k = 0; k < 200; ++k) {
+    const double u = (k + 0.5) / 200.0;
+    const auto d = c.draw(0.3, 0.7, 0.4, u, 0.25);
+    EXPECT_EQ(c.cell_of(d.u_elevation, d.u_azimuth, d.u_speed, d.u_mass), d.cell);
+    const auto f = c.draw_filling(0.3, 0.4, u, 0.25);
+    EXPECT_EQ(c.cell_of(f.u_elevation, f.u_azimuth, f.u_speed, f.u_mass), f.cell);
+  }
+  // u_cell near 1 falls in the heavy cell: q = 20 / 67 of the mass.
+  const auto last = c.draw(0.5, 0.5, 0.5, 0.99, 0.5);
+  EXPECT_EQ(last.cell, 47u);
+  EXPECT_DOUBLE_EQ(last.u_mass, (3 + 0.5) / 4.0);
+  EXPECT_DOUBLE_EQ(last.likelihood_ratio, (1.0 / 48.0) / (20.0 / 67.0));
+}
+
 // Stratified u_cell through draw_filling: each cell gets its share of the strata, every point
 // lies in its cell, and within a cell the azimuths are spread evenly (stratified), not at
 // random.

@@ -69,7 +69,7 @@ Scenario cone_at_box(std::uint64_t seed, Method m) {
   p.min_batches = 4;
   p.building_rel_error = 0.001;  // names the building as the figure; never met
   if (m == Method::kImportance || m == Method::kBoth)
-    p.direction_importance = DirectionImportanceSettings{8, 24, 1, 0.3};
+    p.direction_importance = DirectionImportanceSettings{8, 24, 1, 0.3, 1};
   sc.settings.precision = p;
   if (m == Method::kStratified || m == Method::kBoth) sc.settings.stratified_launch.emplace();
   return sc;
