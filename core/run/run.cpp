@@ -350,9 +350,14 @@ class PrecisionControl {
       };
       s.buildings.push_back({bs[b].id, est(base + kImpacts), est(base + kPenetrations)});
     }
+    // Under importance sampling every cell keeps at least the defensive share of its probability
+    // (q_c >= delta p_c), so n histories without a hit bound the probability per history under
+    // p by 3 / (n delta) only (docs/precision.md, "Targets and the stop").
+    const double share =
+        p_->direction_importance ? p_->direction_importance->defensive_fraction : 1.0;
     for (const auto& g : sc_.groups)
-      s.zero_count_bound +=
-          3.0 * g.count / (static_cast<double>(g.samples) * static_cast<double>(batches));
+      s.zero_count_bound += 3.0 * g.count /
+                            (static_cast<double>(g.samples) * static_cast<double>(batches) * share);
     return s;
   }
 

@@ -125,6 +125,31 @@ TEST(DirectionImportance, ThePilotFacesTheBuildingsSeenFromTheLaunchOrigin) {
   }
 }
 
+// A building no history can reach (behind a forward fan): its zero-count bound allows for the
+// defensive share, since importance sampling may have sent only delta of the plain share of
+// histories its way: 3 count / (K s delta), not 3 count / (K s).
+TEST(DirectionImportance, TheZeroCountBoundAllowsForTheDefensiveShare) {
+  Scenario sc = fan_scenario(3, true);
+  sc.groups[0].direction.azimuth_min_deg = -10.0;
+  sc.groups[0].direction.azimuth_max_deg = 10.0;
+  sc.site.buildings.push_back(validation::box_building("behind", -63, -4, -55, 4, 5.0));
+  PrecisionSettings& p = *sc.settings.precision;
+  p.building_rel_error.reset();
+  p.building_abs_error = 1e-6;  // never met: the run does its 8 batches
+  p.buildings = {"behind"};
+  const RunResult r = run(sc);
+  ASSERT_EQ(r.buildings[1].impacts.mean, 0.0);
+  ASSERT_TRUE(r.precision);
+  int checked = 0;
+  for (const auto& t : r.precision->targets) {
+    if (t.building != "behind") continue;
+    EXPECT_EQ(t.basis, "zero_count_bound");
+    EXPECT_NEAR(t.value, 3.0 * 100.0 / (7.0 * 500.0 * 0.3), 1e-12);  // 7 tallied batches
+    ++checked;
+  }
+  EXPECT_EQ(checked, 2);  // impacts and penetrations
+}
+
 // ---- the cells ----
 
 TEST(DirectionCells, UniformCellsReportTheCellAndChangeNothing) {
