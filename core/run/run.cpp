@@ -356,8 +356,8 @@ class PrecisionControl {
     const double share =
         p_->direction_importance ? p_->direction_importance->defensive_fraction : 1.0;
     for (const auto& g : sc_.groups)
-      s.zero_count_bound += 3.0 * g.count /
-                            (static_cast<double>(g.samples) * static_cast<double>(batches) * share);
+      s.zero_count_bound +=
+          3.0 * g.count / (static_cast<double>(g.samples) * static_cast<double>(batches) * share);
     return s;
   }
 
