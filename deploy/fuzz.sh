@@ -9,7 +9,9 @@
 #   deploy/fuzz.sh 60 fuzz_site    # some targets only
 #
 # The seed corpora in fuzz/corpus/ are copied to a scratch directory first: the tree is never
-# modified. FUZZ_KEEP=1 keeps the scratch directory (the grown corpora) and says where it is.
+# modified. FUZZ_KEEP=1 keeps the scratch directory (the grown corpora) and says where it is;
+# FUZZ_CORPUS=DIR fuzzes the corpora DIR/<target>/corpus (e.g. a kept scratch directory, to go
+# on from an earlier run; the seeds are added to them) instead of fresh copies.
 # FUZZ_TIMEOUT (default 1 s) is wall-clock time: on a machine busy with other work, a run in the
 # background needs a larger one (the slowest input is printed; replay it to time it alone).
 # A failing input is saved in build-fuzz/artifacts/<target>/; replay it with
@@ -43,8 +45,10 @@ runs_flag=()
 
 failed=()
 for t in "${targets[@]}"; do
-  mkdir -p "$scratch/$t/corpus" "$scratch/$t/tmp" "$build/artifacts/$t"
-  cp "$root/fuzz/corpus/$t/"* "$scratch/$t/corpus/"
+  corpus="$scratch/$t/corpus"
+  [ -z "${FUZZ_CORPUS:-}" ] || corpus="$FUZZ_CORPUS/$t/corpus"
+  mkdir -p "$corpus" "$scratch/$t/tmp" "$build/artifacts/$t"
+  cp "$root/fuzz/corpus/$t/"* "$corpus/"
   log="$scratch/$t/log"
   start=$(date +%s)
   # TMPDIR: fuzz_service's data directory lives in the scratch directory too.
@@ -52,7 +56,7 @@ for t in "${targets[@]}"; do
       "${runs_flag[@]}" -timeout="${FUZZ_TIMEOUT:-1}" -rss_limit_mb=2048 -malloc_limit_mb=2048 \
       -max_len=16384 \
       -dict="$root/fuzz/fragsim.dict" -artifact_prefix="$build/artifacts/$t/" \
-      -print_final_stats=1 "$scratch/$t/corpus" >"$log" 2>&1; then
+      -print_final_stats=1 "$corpus" >"$log" 2>&1; then
     status=ok
   else
     status=FAILED
@@ -63,7 +67,7 @@ for t in "${targets[@]}"; do
   cov="$(grep -o 'cov: [0-9]*' "$log" | tail -n 1 | cut -d' ' -f2)"
   slowest="$(sed -n 's/^stat::slowest_unit_time_sec: *//p' "$log" | tail -n 1)"
   echo "fuzz: $t $status: ${execs:-?} executions in $(($(date +%s) - start)) s" \
-    "(${rate:-?}/s), coverage ${cov:-?}, corpus $(ls "$scratch/$t/corpus" | wc -l) inputs," \
+    "(${rate:-?}/s), coverage ${cov:-?}, corpus $(ls "$corpus" | wc -l) inputs," \
     "slowest input ${slowest:-?} s"
   if [ "$status" != ok ]; then
     grep -B2 -A40 -m1 -E 'ERROR: |runtime error|==ERROR|fuzz invariant|deadly signal|timeout' \
