@@ -93,10 +93,14 @@ class LaunchStrata {
     s.weight_factor = static_cast<double>(samples_[g]) / static_cast<double>(j_count * n);
     return s;
   }
-  // History i is the last of a stratum that is not the group's last (that one ends with the
-  // group, whose close ends it).
-  bool ends_inner_stratum(std::uint32_t g, std::int64_t i) const {
-    return on() && (i + 1) % m_ == 0 && (i + 1) / m_ < count_[g];
+  // The variance is estimated on collapsed strata of kCollapsed sampling strata, in two
+  // partitions offset by half of one (docs/precision.md): history i (within its batch) ends a
+  // collapsed stratum of `partition` that is not the group's last (that one ends with the group).
+  static constexpr std::int64_t kCollapsed = 4;
+  bool ends_variance_stratum(std::uint32_t g, std::int64_t i, int partition) const {
+    if (!on()) return false;
+    const std::int64_t size = m_ * kCollapsed, offset = partition == 0 ? 0 : size / 2;
+    return (i + 1 + offset) % size == 0 && i + 1 < samples_[g];
   }
 
  private:
@@ -108,9 +112,9 @@ class LaunchStrata {
 class Reducer {
  public:
   Reducer(const Scenario& sc, const scene::Site& site, const LaunchStrata& strata)
-      : ptn_(site.terrain_triangle_count()),
-        buildings_(site.buildings().size() * kBuildingFigures),
-        outcomes_(kOutcomeCount),
+      : ptn_(site.terrain_triangle_count(), strata.on() ? 2 : 1),
+        buildings_(site.buildings().size() * kBuildingFigures, strata.on() ? 2 : 1),
+        outcomes_(kOutcomeCount, strata.on() ? 2 : 1),
         strata_(strata) {
     for (const auto& g : sc.groups) samples_.push_back(g.samples);
   }
@@ -138,8 +142,11 @@ class Reducer {
       const auto o = static_cast<std::size_t>(c.outcomes[static_cast<std::size_t>(i)]);
       outcomes_.add(o, w);
       ++outcome_histories_[o];
-      ++group_histories_;
-      if (strata_.ends_inner_stratum(c.group, (c.first_history + i) % samples)) close_group();
+      for (int k = 0; k < 2; ++k) {
+        ++stratum_histories_[k];
+        if (strata_.ends_variance_stratum(c.group, (c.first_history + i) % samples, k))
+          close_stratum(k);
+      }
     }
     histories_done_ += c.count;
     if (c.last_of_group) close_group();
@@ -161,18 +168,25 @@ class Reducer {
     tally_s_ += c.tally_s;
   }
 
-  // Closes the group, or its current launch stratum (also a group cut short by cancellation).
+  // Closes the group (also one cut short by cancellation): the current stratum of each
+  // partition.
   void close_group() {
-    if (group_histories_ == 0) return;
-    ptn_.end_group(group_histories_);
-    buildings_.end_group(group_histories_);
-    outcomes_.end_group(group_histories_);
-    group_histories_ = 0;
+    for (int k = 0; k < 2; ++k) close_stratum(k);
+  }
+  // Closes partition k's current stratum (partition 1 exists with stratified launch sampling).
+  void close_stratum(int k) {
+    const std::int64_t n = stratum_histories_[k];
+    stratum_histories_[k] = 0;
+    if (n == 0 || static_cast<std::size_t>(k) >= ptn_.partitions()) return;
+    const auto part = static_cast<std::size_t>(k);
+    ptn_.end_stratum(part, n);
+    buildings_.end_stratum(part, n);
+    outcomes_.end_stratum(part, n);
   }
 
   tally::StratifiedEstimator ptn_, buildings_, outcomes_;
   std::array<std::int64_t, kOutcomeCount> outcome_histories_{};
-  std::int64_t group_histories_ = 0;
+  std::array<std::int64_t, 2> stratum_histories_{};  // histories in each partition's stratum
   std::int64_t histories_done_ = 0;
   std::vector<FragmentRecord> records_;
   std::vector<TrajectoryRecord> trajectories_;

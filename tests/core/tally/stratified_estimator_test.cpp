@@ -56,5 +56,27 @@ TEST(StratifiedEstimator, AStratumOfOneHistoryAddsItsMeanAndNoVariance) {
   EXPECT_EQ(e.std_error(1), 0.0);
 }
 
+// Two partitions into strata, closed independently: the mean is the plain sum, the standard
+// error the larger of the two partitions' (the stratified launch sampling's conservative
+// estimate, docs/precision.md).
+TEST(StratifiedEstimator, TwoPartitionsReportTheLargerVariance) {
+  StratifiedEstimator e(1, 2);
+  ASSERT_EQ(e.partitions(), 2u);
+  // Histories 1, 1, 3, 3: partition 0 strata {1, 1} {3, 3} (variance 0); partition 1 strata
+  // {1} {1, 3} {3}: 2 (1 + 9 - 16/2) = 4.
+  const double x[] = {1.0, 1.0, 3.0, 3.0};
+  e.add(0, x[0]);
+  e.end_stratum(1, 1);
+  e.add(0, x[1]);
+  e.end_stratum(0, 2);
+  e.add(0, x[2]);
+  e.end_stratum(1, 2);
+  e.add(0, x[3]);
+  e.end_stratum(0, 2);  // {3, 3}
+  e.end_stratum(1, 1);  // {3}
+  EXPECT_DOUBLE_EQ(e.mean(0), 8.0);
+  EXPECT_DOUBLE_EQ(e.std_error(0), 2.0);
+}
+
 }  // namespace
 }  // namespace fragsim::tally
