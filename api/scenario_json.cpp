@@ -10,6 +10,7 @@
 #include "api/json_fields.h"
 #include "api/limits.h"
 #include "api/site_json.h"
+#include "core/run/importance.h"
 
 namespace fragsim::api {
 
@@ -100,6 +101,26 @@ void check_precision(const run::Scenario& sc, std::int64_t total_samples) {
       fail(index_path("fragment_groups", g) + ".samples",
            "must be >= 2 with settings.precision (the histories per batch; a batch's standard "
            "error needs two)");
+  if (const auto& d = p.direction_importance) {
+    // The importance sampler's learning tables grow with groups x cells x (buildings + distance
+    // bins): bounded before anything is allocated from them.
+    const double cells =
+        static_cast<double>(d->elevation_cells) * d->azimuth_cells * d->speed_cells * d->mass_cells;
+    const std::string at = "settings.precision.direction_importance";
+    if (cells > static_cast<double>(kMaxImportanceCells))
+      fail(at, "has " + std::to_string(static_cast<std::int64_t>(cells)) +
+                   " cells per group (elevation x azimuth x speed x mass cells); at most " +
+                   std::to_string(kMaxImportanceCells));
+    const double mb =
+        run::DirectionLearner::table_bytes(static_cast<double>(sc.groups.size()), cells,
+                                           static_cast<double>(sc.site.buildings.size())) /
+        1048576.0;
+    if (mb > static_cast<double>(kMaxImportanceTablesMB))
+      fail(at,
+           "would need about " + std::to_string(static_cast<std::int64_t>(mb)) +
+               " MB of learning tables (fragment groups x cells x (buildings + 300)); at most " +
+               std::to_string(kMaxImportanceTablesMB) + " MB: use fewer cells");
+  }
   if (sc.settings.record_fragments && total_samples > kMaxRecordedFragments / p.max_batches)
     fail("settings.record_fragments",
          "would record up to " + std::to_string(total_samples) + " x " +

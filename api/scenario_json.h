@@ -28,6 +28,10 @@ inline constexpr const char* kScenarioSchema = "fragsim.scenario/1";
 inline constexpr std::int64_t kMaxSamplesPerGroup = 1'000'000'000;
 inline constexpr std::int64_t kMaxRecordedFragments = 10'000'000;  // with record_fragments
 inline constexpr std::int64_t kMaxPrecisionBatches = 1'000'000;    // settings.precision
+// direction_importance: cells per group (the default 24 x 72 x 1 x 4 is 6,912), and the learning
+// tables over all groups (docs/scenario.md, "Limits").
+inline constexpr std::int64_t kMaxImportanceCells = 1 << 16;
+inline constexpr std::int64_t kMaxImportanceTablesMB = 1024;
 inline constexpr std::int64_t kMaxThreads = 1024;
 
 // Material provenance the core does not need: kept so that outputs can say which inputs were

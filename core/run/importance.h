@@ -34,6 +34,13 @@ class DirectionLearner {
   // density decides the HFD ([0.85, 1.15] HFD; none when 0).
   std::vector<fragments::DirectionCells> plan(double hfd_m) const;
 
+  // Bytes of the learning tables for `groups` groups of `cells` cells each with `buildings`
+  // buildings (per cell: histories, hits per building, squared ring contributions per distance
+  // bin, the neighbour list). The api layer bounds it (docs/scenario.md, "Limits").
+  static double table_bytes(double groups, double cells, double buildings) {
+    return groups * cells * (8.0 * (1.0 + buildings + kDistanceBins) + 4.0 * 81.0);
+  }
+
   // Uniform cells (groups with nothing learnt): the plain draw, cells reported.
   std::vector<fragments::DirectionCells> uniform() const;
 

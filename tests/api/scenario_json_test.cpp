@@ -293,6 +293,21 @@ TEST(ScenarioJson, PrecisionErrorsNameTheField) {
                           "needs building_rel_error or building_abs_error"}));
   EXPECT_EQ(parse_error(with_precision({{"hfd_half_band", 5}})).first,
             "settings.precision.hfd_half_band");
+  // The importance sampler's tables are bounded before anything is allocated (docs/scenario.md,
+  // "Limits"): cells per group, and their memory over all groups.
+  const auto importance = [&](Json cells) {
+    return with_precision({{"max_batches", 10}, {"direction_importance", std::move(cells)}});
+  };
+  EXPECT_EQ(parse_error(importance({{"elevation_cells", 90},
+                                    {"azimuth_cells", 360},
+                                    {"speed_cells", 16},
+                                    {"mass_cells", 16}})),
+            (FieldMessage{"settings.precision.direction_importance",
+                          "has 8294400 cells per group (elevation x azimuth x speed x mass "
+                          "cells); at most 65536"}));
+  Json many = importance({{"elevation_cells", 64}, {"azimuth_cells", 256}, {"mass_cells", 4}});
+  for (int k = 0; k < 40; ++k) many["fragment_groups"].push_back(many["fragment_groups"][0]);
+  EXPECT_EQ(parse_error(many).first, "settings.precision.direction_importance");
   Json one = with(with_precision({{"max_batches", 10}}), "/fragment_groups/0/samples", 1);
   EXPECT_EQ(parse_error(one).first, "fragment_groups[0].samples");
   // Recorded fragments are counted at the largest number of batches.
