@@ -241,23 +241,24 @@ std::vector<fragments::DirectionCells> DirectionLearner::uniform() const {
 
 std::vector<fragments::DirectionCells> DirectionLearner::pilot() const {
   std::vector<fragments::DirectionCells> out;
-  const auto cells = static_cast<std::size_t>(cells_);
-  const double delta = settings_.defensive_fraction;
-  for (const std::vector<double>& prior : prior_) {
-    double total = 0.0;
-    for (const double v : prior) total += v;
-    if (!(total > 0.0)) {
-      out.emplace_back(settings_.elevation_cells, settings_.azimuth_cells, settings_.speed_cells,
-                       settings_.mass_cells);
-      continue;
-    }
-    std::vector<double> q(cells);
-    for (std::size_t c = 0; c < cells; ++c)
-      q[c] = delta / static_cast<double>(cells) + (1.0 - delta) * prior[c] / total;
-    out.emplace_back(settings_.elevation_cells, settings_.azimuth_cells, settings_.speed_cells,
-                     settings_.mass_cells, std::move(q));
-  }
+  for (const std::vector<double>& prior : prior_)
+    out.push_back(mixture(prior, settings_.defensive_fraction));
   return out;
+}
+
+fragments::DirectionCells DirectionLearner::mixture(const std::vector<double>& s,
+                                                    double delta) const {
+  const auto cells = static_cast<std::size_t>(cells_);
+  double total = 0.0;
+  for (const double v : s) total += v;
+  if (!(total > 0.0) || !std::isfinite(total))  // nothing to follow: the group's own density
+    return {settings_.elevation_cells, settings_.azimuth_cells, settings_.speed_cells,
+            settings_.mass_cells};
+  std::vector<double> q(cells);
+  for (std::size_t c = 0; c < cells; ++c)
+    q[c] = delta / static_cast<double>(cells) + (1.0 - delta) * s[c] / total;
+  return {settings_.elevation_cells, settings_.azimuth_cells, settings_.speed_cells,
+          settings_.mass_cells, std::move(q)};
 }
 
 std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m) const {
@@ -291,23 +292,11 @@ std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m) cons
     }
     for (double& v : a) v = std::sqrt(v);
     a = spread_to_neighbours(a, g);
-    double total = 0.0;
-    for (const double v : a) total += v;
-    if (!(total > 0.0) || !std::isfinite(total)) {
-      out.emplace_back(settings_.elevation_cells, settings_.azimuth_cells, settings_.speed_cells,
-                       settings_.mass_cells);
-      continue;
-    }
     // Trust the learnt shape as far as the evidence goes: with H histories that touched a
     // figure, (1 - delta) H / (H + kEvidence) of the mass follows it.
     const double h = static_cast<double>(g.touching);
-    const double delta =
-        1.0 - (1.0 - settings_.defensive_fraction) * h / (h + static_cast<double>(kEvidence));
-    std::vector<double> q(cells);
-    for (std::size_t c = 0; c < cells; ++c)
-      q[c] = delta / static_cast<double>(cells) + (1.0 - delta) * a[c] / total;
-    out.emplace_back(settings_.elevation_cells, settings_.azimuth_cells, settings_.speed_cells,
-                     settings_.mass_cells, std::move(q));
+    out.push_back(mixture(
+        a, 1.0 - (1.0 - settings_.defensive_fraction) * h / (h + static_cast<double>(kEvidence))));
   }
   return out;
 }

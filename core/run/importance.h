@@ -59,6 +59,9 @@ class DirectionLearner {
   static constexpr double kNeighbourTrust = 20.0;  // histories of a cell that halve the floor
   // Histories of prior weight on a cell's hit rate, centred on its neighbourhood's rate.
   static constexpr double kPriorHistories = 20.0;
+  // delta / N + (1 - delta) s_c / sum s (the defensive mixture), or uniform cells when s holds
+  // nothing to follow.
+  fragments::DirectionCells mixture(const std::vector<double>& s, double delta) const;
   std::vector<double> site_prior(const fragments::FragmentGroupSpec& group,
                                  const scene::Site& site) const;
   struct GroupStats;
