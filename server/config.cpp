@@ -3,8 +3,10 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -67,6 +69,25 @@ void check_log_level(const std::string& level, const std::string& what) {
     throw ConfigError(what + ": must be debug, info, warn or error (got \"" + level + "\")");
 }
 
+// An origin as browsers send it: scheme "http" or "https", "://", a host (and port), no path.
+std::string checked_origin(const std::string& origin, const std::string& what) {
+  const auto fail = [&]() {
+    return ConfigError(what +
+                       ": expected an origin such as https://hazx.example.org:8443 (no "
+                       "path, no trailing slash), got \"" +
+                       origin + "\"");
+  };
+  const std::size_t sep = origin.find("://");
+  if (sep == std::string::npos) throw fail();
+  const std::string scheme = origin.substr(0, sep), rest = origin.substr(sep + 3);
+  if ((scheme != "http" && scheme != "https") || rest.empty()) throw fail();
+  for (const char c : rest)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == ':' ||
+          c == '[' || c == ']'))
+      throw fail();
+  return origin;
+}
+
 std::string read_text_file(const std::string& path, const std::string& what) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ConfigError(what + ": cannot read " + path + ": " + std::strerror(errno));
@@ -109,15 +130,27 @@ void apply_config_file(const std::string& path, Config& c) {
     throw ConfigError(path + ": " + e.what());
   }
   if (!j.is_object()) throw ConfigError(path + ": expected a JSON object");
-  static const std::vector<std::string> kKeys = {"listen",          "data_dir",
-                                                 "threads",         "http_threads",
-                                                 "token_file",      "auth",
-                                                 "max_body_bytes",  "max_samples_per_job",
-                                                 "max_sites",       "max_terrain_triangles",
-                                                 "max_queued_jobs", "request_timeout_s",
-                                                 "log_level",       "max_crashes",
-                                                 "port_file",       "keep_alive_s",
-                                                 "max_connections", "job_nice"};
+  static const std::vector<std::string> kKeys = {"listen",
+                                                 "data_dir",
+                                                 "threads",
+                                                 "http_threads",
+                                                 "token_file",
+                                                 "auth",
+                                                 "max_body_bytes",
+                                                 "max_samples_per_job",
+                                                 "max_sites",
+                                                 "max_terrain_triangles",
+                                                 "max_queued_jobs",
+                                                 "request_timeout_s",
+                                                 "log_level",
+                                                 "max_crashes",
+                                                 "port_file",
+                                                 "keep_alive_s",
+                                                 "max_connections",
+                                                 "job_nice",
+                                                 "ui",
+                                                 "ui_dir",
+                                                 "cors_origins"};
   try {
     for (const auto& item : j.items()) {
       const std::string& k = item.key();
@@ -163,6 +196,17 @@ void apply_config_file(const std::string& path, Config& c) {
         c.max_crashes = static_cast<int>(api::read_integer(v, k, 1, 1000));
       } else if (k == "port_file") {
         c.port_file = api::read_string(v, k);
+      } else if (k == "ui") {
+        c.ui = api::read_bool(v, k);
+      } else if (k == "ui_dir") {
+        c.ui_dir = api::read_string(v, k);
+      } else if (k == "cors_origins") {
+        if (!v.is_array()) throw InputError(k, "expected array of origins");
+        c.cors_origins.clear();
+        for (std::size_t i = 0; i < v.size(); ++i) {
+          const std::string at = k + "[" + std::to_string(i) + "]";
+          c.cors_origins.push_back(checked_origin(api::read_string(v[i], at), at));
+        }
       } else {
         const std::string guess = api::suggest_key(k, kKeys);
         throw InputError(
@@ -233,6 +277,12 @@ Invocation parse_command_line(const std::vector<std::string>& args) {
     } else if (a == "--log-level") {
       c.log_level = value();
       check_log_level(c.log_level, a);
+    } else if (a == "--ui-dir") {
+      c.ui_dir = value();
+    } else if (a == "--no-ui") {
+      c.ui = false;
+    } else if (a == "--cors-origin") {
+      c.cors_origins.push_back(checked_origin(value(), a));
     } else if (a == "--max-crashes") {
       c.max_crashes = static_cast<int>(parse_integer(value(), a, 1, 1000));
     } else {
@@ -247,6 +297,8 @@ void check_config(const Config& c) {
   if (!c.auth && !is_loopback_host(c.listen_host))
     throw ConfigError("--no-auth: refused while listening on " + c.listen_host +
                       " (authentication may only be off on a loopback address)");
+  if (!c.ui_dir.empty() && !std::filesystem::is_regular_file(c.ui_dir + "/index.html"))
+    throw ConfigError("--ui-dir: " + c.ui_dir + " holds no index.html (give the viewer/ folder)");
   if (c.auth) {
     if (c.token_file.empty())
       throw ConfigError("--token-file: required (or --no-auth on a loopback address)");
@@ -276,6 +328,10 @@ const char* usage_text() {
          "30)\n"
          "  --port-file FILE         write the bound port here once listening\n"
          "  --max-crashes N          fail a job after N daemon crashes while it ran (default 3)\n"
+         "  --ui-dir DIR             serve the web viewer (/ui/) from DIR, not the copy built in\n"
+         "  --no-ui                  serve no web viewer\n"
+         "  --cors-origin ORIGIN     let pages of ORIGIN call the API (repeatable; none by "
+         "default)\n"
          "  --log-level LEVEL        debug | info | warn | error (default info)\n"
          "  --version, --help\n";
 }

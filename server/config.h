@@ -31,6 +31,14 @@ struct Config {
   std::string port_file;
   std::string log_level = "info";
   int max_crashes = 3;  // a job running when the daemon died this many times is marked failed
+  // The web viewer at /ui/ (docs/viewer.md): served from the files compiled in, or from ui_dir
+  // when set (development); ui = false serves no page (404).
+  bool ui = true;
+  std::string ui_dir;
+  // Origins ("https://hazx.example.org") whose pages may call the API from a browser: their
+  // requests get Access-Control-Allow-Origin and their preflights an answer. None by default
+  // (the page fragsimd serves is same-origin and needs none).
+  std::vector<std::string> cors_origins;
 };
 
 // What the command line asked for besides running.

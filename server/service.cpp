@@ -16,6 +16,7 @@
 #include "api/ptn_json.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
+#include "api/scene_binary.h"
 #include "api/sha256.h"
 #include "api/site_document.h"
 #include "api/summary_json.h"
@@ -24,6 +25,7 @@
 #include "gis/gdal_support.h"
 #include "server/log.h"
 #include "server/openapi_text.h"
+#include "server/ui_assets.h"
 #include "server/utf8.h"
 
 namespace fragsim::server {
@@ -38,6 +40,7 @@ enum class RouteId {
   kMetrics,
   kSites,
   kSite,
+  kSiteScene,
   kJobs,
   kJob,
   kJobSummary,
@@ -45,7 +48,8 @@ enum class RouteId {
   kJobPtn,
   kJobResults,
   kJobMaps,
-  kJobMap
+  kJobMap,
+  kJobScene
 };
 
 constexpr const char* kJsonType = "application/json";
@@ -230,6 +234,7 @@ const std::vector<Service::Route>& routes() {
       {RouteId::kMetrics, "/metrics", {"GET"}},
       {RouteId::kSites, "/v1/sites", {"GET", "POST"}},
       {RouteId::kSite, "/v1/sites/{id}", {"GET", "DELETE"}},
+      {RouteId::kSiteScene, "/v1/sites/{id}/scene", {"GET"}},
       {RouteId::kJobs, "/v1/jobs", {"GET", "POST"}},
       {RouteId::kJob, "/v1/jobs/{id}", {"GET", "DELETE"}},
       {RouteId::kJobSummary, "/v1/jobs/{id}/summary", {"GET"}},
@@ -238,6 +243,7 @@ const std::vector<Service::Route>& routes() {
       {RouteId::kJobResults, "/v1/jobs/{id}/results.h5", {"GET"}},
       {RouteId::kJobMaps, "/v1/jobs/{id}/maps", {"GET"}},
       {RouteId::kJobMap, "/v1/jobs/{id}/maps/{name}", {"GET"}},
+      {RouteId::kJobScene, "/v1/jobs/{id}/scene", {"GET"}},
   };
   return kRoutes;
 }
@@ -252,6 +258,93 @@ std::vector<RouteInfo> route_table() {
 }
 
 Response Service::handle(const Request& req) {
+  if (auto r = cors_preflight(req)) return *r;
+  Response r = is_ui_path(req.path) ? ui_file(req) : route_request(req);
+  add_cors_headers(req, r);
+  return r;
+}
+
+// ---- The web viewer (docs/viewer.md) ----
+
+bool Service::is_ui_path(const std::string& path) {
+  return path == "/" || path == "/ui" || path.rfind("/ui/", 0) == 0;
+}
+
+// The page is public: it holds no data, and a browser cannot send a token to load it. Every
+// file is sent with a content security policy that allows only the daemon's own scripts, styles
+// and API (no inline script, no other origin): text the page shows from a scenario cannot run.
+Response Service::ui_file(const Request& req) {
+  Response r;
+  r.route = "/ui/";
+  if (req.method != "GET" && req.method != "HEAD") {
+    r = error_response(405, "method_not_allowed",
+                       req.method + " is not allowed on /ui/ (allowed: GET)");
+    r.headers.emplace_back("Allow", "GET");
+    r.route = "/ui/";
+    return r;
+  }
+  const auto path = config_.ui ? ui_file_path(std::string_view(req.path).substr(
+                                     std::min<std::size_t>(req.path.size(), 4)))
+                               : std::nullopt;
+  if (config_.ui && (req.path == "/" || req.path == "/ui")) {
+    r.status = 302;
+    r.headers.emplace_back("Location", "/ui/");
+    r.content_type = "text/plain; charset=utf-8";
+    r.body = "the viewer is at /ui/\n";
+    return r;
+  }
+  std::optional<std::string> bytes;
+  if (path) bytes = read_ui_file(config_.ui_dir, *path);
+  if (!bytes) {
+    r = error_response(404, "not_found", "no route " + req.path);
+    r.route = "/ui/";
+    return r;
+  }
+  r.content_type = ui_content_type(*path);
+  r.body = std::move(*bytes);
+  r.headers.emplace_back("Content-Security-Policy",
+                         "default-src 'self'; img-src 'self' data: blob:; style-src 'self'; "
+                         "script-src 'self'; connect-src 'self'; object-src 'none'; "
+                         "base-uri 'none'; frame-ancestors 'none'; form-action 'self'");
+  r.headers.emplace_back("X-Content-Type-Options", "nosniff");
+  r.headers.emplace_back("Referrer-Policy", "no-referrer");
+  r.headers.emplace_back("Cache-Control", "no-cache");
+  return r;
+}
+
+// ---- CORS (off unless origins are configured) ----
+
+bool Service::cors_allowed(const Request& req) const {
+  const auto it = req.headers.find("origin");
+  return it != req.headers.end() &&
+         std::find(config_.cors_origins.begin(), config_.cors_origins.end(), it->second) !=
+             config_.cors_origins.end();
+}
+
+std::optional<Response> Service::cors_preflight(const Request& req) const {
+  if (req.method != "OPTIONS" || !req.headers.count("access-control-request-method") ||
+      !cors_allowed(req))
+    return std::nullopt;
+  Response r;
+  r.status = 204;
+  r.content_type.clear();
+  r.route = "preflight";
+  r.headers.emplace_back("Access-Control-Allow-Methods", "GET, POST, DELETE");
+  r.headers.emplace_back("Access-Control-Allow-Headers", "Authorization, Content-Type");
+  r.headers.emplace_back("Access-Control-Max-Age", "600");
+  add_cors_headers(req, r);
+  return r;
+}
+
+void Service::add_cors_headers(const Request& req, Response& r) const {
+  if (config_.cors_origins.empty()) return;
+  r.headers.emplace_back("Vary", "Origin");
+  if (!cors_allowed(req)) return;
+  r.headers.emplace_back("Access-Control-Allow-Origin", req.headers.at("origin"));
+  r.headers.emplace_back("Access-Control-Expose-Headers", "Location, Content-Disposition");
+}
+
+Response Service::route_request(const Request& req) {
   // The HTTP layer refuses larger bodies before reading them; this holds for any other caller.
   if (static_cast<std::int64_t>(req.body.size()) > config_.max_body_bytes)
     return error_response(413, "payload_too_large",
@@ -343,6 +436,8 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
     bad = check_query(req, {"state", "limit"});
   } else if (route.id == RouteId::kJobPtn) {
     bad = check_query(req, {"format", "min_density_per_m2"});
+  } else if (route.id == RouteId::kJobScene) {
+    bad = check_query(req, {"max_trajectories"});
   } else {
     bad = check_query(req, {});
   }
@@ -355,11 +450,15 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
     case RouteId::kSite:
       if (!api::is_site_id(id)) return error_response(404, "not_found", "no site " + id);
       return get ? get_site(id) : delete_site(id);
+    case RouteId::kSiteScene:
+      if (!api::is_site_id(id)) return error_response(404, "not_found", "no site " + id);
+      return site_scene(id);
     case RouteId::kJobs: return get ? list_jobs(req) : post_job(req);
     default: break;
   }
   if (!api::is_job_id(id)) return error_response(404, "not_found", "no job " + id);
   if (route.id == RouteId::kJobPtn) return job_ptn(req, id);
+  if (route.id == RouteId::kJobScene) return job_scene(req, id);
   switch (route.id) {
     case RouteId::kJob: return get ? get_job(id) : delete_job(id, owner_of(req));
     case RouteId::kJobSummary: return job_summary(id);
@@ -463,6 +562,16 @@ Response Service::get_site(const std::string& id) {
   const auto e = sites_.find(id);
   if (!e) return error_response(404, "not_found", "no site " + id);
   return json_response(200, site_json(*e));
+}
+
+// The site's terrain and buildings for a browser (api/scene_binary.h).
+Response Service::site_scene(const std::string& id) {
+  const auto e = sites_.find(id);
+  if (!e) return error_response(404, "not_found", "no site " + id);
+  Response r;
+  r.content_type = api::kSceneContentType;
+  r.body = api::encode_scene(api::scene_from_site(*e->site));
+  return r;
 }
 
 Response Service::delete_site(const std::string& id) {
@@ -725,6 +834,30 @@ Response Service::job_ptn(const Request& req, const std::string& id) {
   } else {
     r.body = api::render_ptn_json(h5, id);
   }
+  return r;
+}
+
+// The job's terrain, density, buildings and a sample of its trajectories for a browser.
+Response Service::job_scene(const Request& req, const std::string& id) {
+  std::int64_t max_trajectories = api::kDefaultSceneTrajectories;
+  if (const auto it = req.query.find("max_trajectories"); it != req.query.end()) {
+    const std::string& text = it->second;
+    const bool digits =
+        !text.empty() && text.size() <= 6 &&
+        std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); });
+    if (!digits || std::stoll(text) > api::kMaxSceneTrajectories)
+      return error_response(
+          400, "bad_parameter",
+          "must be an integer in [0, " + std::to_string(api::kMaxSceneTrajectories) + "]",
+          "max_trajectories");
+    max_trajectories = std::stoll(text);
+  }
+  auto job = finished_job(id);
+  if (auto* r = std::get_if<Response>(&job)) return *r;
+  Response r;
+  r.content_type = api::kSceneContentType;
+  r.body = api::encode_scene(
+      api::scene_from_results(scheduler_.job_dir(id) / api::kResultsFileName, max_trajectories));
   return r;
 }
 

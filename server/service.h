@@ -80,8 +80,16 @@ class Service {
   Metrics& metrics() { return metrics_; }
 
  private:
+  Response route_request(const Request& req);
   Response dispatch(const Request& req, const Route& route, const std::string& id,
                     const std::string& name);
+  // The web viewer's files at /ui/ ("/" and "/ui" redirect there).
+  static bool is_ui_path(const std::string& path);
+  Response ui_file(const Request& req);
+  // CORS for the configured origins only.
+  bool cors_allowed(const Request& req) const;
+  std::optional<Response> cors_preflight(const Request& req) const;
+  void add_cors_headers(const Request& req, Response& r) const;
 
   // Routes
   Response health();
@@ -91,6 +99,7 @@ class Service {
   Response list_sites();
   Response get_site(const std::string& id);
   Response delete_site(const std::string& id);
+  Response site_scene(const std::string& id);
   Response post_job(const Request& req);
   Response list_jobs(const Request& req);
   Response get_job(const std::string& id);
@@ -99,6 +108,7 @@ class Service {
   Response job_buildings(const std::string& id);
   Response job_ptn(const Request& req, const std::string& id);
   Response job_results_h5(const std::string& id);
+  Response job_scene(const Request& req, const std::string& id);
   Response job_maps(const std::string& id);
   Response job_map_file(const std::string& id, const std::string& name);
 

@@ -340,6 +340,58 @@ TEST_F(ConfigFile, ConfigFileErrorsComeThroughTheCommandLine) {
   EXPECT_THROW(parse_command_line({"--config", (dir_ / "absent.json").string()}), ConfigError);
 }
 
+// ---- The web viewer and CORS (docs/viewer.md) ----
+
+TEST(ConfigCommandLine, ViewerAndCorsFlags) {
+  const Config d = parse_command_line({}).config;
+  EXPECT_TRUE(d.ui);
+  EXPECT_TRUE(d.ui_dir.empty());
+  EXPECT_TRUE(d.cors_origins.empty());  // CORS off by default
+  const Config c =
+      parse_command_line({"--ui-dir", "/src/viewer", "--cors-origin", "https://hazx.example.org",
+                          "--cors-origin", "http://127.0.0.1:3000", "--no-ui"})
+          .config;
+  EXPECT_EQ(c.ui_dir, "/src/viewer");
+  EXPECT_FALSE(c.ui);
+  EXPECT_EQ(c.cors_origins,
+            (std::vector<std::string>{"https://hazx.example.org", "http://127.0.0.1:3000"}));
+  for (const char* bad : {"hazx.example.org", "https://hazx.example.org/", "ftp://x", "https://",
+                          "https://a b", "*", "https://x/path"}) {
+    const std::string e = command_line_error({"--cors-origin", bad});
+    EXPECT_TRUE(starts_with(e, "--cors-origin: expected an origin")) << bad << ": " << e;
+  }
+}
+
+TEST_F(ConfigFile, ViewerAndCorsKeys) {
+  Config c;
+  apply_config_file(write("c.json", R"({"ui": false, "ui_dir": "/v",
+      "cors_origins": ["https://a.example", "http://[::1]:8000"]})"),
+                    c);
+  EXPECT_FALSE(c.ui);
+  EXPECT_EQ(c.ui_dir, "/v");
+  EXPECT_EQ(c.cors_origins, (std::vector<std::string>{"https://a.example", "http://[::1]:8000"}));
+  const std::string e = file_error(R"({"cors_origins": ["https://a.example", "a.example"]})");
+  EXPECT_NE(e.find("cors_origins[1]: expected an origin"), std::string::npos) << e;
+  EXPECT_NE(
+      file_error(R"({"cors_origins": "https://a.example"})").find("cors_origins: expected array"),
+      std::string::npos);
+}
+
+TEST_F(ConfigCheck, UiDirMustHoldTheViewer) {
+  Config c;
+  c.auth = false;
+  c.ui_dir = (dir_ / "nothing").string();
+  try {
+    check_config(c);
+    ADD_FAILURE() << "accepted a folder without index.html";
+  } catch (const ConfigError& e) {
+    EXPECT_TRUE(starts_with(e.what(), "--ui-dir: ")) << e.what();
+  }
+  write("index.html", "<!doctype html>");
+  c.ui_dir = dir_.string();
+  EXPECT_NO_THROW(check_config(c));
+}
+
 // ---- check_config ----
 
 TEST_F(ConfigCheck, NoAuthOnlyOnLoopback) {

@@ -10,6 +10,7 @@
 #include <cctype>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -25,6 +26,7 @@
 #include "api/test_support.h"
 #include "core/run/run.h"
 #include "gis/results_export.h"
+#include "server/ui_assets.h"
 
 namespace fragsim::server {
 namespace {
@@ -223,7 +225,7 @@ using ServiceMetrics = ServiceTest;
 
 TEST_F(ServiceRouting, UnknownPathIs404WithAnErrorBody) {
   start();
-  for (const char* path : {"/v1/nothing", "/", "/v1", "/v1/health/", "/v2/health", "/v1/sites/",
+  for (const char* path : {"/v1/nothing", "/v1", "/v1/health/", "/v2/health", "/v1/sites/",
                            "/v1/jobs//summary", "/v1/jobs/j_0123456789abcdef/other"}) {
     SCOPED_TRACE(path);
     const Response r = get(path);
@@ -1429,6 +1431,152 @@ TEST_F(ServiceMetrics, SitesGauge) {
   EXPECT_NE(metrics_text().find("\nfragsimd_sites 2\n"), std::string::npos);
   ASSERT_EQ(del("/v1/sites/" + b).status, 204);
   EXPECT_NE(metrics_text().find("\nfragsimd_sites 1\n"), std::string::npos);
+}
+
+// ---- The web viewer (docs/viewer.md) and the scene routes ----
+
+using ServiceViewer = ServiceTest;
+
+constexpr const char* kCsp =
+    "default-src 'self'; img-src 'self' data: blob:; style-src 'self'; script-src 'self'; "
+    "connect-src 'self'; object-src 'none'; base-uri 'none'; frame-ancestors 'none'; "
+    "form-action 'self'";
+
+TEST_F(ServiceViewer, ThePageIsPublicAndServedWithAStrictContentSecurityPolicy) {
+  start();
+  for (const char* path : {"/", "/ui"}) {
+    const Response r = get_anonymous(path);
+    EXPECT_EQ(r.status, 302) << path;
+    EXPECT_EQ(header(r, "Location"), "/ui/") << path;
+  }
+  const Response index = get_anonymous("/ui/");
+  ASSERT_EQ(index.status, 200) << index.body;
+  EXPECT_EQ(index.content_type, "text/html; charset=utf-8");
+  EXPECT_NE(index.body.find("src/main.js"), std::string::npos);
+  EXPECT_EQ(header(index, "Content-Security-Policy"), kCsp);
+  EXPECT_EQ(header(index, "X-Content-Type-Options"), "nosniff");
+  EXPECT_EQ(get_anonymous("/ui/index.html").body, index.body);
+  const Response script = get_anonymous("/ui/src/main.js");
+  EXPECT_EQ(script.status, 200);
+  EXPECT_EQ(script.content_type, "text/javascript; charset=utf-8");
+  // Every embedded file is served, byte for byte.
+  for (const UiFile& f : embedded_ui_files()) {
+    const Response r = get_anonymous("/ui/" + std::string(f.path));
+    EXPECT_EQ(r.status, 200) << f.path;
+    EXPECT_EQ(r.body, f.bytes) << f.path;
+  }
+  EXPECT_EQ(call("HEAD", "/ui/", {}, {}, {}, false).status, 200);
+  const Response post = call("POST", "/ui/", {}, "x", {}, false);
+  expect_error(post, 405, "method_not_allowed");
+  EXPECT_EQ(header(post, "Allow"), "GET");
+}
+
+TEST_F(ServiceViewer, OnlyTheViewersOwnFilesAreServed) {
+  start();
+  for (const char* path :
+       {"/ui/../README.md", "/ui/src/../../CMakeLists.txt", "/ui/src/.hidden", "/ui/src/",
+        "/ui/src//main.js", "/ui/test/harness.mjs", "/ui/package.json", "/ui/node_modules/x.js",
+        "/ui/src/%2e%2e/x", "/ui/vendor/nothing.js", "/uix", "/ui/src/a b.js"}) {
+    SCOPED_TRACE(path);
+    expect_error(get_anonymous(path), 404, "not_found");
+  }
+  EXPECT_EQ(ui_file_path(""), "index.html");
+  EXPECT_EQ(ui_file_path("vendor/three.module.min.js"), "vendor/three.module.min.js");
+  EXPECT_EQ(ui_file_path("src/a/b.js"), "src/a/b.js");
+  EXPECT_EQ(ui_file_path("src/a/../b.js"), std::nullopt);
+  EXPECT_EQ(ui_content_type("src/style.css"), "text/css; charset=utf-8");
+  EXPECT_EQ(ui_content_type("vendor/LICENSE"), "application/octet-stream");
+}
+
+TEST_F(ServiceViewer, ThePageCanComeFromAFolderOrBeTurnedOff) {
+  const fs::path ui = dir_ / "ui";
+  fs::create_directories(ui / "src");
+  std::ofstream(ui / "index.html") << "<!doctype html><title>dev</title>";
+  std::ofstream(ui / "src" / "main.js") << "export const x = 1;\n";
+  start([&](Config& c) { c.ui_dir = ui.string(); });
+  EXPECT_EQ(get_anonymous("/ui/").body, "<!doctype html><title>dev</title>");
+  EXPECT_EQ(get_anonymous("/ui/src/main.js").body, "export const x = 1;\n");
+  expect_error(get_anonymous("/ui/src/other.js"), 404, "not_found");
+  service_.reset();
+  start([](Config& c) { c.ui = false; });
+  for (const char* path : {"/", "/ui", "/ui/", "/ui/src/main.js"}) {
+    SCOPED_TRACE(path);
+    expect_error(get_anonymous(path), 404, "not_found");
+  }
+}
+
+// No Access-Control-* header unless origins are configured; then only for those origins.
+TEST_F(ServiceViewer, CorsIsOffByDefaultAndOnlyForConfiguredOrigins) {
+  start();
+  const std::map<std::string, std::string> from_other = {
+      {"origin", "https://hazx.example.org"}, {"authorization", std::string("Bearer ") + kToken}};
+  Response r = call("GET", "/v1/jobs", {}, {}, from_other);
+  EXPECT_EQ(r.status, 200);
+  EXPECT_EQ(header(r, "Access-Control-Allow-Origin"), std::nullopt);
+  std::map<std::string, std::string> preflight = {{"origin", "https://hazx.example.org"},
+                                                  {"access-control-request-method", "POST"}};
+  expect_error(call("OPTIONS", "/v1/jobs", {}, {}, preflight, false), 405, "method_not_allowed");
+
+  service_.reset();
+  start([](Config& c) { c.cors_origins = {"https://hazx.example.org"}; });
+  r = call("GET", "/v1/jobs", {}, {}, from_other);
+  EXPECT_EQ(header(r, "Access-Control-Allow-Origin"), "https://hazx.example.org");
+  EXPECT_EQ(header(r, "Vary"), "Origin");
+  EXPECT_EQ(header(r, "Access-Control-Expose-Headers"), "Location, Content-Disposition");
+  // A 401 carries the header too, so that the page can read why.
+  r = call("GET", "/v1/jobs", {}, {}, {{"origin", "https://hazx.example.org"}}, false);
+  EXPECT_EQ(r.status, 401);
+  EXPECT_EQ(header(r, "Access-Control-Allow-Origin"), "https://hazx.example.org");
+  const Response ok = call("OPTIONS", "/v1/jobs", {}, {}, preflight, false);
+  EXPECT_EQ(ok.status, 204);
+  EXPECT_EQ(header(ok, "Access-Control-Allow-Origin"), "https://hazx.example.org");
+  EXPECT_EQ(header(ok, "Access-Control-Allow-Headers"), "Authorization, Content-Type");
+  EXPECT_EQ(header(ok, "Access-Control-Allow-Methods"), "GET, POST, DELETE");
+  // Another origin: no grant (the browser then refuses), and its preflight is not answered.
+  r = call(
+      "GET", "/v1/jobs", {}, {},
+      {{"origin", "https://evil.example"}, {"authorization", std::string("Bearer ") + kToken}});
+  EXPECT_EQ(header(r, "Access-Control-Allow-Origin"), std::nullopt);
+  EXPECT_EQ(header(r, "Vary"), "Origin");
+  preflight["origin"] = "https://evil.example";
+  expect_error(call("OPTIONS", "/v1/jobs", {}, {}, preflight, false), 405, "method_not_allowed");
+}
+
+// The scene of a site and of a done job (the format itself: tests/api/scene_binary_test.cpp).
+TEST_F(ServiceViewer, ScenesOfSitesAndDoneJobs) {
+  start();
+  const std::string site = add_site();
+  Response r = get("/v1/sites/" + site + "/scene");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.content_type, "application/vnd.fragsim.scene");
+  ASSERT_GT(r.body.size(), 12u);
+  EXPECT_EQ(r.body.substr(0, 8), "FSSCENE1");
+  expect_error(get("/v1/sites/" + std::string(kUnknownSite) + "/scene"), 404, "not_found");
+  expect_error(get_anonymous("/v1/sites/" + site + "/scene"), 401, "unauthorized");
+
+  Json scenario = job_on(site, 200);
+  scenario["settings"]["record_trajectories"] = true;
+  const std::string id = add_job(scenario);
+  ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
+  r = get("/v1/jobs/" + id + "/scene", {{"max_trajectories", "5"}});
+  ASSERT_EQ(r.status, 200) << r.body;
+  std::uint32_t h = 0;
+  std::memcpy(&h, r.body.data() + 8, 4);
+  const Json head = Json::parse(r.body.substr(12, h));
+  EXPECT_EQ(head["arrays"]["density_per_m2"]["shape"], Json({3200}));
+  EXPECT_EQ(head["trajectories"]["sent"], 5);
+  EXPECT_GT(head["trajectories"]["recorded"].get<int>(), 5);
+  EXPECT_EQ(head["building_ids"], Json({"B1"}));
+  for (const char* bad : {"-1", "10001", "x", "", "1e3", "99999999999999999999"}) {
+    SCOPED_TRACE(bad);
+    expect_error(get("/v1/jobs/" + id + "/scene", {{"max_trajectories", bad}}), 400,
+                 "bad_parameter", "max_trajectories");
+  }
+  expect_error(get("/v1/jobs/" + id + "/scene", {{"trajectories", "1"}}), 400, "bad_parameter",
+               "trajectories");
+  expect_error(get("/v1/jobs/" + std::string(kUnknownJob) + "/scene"), 404, "not_found");
+  const std::string busy = add_job(blocker_job(site));
+  expect_error(get("/v1/jobs/" + busy + "/scene"), 409, "not_ready");
 }
 
 }  // namespace

@@ -1,0 +1,78 @@
+#include "server/ui_assets.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fragsim::server {
+
+namespace {
+
+bool safe_segment(std::string_view s) {
+  if (s.empty() || s.front() == '.') return false;
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+           c == '_' || c == '-';
+  });
+}
+
+bool ends_with(std::string_view s, std::string_view tail) {
+  return s.size() >= tail.size() && s.substr(s.size() - tail.size()) == tail;
+}
+
+}  // namespace
+
+std::optional<std::string> ui_file_path(std::string_view below_ui) {
+  if (below_ui.empty() || below_ui == "index.html") return std::string("index.html");
+  const std::size_t slash = below_ui.find('/');
+  if (slash == std::string_view::npos) return std::nullopt;
+  const std::string_view top = below_ui.substr(0, slash);
+  if (top != "src" && top != "vendor") return std::nullopt;
+  std::string_view rest = below_ui.substr(slash + 1);
+  while (true) {
+    const std::size_t next = rest.find('/');
+    if (!safe_segment(rest.substr(0, next))) return std::nullopt;
+    if (next == std::string_view::npos) break;
+    rest.remove_prefix(next + 1);
+  }
+  return std::string(below_ui);
+}
+
+std::string ui_content_type(std::string_view path) {
+  static const std::pair<std::string_view, std::string_view> kTypes[] = {
+      {".html", "text/html; charset=utf-8"},
+      {".js", "text/javascript; charset=utf-8"},
+      {".mjs", "text/javascript; charset=utf-8"},
+      {".css", "text/css; charset=utf-8"},
+      {".json", "application/json"},
+      {".svg", "image/svg+xml"},
+      {".png", "image/png"},
+      {".txt", "text/plain; charset=utf-8"},
+      {".md", "text/markdown; charset=utf-8"},
+  };
+  for (const auto& [ext, type] : kTypes)
+    if (ends_with(path, ext)) return std::string(type);
+  return "application/octet-stream";
+}
+
+std::optional<std::string> read_ui_file(const std::string& dir, const std::string& path) {
+  if (dir.empty()) {
+    const auto& files = embedded_ui_files();
+    const auto it =
+        std::lower_bound(files.begin(), files.end(), path,
+                         [](const UiFile& f, const std::string& p) { return f.path < p; });
+    if (it == files.end() || it->path != path) return std::nullopt;
+    return std::string(it->bytes);
+  }
+  const std::filesystem::path file = std::filesystem::path(dir) / path;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) return std::nullopt;
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+}  // namespace fragsim::server
