@@ -2,8 +2,17 @@
 # Quick start, command 1: build (installing dependencies if missing), start fragsimd with a data
 # directory under out/, upload the bundled demo site, submit the demo job, follow it, print its
 # summary, download its results and maps (out/demo/, out/demo/maps/), and stop the daemon.
+# With --keep-running the daemon stays up afterwards, serving the web viewer (docs/viewer.md) at
+# the printed URL until `kill $(cat out/fragsimd/pid)`.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+keep_running=false
+for arg in "$@"; do
+  case "$arg" in
+    --keep-running) keep_running=true ;;
+    *) echo "usage: deploy/demo.sh [--keep-running]" >&2; exit 2 ;;
+  esac
+done
 "$root/deploy/build.sh"
 cd "$root"
 
@@ -14,10 +23,16 @@ if [ ! -s "$data/tokens" ]; then
   (umask 077 && od -An -tx1 -N24 /dev/urandom | tr -d ' \n' > "$data/tokens" && echo >> "$data/tokens")
 fi
 rm -f "$data/port"
+if [ -s "$data/pid" ] && kill -0 "$(cat "$data/pid")" 2> /dev/null; then
+  echo "stopping the daemon a previous demo --keep-running left (pid $(cat "$data/pid"))"
+  kill -TERM "$(cat "$data/pid")" || true
+  while kill -0 "$(cat "$data/pid")" 2> /dev/null; do sleep 0.1; done
+fi
 
 ./build/server/fragsimd --listen 127.0.0.1:0 --data-dir "$data" --token-file "$data/tokens" \
-  --port-file "$data/port" 2> "$data/fragsimd.log" &
+  --port-file "$data/port" > "$data/fragsimd.log" 2>&1 &
 daemon=$!
+echo "$daemon" > "$data/pid"
 stop_daemon() {
   if kill -0 "$daemon" 2> /dev/null; then
     kill -TERM "$daemon" && wait "$daemon" || true
@@ -39,6 +54,13 @@ echo "fragsimd listening on $url (log: $data/fragsimd.log)"
 # (docs/gis.md, "Outputs").
 ./build/cli/fragsim submit examples/demo/scenario.json --server "$url" \
   --token-file "$data/tokens" --out out/demo --maps
-stop_daemon
 echo "results: out/demo/summary.json, out/demo/results.h5 (daemon data: $data); maps:"
 printf '  %s\n' out/demo/maps/*
+if $keep_running; then
+  trap - EXIT
+  echo "web viewer: $url/ui/  (token: the line in $data/tokens; the page asks for it once)"
+  echo "fragsimd keeps running (pid $daemon); stop it with: kill \$(cat $data/pid)"
+else
+  stop_daemon
+  echo "web viewer: ./deploy/demo.sh --keep-running leaves the daemon up and prints the page's URL"
+fi

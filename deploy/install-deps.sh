@@ -18,7 +18,14 @@ PACKAGES=(
   clang-format-14          # the formatting check of CI (deploy/check-format.sh)
   python3-vtk9             # tests: VTK's own reader checks the ParaView (VTKHDF) export
   hdf5-tools               # h5dump: bench/time_to_precision.py reads the PTN grid of results.h5
+  chromium                 # tests: the web viewer in headless Chromium (viewer/test/, docs/viewer.md)
 )
+# Node.js and npm run the viewer's browser tests (playwright-core from the npm registry, pinned in
+# viewer/test/package-lock.json). Debian's packages only when no node/npm is on the PATH: a
+# machine with its own Node.js (e.g. NodeSource's, which bundles npm) keeps it.
+if ! command -v node > /dev/null || ! command -v npm > /dev/null; then
+  PACKAGES+=(nodejs npm)
+fi
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
