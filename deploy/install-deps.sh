@@ -7,6 +7,7 @@ PACKAGES=(
   libeigen3-dev            # linear algebra (vectors, quaternions, inertia tensors)
   libembree-dev            # Embree 3.13.x ray queries against terrain and building meshes
   libcpp-httplib-dev       # HTTP server for fragsimd
+  zlib1g-dev               # gzip of fragsimd's text answers (server/compression.h)
   nlohmann-json3-dev       # JSON contract
   libsqlite3-dev sqlite3   # job queue and result index (fragsimd)
   libhdf5-dev              # results.h5

@@ -15,6 +15,7 @@
 #include <optional>
 #include <thread>
 
+#include "server/compression.h"
 #include "server/connection_server.h"
 #include "server/log.h"
 
@@ -76,6 +77,29 @@ void send_stream(const std::function<bool(std::string&)>& stream, const std::str
     if (!more) sink.done();
     return true;
   });
+}
+
+// An in-memory body, gzip-compressed when it is text the client accepts so and worth it, and
+// handed to cpp-httplib with its length: cpp-httplib then sends it as it is, rather than
+// compressing it with Brotli at its slowest quality (server/compression.h).
+void send_body(const httplib::Request& req, const Response& r, httplib::Response& res) {
+  auto body = std::make_shared<std::string>(r.body);
+  if (compressible(r.content_type)) {
+    res.set_header("Vary", "Accept-Encoding");
+    if (body->size() >= kCompressMinBytes && body->size() < (1ULL << 31) &&
+        accepts_gzip(req.get_header_value("Accept-Encoding"))) {
+      *body = gzip(*body);
+      res.set_header("Content-Encoding", "gzip");
+    }
+  }
+  if (body->empty()) {
+    res.set_content("", r.content_type);  // nothing for cpp-httplib to compress
+    return;
+  }
+  res.set_content_provider(body->size(), r.content_type,
+                           [body](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+                             return sink.write(body->data() + offset, length);
+                           });
 }
 
 void set_error_body(httplib::Response& res, const Response& r) {
@@ -189,8 +213,8 @@ HttpServer::HttpServer(Service& service) : service_(service) {
       }
     } else if (r.stream) {
       send_stream(r.stream, r.content_type, res);
-    } else if (r.status != 204) {
-      res.set_content(r.body, r.content_type);
+    } else if (r.status != 204 && r.status != 304) {
+      send_body(req, r, res);
     }
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -300,8 +300,16 @@ Response Service::ui_file(const Request& req) {
     r.route = "/ui/";
     return r;
   }
-  r.content_type = ui_content_type(*path);
-  r.body = std::move(*bytes);
+  // With no-cache, a browser revalidates each file on every load: an unchanged file costs a 304.
+  const std::string etag = "\"" + api::sha256_hex(*bytes).substr(0, 32) + "\"";
+  r.headers.emplace_back("ETag", etag);
+  if (const auto it = req.headers.find("if-none-match");
+      it != req.headers.end() && it->second.find(etag) != std::string::npos) {
+    r.status = 304;
+  } else {
+    r.content_type = ui_content_type(*path);
+    r.body = std::move(*bytes);
+  }
   r.headers.emplace_back("Content-Security-Policy",
                          "default-src 'self'; img-src 'self' data: blob:; style-src 'self'; "
                          "script-src 'self'; connect-src 'self'; object-src 'none'; "

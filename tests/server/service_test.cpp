@@ -1466,6 +1466,15 @@ TEST_F(ServiceViewer, ThePageIsPublicAndServedWithAStrictContentSecurityPolicy) 
     EXPECT_EQ(r.body, f.bytes) << f.path;
   }
   EXPECT_EQ(call("HEAD", "/ui/", {}, {}, {}, false).status, 200);
+  // Revalidation: the same ETag gets a 304 without a body; another (a changed file) the file.
+  const std::string etag = header(index, "ETag").value_or("");
+  EXPECT_EQ(etag.size(), 34u);
+  const Response again = call("GET", "/ui/", {}, {}, {{"if-none-match", etag}}, false);
+  EXPECT_EQ(again.status, 304);
+  EXPECT_TRUE(again.body.empty());
+  EXPECT_EQ(header(again, "ETag"), etag);
+  EXPECT_EQ(call("GET", "/ui/", {}, {}, {{"if-none-match", "\"0\""}}, false).body, index.body);
+  EXPECT_NE(header(script, "ETag"), etag);
   const Response post = call("POST", "/ui/", {}, "x", {}, false);
   expect_error(post, 405, "method_not_allowed");
   EXPECT_EQ(header(post, "Allow"), "GET");

@@ -1,0 +1,370 @@
+// Job view (#/jobs/<id>): 3-D PTN density map, hazardous-area contour, HFD, buildings, trajectories,
+// summary and buildings tables, density-vs-distance plot, downloads.
+
+import * as THREE from '../vendor/three.module.js';
+import { api, download, errorText } from './api.js';
+import { LogScale, lut, viridis, ylOrRd, rdPu, css, ZERO_GREY, BUILDING_GREY } from './colormap.js';
+import { el, fixed, sig, plusMinus, integer, localTime, showError } from './format.js';
+import { densityLegend, keyItem, rampLegend } from './legend.js';
+import * as meshes from './meshes.js';
+import { densityProfiles, drawDensityPlot } from './plot.js';
+import { parseScene } from './scene_format.js';
+import { SceneView } from './scene3d.js';
+
+const $ = (id) => document.getElementById(id);
+const COLORS = { contour: '#111111', hfd: '#d6001c', sectors: '#ff7f0e', launch: '#d6001c' };
+
+let view = null;  // one SceneView for the job canvas, kept across visits
+let state = null;  // the displayed job: {id, scene, summary, buildingMesh, ...}
+let plotCache = null;  // {state, profile}: density profiles of the displayed job
+
+export function jobSceneView() {
+  if (!view) {
+    view = new SceneView($('scene-canvas'));
+    wireSceneTools();
+  }
+  return view;
+}
+
+// ---- entry ------------------------------------------------------------------------------------
+
+export async function enterJob(id, ctx) {
+  resetPage(id);
+  const status = await waitUntilDone(id, ctx);
+  if (!status || !ctx.current()) return;
+  const [summary, buf] = await Promise.all([api.summary(id), api.jobScene(id)]);
+  if (!ctx.current()) return;
+  const scene = parseScene(buf);
+  renderSummary(summary, scene);
+  const sv = jobSceneView();
+  const built = buildJobScene(scene, summary);
+  state = { id, scene, summary, ...built };
+  sv.setContent(built.group);
+  sv.setFrame(built.frame);
+  renderLegend(scene, summary, built);
+  renderLayerToggles(built.layers);
+  renderBuildings(summary, built.buildingRgb);
+  sv.render();
+  ctx.firstFrame(scene.arrays.terrain_triangles.length / 3, sv);
+  drawPlot();
+  renderDownloads(id, status);
+  await new Promise((r) => requestAnimationFrame(r));
+  if (!ctx.current()) return;
+  ctx.ready('job');
+  loadMaps(id, ctx);
+}
+
+export function leaveJob() {
+  if (view) view.setContent(null);
+  state = null;
+  plotCache = null;
+  $('tooltip').hidden = true;
+}
+
+function resetPage(id) {
+  $('job-title').textContent = id;
+  $('job-state').textContent = '';
+  showError($('job-error'), '');
+  $('summary-table').tBodies[0].replaceChildren();
+  $('buildings-table').tBodies[0].replaceChildren();
+  $('downloads').replaceChildren();
+  $('legend').replaceChildren();
+  $('layers').replaceChildren();
+  const plot = $('density-plot');
+  plot.getContext('2d').clearRect(0, 0, plot.width, plot.height);
+  $('toggle-2d').textContent = 'Top view';
+  if (view) {
+    view.setContent(null);
+    view.setTopView(false);
+  }
+}
+
+// Polls a queued or running job until it is done; null if it failed or was cancelled.
+async function waitUntilDone(id, ctx) {
+  for (;;) {
+    const s = await api.job(id);
+    if (!ctx.current()) return null;
+    if (s.state === 'done') {
+      $('job-state').textContent = `done ${localTime(s.finished_utc)}`;
+      return s;
+    }
+    if (s.state === 'failed' || s.state === 'cancelled') {
+      const why = s.error ? `: ${s.error.code}: ${s.error.message}` : '';
+      throw new Error(`job ${id} is ${s.state}${why}`);
+    }
+    $('job-state').textContent = `${s.state}, ${Math.floor(100 * (s.progress || 0))} % — results appear when it is done`;
+    await new Promise((r) => setTimeout(r, 1000));
+  }
+}
+
+// ---- 3-D scene ----------------------------------------------------------------------------------
+
+function buildJobScene(scene, summary) {
+  const A = scene.arrays, off = scene.offset;
+  const thr = summary.hfd_threshold_per_m2;
+  const origin = summary.hfd_origin_m.map((v, i) => v - off[i]);
+  const group = new THREE.Group();
+  const layers = {};
+
+  const density = A.density_per_m2 || new Float32Array(A.terrain_triangles.length / 3);
+  let dmax = summary.max_ptn_density_per_m2 || 0;
+  if (!(dmax > thr)) dmax = thr * 10;
+  const scale = new LogScale(thr / 100, dmax);
+  const colors = meshes.densityColors(density, scale, lut(viridis), ZERO_GREY);
+  const terrain = meshes.soupMesh(A.terrain_vertices, A.terrain_triangles, colors, { offsetSurface: true });
+  group.add(terrain.mesh);
+
+  const box = terrain.box, size = box.getSize(new THREE.Vector3());
+  const halfDiag = 0.5 * Math.hypot(size.x, size.y);
+  const lift = Math.max(0.05, halfDiag * 2e-4);
+
+  layers.contour = meshes.lineSegments(
+    meshes.contourSegments(A.terrain_vertices, A.terrain_triangles, density, thr, lift), COLORS.contour);
+  const hfd = summary.hazardous_fragment_distance_m || 0;
+  const sectors = summary.hfd_by_sector_m || [];
+  const zTop = origin[2] + lift;
+  layers.hfd = meshes.lineSegments(meshes.circleSegments(origin[0], origin[1], zTop, hfd), COLORS.hfd,
+    { onTop: true, order: 5, opacity: 0.95 });
+  layers.sectors = meshes.lineSegments(meshes.sectorSegments(origin[0], origin[1], zTop, sectors), COLORS.sectors,
+    { onTop: true, order: 4, opacity: 0.9 });
+  const maxSector = Math.max(0, ...sectors);
+  const radius = Math.min(halfDiag, Math.max(1.5 * Math.max(hfd, maxSector), 0.2 * halfDiag, 30));
+  layers.launch = meshes.marker(origin[0], origin[1], origin[2], radius / 60, COLORS.launch);
+
+  const b = buildBuildings(scene, summary);
+  if (b.mesh) layers.buildings = b.mesh;
+  let vmax = 0;
+  if (A.trajectory_points && A.trajectory_offsets) {
+    vmax = maxOf(A.trajectory_speed);
+    layers.trajectories = meshes.trajectoryLines(A.trajectory_points, A.trajectory_offsets, A.trajectory_speed, lut(rdPu), vmax);
+  }
+  for (const obj of Object.values(layers)) group.add(obj);
+
+  const frame = { target: [origin[0], origin[1], origin[2]], radius, zMax: box.max.z };
+  return { group, layers, frame, scale, vmax, buildingMesh: b.mesh, buildingRgb: b.rgb, buildingRange: b.range };
+}
+
+function maxOf(a) {
+  let m = 0;
+  if (a) for (let i = 0; i < a.length; i++) if (a[i] > m) m = a[i];
+  return m;
+}
+
+// Buildings coloured by expected penetrations: 0 light grey, else YlOrRd on a log scale.
+function buildBuildings(scene, summary) {
+  const A = scene.arrays, ids = scene.buildingIds;
+  const byId = new Map((summary.buildings || []).map((b) => [b.id, b]));
+  const pens = ids.map((id) => (byId.get(id) ? byId.get(id).expected_penetrations : 0));
+  const pos = pens.filter((p) => p > 0);
+  const range = pos.length ? [Math.min(...pos), Math.max(...pos)] : null;
+  const scale = range ? new LogScale(range[0], range[1] > range[0] ? range[1] : range[0] * 10) : null;
+  const rgb = new Uint8Array(Math.max(ids.length, 1) * 3);
+  pens.forEach((p, i) => rgb.set((p > 0 ? ylOrRd(0.15 + 0.85 * scale.t(p)) : BUILDING_GREY).map(Math.round), 3 * i));
+  if (!A.building_triangles || !A.triangle_building) return { mesh: null, rgb, range };
+  const colors = meshes.buildingColors(A.triangle_building, A.triangle_surface, rgb);
+  const { mesh } = meshes.soupMesh(A.building_vertices, A.building_triangles, colors);
+  return { mesh, rgb, range };
+}
+
+// ---- legend and layer toggles -------------------------------------------------------------------
+
+function renderLegend(scene, summary, built) {
+  const traj = scene.trajectories;
+  const keys = [
+    keyItem(COLORS.contour, 'hazardous area (≥ threshold)'),
+    keyItem(COLORS.hfd, `HFD ${fixed(summary.hazardous_fragment_distance_m)} m`),
+    keyItem(COLORS.sectors, 'HFD per 10° sector'),
+    keyItem(COLORS.launch, 'HFD origin', 'box'),
+  ];
+  densityLegend($('legend'), { scale: built.scale, ramp: viridis, threshold: summary.hfd_threshold_per_m2, zeroColor: ZERO_GREY, keys });
+  if (built.layers.trajectories)
+    $('legend').append(rampLegend(`trajectories (${traj.sent} of ${traj.recorded} recorded), speed (m/s)`, rdPu, 0, built.vmax));
+  if (built.buildingMesh) {
+    const r = built.buildingRange;
+    $('legend').append(r
+      ? rampLegend('buildings: expected penetrations (log scale)', (t) => ylOrRd(0.15 + 0.85 * t), r[0], r[1],
+        [keyItem(css(BUILDING_GREY), '0', 'box')])
+      : el('div', { class: 'legend-row' }, [keyItem(css(BUILDING_GREY), 'buildings: no expected penetration', 'box')]));
+  }
+}
+
+function renderLayerToggles(layers) {
+  const labels = { trajectories: 'trajectories', contour: 'contour', hfd: 'HFD', sectors: 'sectors', buildings: 'buildings' };
+  const box = $('layers');
+  for (const [name, label] of Object.entries(labels)) {
+    const obj = layers[name];
+    if (!obj) continue;
+    const input = el('input', { type: 'checkbox', id: `layer-${name}`, checked: '' });
+    input.addEventListener('change', () => {
+      obj.visible = input.checked;
+      view.requestRender();
+    });
+    box.append(el('label', { class: 'layer' }, [input, label]));
+  }
+}
+
+function wireSceneTools() {
+  $('toggle-2d').addEventListener('click', () => {
+    view.setTopView(!view.topView);
+    $('toggle-2d').textContent = view.topView ? '3-D view' : 'Top view';
+  });
+  $('reset-view').addEventListener('click', () => view.resetView());
+  const canvas = $('scene-canvas');
+  let queued = null;
+  canvas.addEventListener('pointermove', (ev) => {
+    if (ev.buttons) return hideTooltip();
+    if (!queued) requestAnimationFrame(() => { hover(queued); queued = null; });
+    queued = { x: ev.clientX, y: ev.clientY };
+  });
+  canvas.addEventListener('pointerleave', hideTooltip);
+  canvas.addEventListener('pointerdown', hideTooltip);
+}
+
+// ---- tooltip ----------------------------------------------------------------------------------
+
+function hideTooltip() {
+  $('tooltip').hidden = true;
+  hideRowHighlight();
+}
+
+function hover(p) {
+  if (!p || !state || !state.buildingMesh || !state.buildingMesh.visible) return hideTooltip();
+  const hit = view.pick(p.x, p.y, [state.buildingMesh]);
+  if (!hit) return hideTooltip();
+  const bi = state.scene.arrays.triangle_building[hit.faceIndex];
+  const id = state.scene.buildingIds[bi];
+  const b = (state.summary.buildings || []).find((x) => x.id === id);
+  const tip = $('tooltip');
+  tip.replaceChildren(
+    el('div', { class: 'tip-title', text: id ?? `building ${bi}` }),
+    el('div', { text: b ? `impacts ${plusMinus(b.expected_impacts, b.impacts_std_error)}` : 'no figures' }),
+    b ? el('div', { text: `penetrations ${plusMinus(b.expected_penetrations, b.penetrations_std_error)}` }) : null,
+  );
+  const r = $('scene-canvas').getBoundingClientRect();
+  tip.style.left = `${p.x - r.left + 14}px`;
+  tip.style.top = `${p.y - r.top + 14}px`;
+  tip.hidden = false;
+  hideRowHighlight();
+  const row = document.querySelector(`#buildings-table tr[data-building="${CSS.escape(id ?? '')}"]`);
+  if (row) row.classList.add('hover');
+}
+
+function hideRowHighlight() {
+  document.querySelectorAll('#buildings-table tr.hover').forEach((tr) => tr.classList.remove('hover'));
+}
+
+// ---- tables -------------------------------------------------------------------------------------
+
+function renderSummary(s, scene) {
+  const thr = s.hfd_threshold_per_m2;
+  const band = s.hazardous_fragment_distance_band_m || [null, null];
+  const traj = scene.trajectories;
+  const rows = [
+    ['hfd', 'Hazardous fragment distance (m)', fixed(s.hazardous_fragment_distance_m, 1)],
+    ['hfd_band', 'HFD band, mean ∓ 1 se (m)', `${fixed(band[0], 1)} – ${fixed(band[1], 1)}`],
+    ['hfd_origin', 'HFD origin x, y, z (m)', (s.hfd_origin_m || []).map((v) => fixed(v, 1)).join(', ')],
+    ['threshold', 'Density threshold (per m²)', `${sig(thr, 4)} (1 per ${sig(1 / thr, 4)} m²)`],
+    ['max_density', 'Max PTN density (per m²)', sig(s.max_ptn_density_per_m2, 4)],
+    ['buildings', 'Buildings', String((s.buildings || []).length)],
+    ['samples', 'Samples', integer(s.samples)],
+    ['histories', 'Histories simulated', integer(s.histories_done)],
+    ['batches', 'Batches', integer(s.batches)],
+    ['stop_reason', 'Stop reason', s.stop_reason ?? '—'],
+    ['real_fragments', 'Real fragments', sig(s.real_fragments, 6)],
+    ['wall_time', 'Wall time (s)', fixed(s.timing && s.timing.wall_s, 2)],
+    ['seed', 'Seed', String(s.seed)],
+    ['triangles', 'Terrain triangles', integer(scene.arrays.terrain_triangles.length / 3)],
+  ];
+  if (traj) rows.push(['trajectories', 'Trajectories shown', `${integer(traj.sent)} of ${integer(traj.recorded)} recorded`]);
+  $('summary-table').tBodies[0].replaceChildren(...rows.map(([key, label, value]) =>
+    el('tr', { dataset: { key } }, [el('th', { text: label }), el('td', { class: 'value', text: value })])));
+}
+
+function renderBuildings(s, rgb) {
+  const ids = state.scene.buildingIds;
+  const rows = (s.buildings || []).map((b) => {
+    const i = ids.indexOf(b.id);
+    const sw = el('span', { class: 'swatch box' });
+    if (i >= 0) sw.style.backgroundColor = css([rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]]);
+    return el('tr', { dataset: { building: b.id } }, [
+      el('td', {}, sw),
+      el('td', { class: 'mono', text: b.id }),
+      el('td', { class: 'num impacts', text: plusMinus(b.expected_impacts, b.impacts_std_error) }),
+      el('td', { class: 'num penetrations', text: plusMinus(b.expected_penetrations, b.penetrations_std_error) }),
+      el('td', { class: 'num residual-ke', text: plusMinus(b.residual_ke_j, b.residual_ke_std_error_j) }),
+    ]);
+  });
+  $('buildings-table').tBodies[0].replaceChildren(...rows);
+  if (!rows.length)
+    $('buildings-table').tBodies[0].append(el('tr', {}, el('td', { colspan: '5', class: 'muted', text: 'no buildings' })));
+}
+
+// ---- plot ---------------------------------------------------------------------------------------
+
+
+function drawPlot() {
+  if (!state) return;
+  const A = state.scene.arrays, s = state.summary;
+  if (!plotCache || plotCache.state !== state) {
+    const origin = s.hfd_origin_m.map((v, i) => v - state.scene.offset[i]);
+    const density = A.density_per_m2 || new Float32Array(A.terrain_triangles.length / 3);
+    const minRange = 1.15 * (s.hazardous_fragment_distance_m || 0);
+    plotCache = { state, profile: densityProfiles(A.terrain_vertices, A.terrain_triangles, density, origin, minRange) };
+  }
+  drawDensityPlot($('density-plot'), plotCache.profile, {
+    threshold: s.hfd_threshold_per_m2, hfd: s.hazardous_fragment_distance_m,
+  });
+}
+
+window.addEventListener('resize', () => {
+  if (state) drawPlot();
+});
+
+// ---- downloads ----------------------------------------------------------------------------------
+
+function downloadLink(path, name, label, note) {
+  const a = el('a', { href: path, download: name, class: 'download', text: label });
+  a.addEventListener('click', async (ev) => {
+    ev.preventDefault();
+    a.classList.add('busy');
+    try {
+      await download(path, name);
+    } catch (e) {
+      showError($('job-error'), `download ${name}: ${errorText(e)}`);
+    } finally {
+      a.classList.remove('busy');
+    }
+  });
+  return el('span', { class: 'download-item' }, [a, note ? el('span', { class: 'muted small', text: note }) : null]);
+}
+
+function renderDownloads(id, status) {
+  const links = status.links || {};
+  $('downloads').replaceChildren(
+    el('div', { class: 'download-group' }, [
+      downloadLink(links.summary || `/v1/jobs/${id}/summary`, `${id}_summary.json`, 'summary.json'),
+      downloadLink(links.results_h5 || `/v1/jobs/${id}/results.h5`, `${id}.h5`, 'results.h5', 'HDF5'),
+    ]),
+    el('div', { id: 'maps-list', class: 'download-group' }, el('span', { class: 'muted', text: 'GIS files: preparing…' })),
+  );
+}
+
+async function loadMaps(id, ctx) {
+  const box = () => document.getElementById('maps-list');
+  try {
+    const maps = await api.maps(id);
+    if (!ctx.current() || !box()) return;
+    const items = (maps.files || []).map((f) =>
+      downloadLink(f.url, `${id}_${f.name}`, f.name, `${sig(f.bytes / 1e6, 2)} MB`));
+    box().replaceChildren(el('span', { class: 'muted', text: 'GIS:' }), ...items,
+      ...(maps.notes || []).map((n) => el('span', { class: 'muted small', text: n })));
+  } catch (e) {
+    if (!ctx.current() || !box()) return;
+    const retry = el('button', { type: 'button', text: 'retry' });
+    retry.addEventListener('click', () => {
+      box().replaceChildren(el('span', { class: 'muted', text: 'GIS files: preparing…' }));
+      loadMaps(id, ctx);
+    });
+    box().replaceChildren(el('span', { class: 'error', text: `GIS files: ${errorText(e)}` }), retry);
+  }
+}

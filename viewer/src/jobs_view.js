@@ -1,0 +1,176 @@
+// Jobs view (#/jobs): the job table (refreshed every second), submission and cancellation.
+
+import { api, errorText } from './api.js';
+import { el, duration, integer, localTime, showError } from './format.js';
+
+const $ = (id) => document.getElementById(id);
+const ACTIVE = new Set(['queued', 'running']);
+
+let timer = null;
+let wired = false;
+
+export async function enterJobs(ctx) {
+  if (!wired) wireForm();
+  showError($('jobs-error'), '');
+  await refresh(ctx);
+  if (!ctx.current()) return;
+  ctx.ready('jobs');
+  schedule(ctx);
+}
+
+export function leaveJobs() {
+  clearTimeout(timer);
+  timer = null;
+}
+
+// Next refresh one second after the previous one finished (never two at once).
+function schedule(ctx) {
+  clearTimeout(timer);
+  timer = setTimeout(async () => {
+    if (!ctx.current()) return;
+    try {
+      await refresh(ctx);
+      showError($('jobs-error'), '');
+    } catch (e) {
+      showError($('jobs-error'), `could not refresh the jobs: ${errorText(e)}`);
+    }
+    if (ctx.current()) schedule(ctx);
+  }, 1000);
+}
+
+export async function refresh(ctx) {
+  const { jobs } = await api.jobs();
+  if (ctx && !ctx.current()) return;
+  renderTable(jobs);
+}
+
+// ---- table --------------------------------------------------------------------------------------
+
+function renderTable(jobs) {
+  const body = $('jobs-table').tBodies[0];
+  const old = new Map([...body.rows].map((tr) => [tr.dataset.jobId, tr]));
+  const rows = jobs.map((j) => updateRow(old.get(j.job_id) || newRow(j.job_id), j));
+  const same = rows.length === body.rows.length && rows.every((r, i) => body.rows[i] === r);
+  if (!same) body.replaceChildren(...rows);
+  $('jobs-empty').hidden = jobs.length > 0;
+}
+
+function newRow(id) {
+  const cells = ['id mono', 'site mono', 'state', 'priority num', 'progress', 'eta num', 'histories num', 'created', 'actions'];
+  const tr = el('tr', { dataset: { jobId: id } }, cells.map((c) => el('td', { class: c })));
+  const bar = el('span', { class: 'bar' }, el('span', { class: 'fill' }));
+  tr.querySelector('td.progress').append(bar, el('span', { class: 'pct' }));
+  return tr;
+}
+
+function setText(td, text) {
+  if (td.textContent !== text) td.textContent = text;
+}
+
+function updateRow(tr, j) {
+  const td = (c) => tr.querySelector('td.' + c);
+  tr.dataset.state = j.state;
+  updateIdCell(td('id'), j);
+  setText(td('site'), j.site_id || 'inline');
+  setText(td('state'), j.state);
+  setText(td('priority'), String(j.priority));
+  const pct = Math.floor(100 * (j.state === 'done' ? 1 : j.progress || 0));
+  td('progress').querySelector('.fill').style.width = `${pct}%`;
+  setText(td('progress').querySelector('.pct'), `${pct} %`);
+  setText(td('eta'), j.state === 'running' ? duration(j.eta_s) : '—');
+  setText(td('histories'), `${integer(j.histories_done)} / ${integer(j.histories_total)}`);
+  setText(td('created'), localTime(j.created_utc));
+  td('created').title = j.created_utc || '';
+  updateActions(td('actions'), j);
+  return tr;
+}
+
+function updateIdCell(cell, j) {
+  const want = j.state === 'done' ? 'link' : 'text';
+  if (cell.dataset.kind === want) return;
+  cell.dataset.kind = want;
+  cell.replaceChildren(want === 'link' ? el('a', { href: `#/jobs/${j.job_id}`, text: j.job_id }) : j.job_id);
+}
+
+// Cancel button for queued/running jobs, open link for done ones, error for failed ones.
+function updateActions(cell, j) {
+  const key = j.state + (j.error ? `:${j.error.code}:${j.error.message}` : '');
+  if (cell.dataset.key === key) return;
+  cell.dataset.key = key;
+  if (ACTIVE.has(j.state)) {
+    const b = el('button', { type: 'button', class: 'cancel', text: 'Cancel' });
+    b.addEventListener('click', () => cancel(j.job_id, b));
+    cell.replaceChildren(b);
+  } else if (j.state === 'done') {
+    cell.replaceChildren(el('a', { class: 'open', href: `#/jobs/${j.job_id}`, text: 'Open' }));
+  } else if (j.state === 'failed') {
+    const msg = j.error ? `${j.error.code}: ${j.error.message}` : 'failed';
+    cell.replaceChildren(el('span', { class: 'error job-error', text: msg }));
+  } else {
+    cell.replaceChildren();
+  }
+}
+
+async function cancel(id, button) {
+  button.disabled = true;
+  try {
+    await api.cancelJob(id);
+    await refresh();
+  } catch (e) {
+    showError($('jobs-error'), `cancel ${id}: ${errorText(e)}`);
+    button.disabled = false;
+  }
+}
+
+// ---- submission ---------------------------------------------------------------------------------
+
+function wireForm() {
+  wired = true;
+  $('submit-form').addEventListener('submit', (ev) => {
+    ev.preventDefault();
+    submit();
+  });
+}
+
+// The file's text is sent as it is; the form's priority is added as the top-level "priority" key
+// unless the file has one (text insertion, so that numbers such as 64-bit seeds are untouched).
+export function withPriority(text, priority) {
+  let doc;
+  try {
+    doc = JSON.parse(text);
+  } catch {
+    return text;  // let the daemon report the malformed JSON with its line and column
+  }
+  if (!doc || typeof doc !== 'object' || Array.isArray(doc) || 'priority' in doc) return text;
+  if (!Number.isFinite(priority) || priority === 0) return text;
+  const i = text.indexOf('{');
+  const rest = text.slice(i + 1);
+  const sep = Object.keys(doc).length ? ', ' : '';
+  return `${text.slice(0, i + 1)}"priority": ${priority}${sep}${rest}`;
+}
+
+async function submit() {
+  const file = $('submit-file').files[0];
+  const status = $('submit-status');
+  showError($('submit-error'), '');
+  status.hidden = true;
+  if (!file) {
+    showError($('submit-error'), 'choose a scenario file first');
+    return;
+  }
+  const raw = $('submit-priority').value.trim();
+  const priority = raw === '' ? 0 : Number(raw);
+  const button = $('submit-button');
+  button.disabled = true;
+  try {
+    const text = await file.text();
+    const job = await api.submitJob(withPriority(text, priority));
+    status.textContent = `submitted ${job.job_id} (${job.state})`;
+    status.hidden = false;
+    await refresh();
+  } catch (e) {
+    showError($('submit-error'), errorText(e));
+  } finally {
+    button.disabled = false;
+  }
+}

@@ -1,0 +1,101 @@
+// Legends drawn into a container: a colour bar (canvas) with ticks, and a key of line symbols.
+
+import { css } from './colormap.js';
+import { el, sig } from './format.js';
+
+const BAR_W = 280, BAR_H = 14, PAD = 10;
+
+function superscript(n) {
+  const map = { '-': '⁻', 0: '⁰', 1: '¹', 2: '²', 3: '³', 4: '⁴', 5: '⁵', 6: '⁶', 7: '⁷', 8: '⁸', 9: '⁹' };
+  return String(n).split('').map((c) => map[c] || c).join('');
+}
+
+export function decadeLabel(x) {
+  const e = Math.round(Math.log10(x));
+  if (e >= -2 && e <= 3) return String(10 ** e >= 1 ? 10 ** e : Number((10 ** e).toFixed(-e)));
+  return '10' + superscript(e);
+}
+
+function barCanvas(width, height) {
+  const c = document.createElement('canvas');
+  const dpr = window.devicePixelRatio || 1;
+  c.width = Math.round(width * dpr);
+  c.height = Math.round(height * dpr);
+  c.style.width = width + 'px';
+  c.style.height = height + 'px';
+  const ctx = c.getContext('2d');
+  ctx.scale(dpr, dpr);
+  return { c, ctx };
+}
+
+// Log colour bar: ramp(t) over scale [lo, hi], decade ticks, a marker at `mark` (threshold).
+function logBar(scale, ramp, mark) {
+  const height = BAR_H + 34;
+  const { c, ctx } = barCanvas(BAR_W + 2 * PAD, height);
+  for (let x = 0; x < BAR_W; x++) {
+    ctx.fillStyle = css(ramp(x / (BAR_W - 1)));
+    ctx.fillRect(PAD + x, 14, 1, BAR_H);
+  }
+  ctx.strokeStyle = '#555';
+  ctx.strokeRect(PAD + 0.5, 14.5, BAR_W - 1, BAR_H - 1);
+  ctx.fillStyle = '#222';
+  ctx.font = '11px system-ui, sans-serif';
+  ctx.textAlign = 'center';
+  for (const v of scale.ticks()) {
+    const x = PAD + scale.t(v) * (BAR_W - 1);
+    ctx.fillRect(Math.round(x), 14 + BAR_H, 1, 4);
+    ctx.fillText(decadeLabel(v), x, 14 + BAR_H + 15);
+  }
+  if (mark) {
+    const x = Math.round(PAD + scale.t(mark.value) * (BAR_W - 1)) + 0.5;
+    ctx.strokeStyle = '#d6001c';
+    ctx.lineWidth = 2;
+    ctx.beginPath();
+    ctx.moveTo(x, 9);
+    ctx.lineTo(x, 14 + BAR_H + 2);
+    ctx.stroke();
+    ctx.fillStyle = '#d6001c';
+    ctx.fillText(mark.label, Math.min(Math.max(x, PAD + 30), BAR_W - 20), 8);
+  }
+  return c;
+}
+
+function swatch(color, kind = 'box') {
+  const s = el('span', { class: 'swatch ' + kind });
+  if (kind === 'line') s.style.borderTopColor = color;
+  else s.style.backgroundColor = color;
+  return s;
+}
+
+export function keyItem(color, label, kind = 'line') {
+  return el('span', { class: 'key-item' }, [swatch(color, kind), label]);
+}
+
+// PTN density legend: colour bar, threshold, zero swatch, and `keys` (line symbols).
+export function densityLegend(container, { scale, ramp, threshold, zeroColor, keys = [] }) {
+  container.replaceChildren(
+    el('div', { class: 'legend-title', text: 'PTN hazardous fragment density (per m²), log scale' }),
+    logBar(scale, ramp, { value: threshold, label: 'threshold' }),
+    el('div', { class: 'legend-row' }, [
+      keyItem(css(zeroColor), '0', 'box'),
+      el('span', { class: 'threshold', text: `threshold ${sig(threshold, 4)} per m² (1 per ${sig(1 / threshold, 4)} m²)` }),
+    ]),
+    el('div', { class: 'legend-row small muted', text: `below ${sig(scale.lo)}: lowest colour` }),
+    el('div', { class: 'legend-keys' }, keys),
+  );
+}
+
+// A titled colour ramp from lo to hi (labels at the ends), plus `extra` items after it.
+export function rampLegend(title, ramp, lo, hi, extra = []) {
+  const { c, ctx } = barCanvas(150, 10);
+  for (let x = 0; x < 150; x++) {
+    ctx.fillStyle = css(ramp(x / 149));
+    ctx.fillRect(x, 0, 1, 10);
+  }
+  return el('div', { class: 'legend-ramp' }, [
+    el('div', { class: 'small', text: title }),
+    el('div', { class: 'legend-row' }, [
+      el('span', { class: 'small', text: sig(lo) }), c, el('span', { class: 'small', text: sig(hi) }), ...extra,
+    ]),
+  ]);
+}
