@@ -82,7 +82,13 @@ void send_stream(const std::function<bool(std::string&)>& stream, const std::str
 // An in-memory body, gzip-compressed when it is text the client accepts so and worth it, and
 // handed to cpp-httplib with its length: cpp-httplib then sends it as it is, rather than
 // compressing it with Brotli at its slowest quality (server/compression.h).
+// Error answers keep cpp-httplib's set_content: they are small, and the error handler below
+// recognises an answer of ours by its body.
 void send_body(const httplib::Request& req, const Response& r, httplib::Response& res) {
+  if (r.status >= 400 || r.body.empty()) {
+    res.set_content(r.body, r.content_type);
+    return;
+  }
   auto body = std::make_shared<std::string>(r.body);
   if (compressible(r.content_type)) {
     res.set_header("Vary", "Accept-Encoding");
@@ -91,10 +97,6 @@ void send_body(const httplib::Request& req, const Response& r, httplib::Response
       *body = gzip(*body);
       res.set_header("Content-Encoding", "gzip");
     }
-  }
-  if (body->empty()) {
-    res.set_content("", r.content_type);  // nothing for cpp-httplib to compress
-    return;
   }
   res.set_content_provider(body->size(), r.content_type,
                            [body](std::size_t offset, std::size_t length, httplib::DataSink& sink) {

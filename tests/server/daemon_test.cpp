@@ -409,6 +409,39 @@ TEST(Daemon, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
   EXPECT_TRUE(d.alive());
 }
 
+// What a browser gets (it accepts br, gzip, deflate, zstd): text compressed with gzip by the
+// daemon, not with cpp-httplib's slow Brotli; the viewer's files byte for byte; error bodies
+// intact. The client here inflates gzip itself.
+TEST(Daemon, BrowsersGetGzipAndErrorsKeepTheirBodies) {
+  const fs::path dir = fresh_dir("fragsimd_gzip_");
+  Daemon d(dir);
+  ASSERT_NO_THROW(d.start()) << d.log();
+  httplib::Client c("127.0.0.1", d.port());
+  c.set_decompress(true);
+  const httplib::Headers browser = {{"Accept-Encoding", "gzip, deflate, br, zstd"}};
+  const std::string file = "vendor/three.core.js";
+  httplib::Result r = c.Get("/ui/" + file, browser);
+  ASSERT_TRUE(r) << httplib::to_string(r.error());
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(r->get_header_value("Content-Encoding"), "gzip");
+  EXPECT_EQ(r->body, read_text(fs::path(FRAGSIM_SOURCE_DIR) / "viewer" / file));
+  r = c.Get("/v1/jobs", browser);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 401);
+  EXPECT_EQ(Json::parse(r->body).value("code", ""), "unauthorized") << r->body;
+  httplib::Headers with_token = browser;
+  with_token.emplace("Authorization", std::string("Bearer ") + kToken);
+  r = c.Post("/v1/jobs", with_token, "{\"schema\": 1}", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Json::parse(r->body).value("field", ""), "schema") << r->body;
+  // Without Accept-Encoding: the bytes as they are.
+  r = c.Get("/ui/" + file);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->get_header_value("Content-Encoding"), "");
+  EXPECT_EQ(r->body.size(), fs::file_size(fs::path(FRAGSIM_SOURCE_DIR) / "viewer" / file));
+}
+
 TEST(Daemon, FiftyClientsPollWhileAJobRuns) {
   const fs::path dir = fresh_dir("fragsimd_poll_");
   Daemon d(dir);

@@ -40,6 +40,8 @@ export async function enterJob(id, ctx) {
   const built = buildJobScene(scene, summary);
   state = { id, scene, summary, ...built };
   sv.setContent(built.group);
+  sv.setTerrainLod(built.terrain, () =>
+    meshes.decimatedMesh(scene.arrays.terrain_vertices, scene.arrays.terrain_triangles, built.terrainColors, built.terrain));
   sv.setFrame(built.frame);
   renderLegend(scene, summary, built);
   renderLayerToggles(built.layers);
@@ -141,7 +143,7 @@ function buildJobScene(scene, summary) {
   for (const obj of Object.values(layers)) group.add(obj);
 
   const frame = { target: [origin[0], origin[1], origin[2]], radius, zMax: box.max.z };
-  return { group, layers, frame, scale, vmax, buildingMesh: b.mesh, buildingRgb: b.rgb, buildingRange: b.range };
+  return { group, layers, frame, scale, vmax, terrain: terrain.mesh, terrainColors: colors, buildingMesh: b.mesh, buildingRgb: b.rgb, buildingRange: b.range };
 }
 
 function maxOf(a) {

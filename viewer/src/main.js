@@ -17,9 +17,9 @@ const perf = {
   sceneView: null,
   async measureRotation(frames = 120) {
     if (!perf.sceneView) throw new Error('no 3-D view on this page');
-    const times = await perf.sceneView.measureRotation(frames);
+    const { times, ...rest } = await perf.sceneView.measureRotation(frames);
     perf.frameTimesMs = times;
-    return frameTimeStats(times);
+    return { ...frameTimeStats(times), ...rest };
   },
 };
 window.fragsimViewer = perf;

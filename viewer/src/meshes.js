@@ -2,6 +2,7 @@
 // Positions are relative to the scene's offset_m (site frame: x east, y north, z up).
 
 import * as THREE from '../vendor/three.module.js';
+import { decimateTerrain } from './lod.js';
 
 // ---- shading ------------------------------------------------------------------------------------
 
@@ -85,6 +86,21 @@ export function soupMesh(verts, tris, triColor, opts) {
   const { geometry, box } = triangleSoup(verts, tris, triColor);
   const mesh = new THREE.Mesh(geometry, flatMaterial(opts));
   return { mesh, box };
+}
+
+// Decimated stand-in of a large terrain mesh for camera motion (lod.js), sharing `full`'s
+// material; null for terrains small enough to draw in full.
+export function decimatedMesh(verts, tris, triColor, full) {
+  const d = decimateTerrain(verts, tris, triColor);
+  if (!d) return null;
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute('position', new THREE.BufferAttribute(d.positions, 3));
+  geometry.setAttribute('color', new THREE.BufferAttribute(d.colors, 3, true));
+  geometry.boundingBox = full.geometry.boundingBox.clone();
+  geometry.boundingSphere = full.geometry.boundingSphere.clone();
+  const mesh = new THREE.Mesh(geometry, full.material);
+  mesh.name = 'terrain-lod';
+  return mesh;
 }
 
 // ---- per-triangle colours -----------------------------------------------------------------------
@@ -203,13 +219,13 @@ export function trajectoryLines(points, offsets, speed, colorLut, vmax) {
       index[p++] = j;
       index[p++] = j + 1;
     }
-  // LineBasicMaterial takes linear colours (the renderer converts its output to sRGB).
-  const linear = Float32Array.from(colorLut, (v) => srgbToLinear(v / 255));
+  // sRGB values as they are: the page renders without colour management (scene3d.js).
+  const rgb = Float32Array.from(colorLut, (v) => v / 255);
   const n = points.length / 3, col = new Float32Array(n * 3), top = colorLut.length / 3 - 1;
   for (let j = 0; j < n; j++) {
     const f = speed && vmax > 0 ? Math.min(speed[j] / vmax, 1) : 1;
     const c = 3 * Math.round(f * top);
-    col[3 * j] = linear[c]; col[3 * j + 1] = linear[c + 1]; col[3 * j + 2] = linear[c + 2];
+    col[3 * j] = rgb[c]; col[3 * j + 1] = rgb[c + 1]; col[3 * j + 2] = rgb[c + 2];
   }
   const geometry = new THREE.BufferGeometry();
   geometry.setAttribute('position', new THREE.BufferAttribute(points, 3));
@@ -219,10 +235,6 @@ export function trajectoryLines(points, offsets, speed, colorLut, vmax) {
   const lines = new THREE.LineSegments(geometry, material);
   lines.renderOrder = 2;
   return lines;
-}
-
-function srgbToLinear(c) {
-  return c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4;
 }
 
 // Launch point: a small octahedron on a vertical post.

@@ -1,26 +1,48 @@
 // three.js view of a site: renderer, cameras (3-D orbit and orthographic top view), on-demand
 // rendering, resizing, picking and the rotation benchmark.
 //
+// Interactive quality: while the camera moves (between the controls' 'start' and SETTLE_MS after
+// the last 'change', and during measureRotation) frames are drawn at MOTION_PIXEL_RATIO of the full
+// pixel ratio and with the decimated terrain (lod.js) when one was given (setTerrainLod); once the
+// view settles, one full-quality frame (full mesh, full resolution, antialiased) is drawn.
+// Antialiasing: the canvas context has none (a multisampled canvas makes every frame cost 2-3
+// times more in software GL, whatever its resolution); the settled frame is drawn into a 4-sample
+// render target and copied to the canvas, interactive frames go to the canvas directly.
+// Colours: no colour management. Every colour (materials, vertex colours, the clear colour) is an
+// sRGB value written to the framebuffer as it is, so the render target (RGBA8) and the canvas hold
+// the same values and the copy is exact; blending happens on sRGB values, as on a plain canvas.
+//
 // World coordinates are the scene's site coordinates relative to offset_m, unchanged:
 // x east, y north, z up (camera.up = +z). Nothing is ever added to the GPU positions.
 
 import * as THREE from '../vendor/three.module.js';
 import { OrbitControls } from '../vendor/OrbitControls.js';
 
+THREE.ColorManagement.enabled = false;
+
 const UP = new THREE.Vector3(0, 0, 1);
 const VIEW_DIR = new THREE.Vector3(0.25, -1, 0.85).normalize();  // camera offset: from the south
+const SETTLE_MS = 200;  // full-quality frame after this long without camera change
+const MOTION_PIXEL_RATIO = 0.5;  // times the full pixel ratio, while the camera moves
 
 export class SceneView {
   constructor(canvas) {
     this.canvas = canvas;
-    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
-    this.renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true });
+    this.renderer.outputColorSpace = THREE.LinearSRGBColorSpace;  // no encoding: values are sRGB
+    this.msaa = null;  // {target, scene, camera}: the antialiased settled frame, see renderSettled
+    this.fullPixelRatio = Math.min(window.devicePixelRatio || 1, 2);
+    this.renderer.setPixelRatio(this.fullPixelRatio);
     this.renderer.setClearColor(0xf4f5f7, 1);
     this.scene = new THREE.Scene();
     this.content = null;
     this.topView = false;
     this.pending = false;
     this.onRender = null;
+    this.lod = null;  // {full, build, coarse}: terrain mesh and its decimated stand-in
+    this.moving = false;  // drawing interactive-quality frames
+    this.interacting = false;  // between the controls' 'start' and 'end'
+    this.settleTimer = null;
     this.makeCameras();
     this.observeSize();
   }
@@ -39,7 +61,23 @@ export class SceneView {
     this.pan.mouseButtons = { LEFT: THREE.MOUSE.PAN, MIDDLE: THREE.MOUSE.DOLLY, RIGHT: THREE.MOUSE.PAN };
     this.pan.touches = { ONE: THREE.TOUCH.PAN, TWO: THREE.TOUCH.DOLLY_PAN };
     this.pan.enabled = false;
-    for (const c of [this.orbit, this.pan]) c.addEventListener('change', () => this.requestRender());
+    for (const c of [this.orbit, this.pan]) this.listenTo(c);
+  }
+
+  // User input moves the camera: interactive quality until SETTLE_MS after the last change.
+  // Programmatic changes (resetView) are drawn at full quality.
+  listenTo(controls) {
+    controls.addEventListener('start', () => {
+      this.interacting = true;
+      this.motion();
+    });
+    controls.addEventListener('change', () => {
+      if (this.interacting) this.motion();
+      this.requestRender();
+    });
+    controls.addEventListener('end', () => {
+      this.interacting = false;
+    });
   }
 
   get camera() {
@@ -81,7 +119,54 @@ export class SceneView {
       disposeTree(this.content);
     }
     this.content = group;
+    this.lod = null;
     if (group) this.scene.add(group);
+    this.requestRender();
+  }
+
+  // full: the terrain mesh (in the content group); build(): its decimated stand-in (a Mesh) or
+  // null. Built when the page is idle, or at the first camera motion if that comes first.
+  setTerrainLod(full, build) {
+    const lod = { full, build, coarse: undefined };
+    this.lod = lod;
+    const idle = window.requestIdleCallback || ((f) => setTimeout(f, 300));
+    idle(() => this.lod === lod && this.ensureCoarse(), { timeout: 2000 });
+  }
+
+  ensureCoarse() {
+    const lod = this.lod;
+    if (!lod || lod.coarse !== undefined) return lod ? lod.coarse : null;
+    lod.coarse = lod.build();
+    if (lod.coarse) {
+      lod.coarse.visible = this.moving;
+      lod.full.parent.add(lod.coarse);
+    }
+    return lod.coarse;
+  }
+
+  // Interactive (on) or full (off) quality for the next frames.
+  setMotion(on) {
+    if (this.moving === on) return;
+    this.moving = on;
+    const coarse = on ? this.ensureCoarse() : this.lod && this.lod.coarse;
+    if (coarse) {
+      coarse.visible = on;
+      this.lod.full.visible = !on;
+    }
+    this.renderer.setPixelRatio(on ? this.fullPixelRatio * MOTION_PIXEL_RATIO : this.fullPixelRatio);
+  }
+
+  motion() {
+    this.setMotion(true);
+    clearTimeout(this.settleTimer);
+    this.settleTimer = setTimeout(() => this.settle(), SETTLE_MS);
+  }
+
+  settle() {
+    clearTimeout(this.settleTimer);
+    this.settleTimer = null;
+    if (!this.moving) return;
+    this.setMotion(false);
     this.requestRender();
   }
 
@@ -131,8 +216,24 @@ export class SceneView {
 
   render() {
     this.resize();
-    this.renderer.render(this.scene, this.camera);
+    if (this.moving) this.renderer.render(this.scene, this.camera);
+    else this.renderSettled();
+    this.drawnTriangles = this.renderer.info.render.triangles;
     if (this.onRender) this.onRender();
+  }
+
+  // Full quality: the scene into a multisampled render target, resolved and copied to the canvas.
+  renderSettled() {
+    const r = this.renderer, size = r.getDrawingBufferSize(new THREE.Vector2());
+    if (!this.msaa) this.msaa = makeMsaaPass(size.x, size.y);
+    const target = this.msaa.target;
+    if (target.width !== size.x || target.height !== size.y) target.setSize(size.x, size.y);
+    r.setRenderTarget(target);
+    r.render(this.scene, this.camera);
+    const triangles = r.info.render.triangles;
+    r.setRenderTarget(null);
+    r.render(this.msaa.scene, this.msaa.camera);
+    r.info.render.triangles = triangles;
   }
 
   // Client coordinates -> first intersection with `objects` (or null).
@@ -145,38 +246,63 @@ export class SceneView {
     return hits.length ? hits[0] : null;
   }
 
-  // Rotates the camera about the vertical through the target by `stepDeg` per animation frame,
-  // rendering each frame; resolves with the frame times (ms between rAF callbacks). The 3-D view
-  // keeps the rotation (like a drag); the top view spins its up vector and is put back after.
-  measureRotation(frames = 120, stepDeg = 0.5) {
+  // Rotates the camera about the vertical through the target by `stepDeg` per animation frame at
+  // interactive quality, then draws the settled full-quality frame. Resolves with {times (ms
+  // between rAF callbacks of the interactive frames), settleMs (full-quality frame: render and
+  // wait for the GPU), interactiveTriangles, fullTriangles (drawn per frame), pixel ratios}. The
+  // 3-D view keeps the rotation (like a drag); the top view spins its up vector and is put back.
+  async measureRotation(frames = 120, stepDeg = 0.5) {
     const cam = this.camera, target = this.controls.target, top = this.topView;
     const saved = { position: cam.position.clone(), up: cam.up.clone() };
     const q = new THREE.Quaternion().setFromAxisAngle(UP, THREE.MathUtils.degToRad(stepDeg));
+    clearTimeout(this.settleTimer);
+    this.setMotion(true);
+    const interactivePixelRatio = this.renderer.getPixelRatio();
     const times = [];
-    return new Promise((resolve) => {
-      let last = null;
-      const step = (now) => {
-        if (last !== null) times.push(now - last);
-        last = now;
-        if (times.length >= frames) {
-          if (top) {
-            cam.position.copy(saved.position);
-            cam.up.copy(saved.up);
-          }
-          this.controls.update();
-          this.requestRender();
-          resolve(times);
-          return;
-        }
-        if (top) cam.up.applyQuaternion(q);
-        else cam.position.sub(target).applyQuaternion(q).add(target);
-        cam.lookAt(target);
-        this.render();
-        requestAnimationFrame(step);
-      };
-      requestAnimationFrame(step);
-    });
+    let last = await nextFrame();
+    while (times.length < frames) {
+      if (top) cam.up.applyQuaternion(q);
+      else cam.position.sub(target).applyQuaternion(q).add(target);
+      cam.lookAt(target);
+      this.render();
+      const now = await nextFrame();
+      times.push(now - last);
+      last = now;
+    }
+    const interactiveTriangles = this.drawnTriangles;
+    if (top) {
+      cam.position.copy(saved.position);
+      cam.up.copy(saved.up);
+    }
+    const settleMs = this.timeSettledFrame();
+    const fullTriangles = this.drawnTriangles;
+    this.controls.update();
+    return { times, settleMs, interactiveTriangles, fullTriangles, interactivePixelRatio,
+      fullPixelRatio: this.renderer.getPixelRatio() };
   }
+
+  // Draws the full-quality frame now and waits for the GPU to finish it (1-pixel readPixels).
+  timeSettledFrame() {
+    const t0 = performance.now();
+    this.setMotion(false);
+    this.render();
+    const gl = this.renderer.getContext();
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
+    return performance.now() - t0;
+  }
+}
+
+// 4-sample RGBA8 render target and a full-screen quad that copies its resolved texture.
+function makeMsaaPass(width, height) {
+  const target = new THREE.WebGLRenderTarget(width, height, { samples: 4 });
+  const material = new THREE.MeshBasicMaterial({ map: target.texture, depthTest: false, depthWrite: false, toneMapped: false });
+  const scene = new THREE.Scene();
+  scene.add(new THREE.Mesh(new THREE.PlaneGeometry(2, 2), material));
+  return { target, scene, camera: new THREE.OrthographicCamera(-1, 1, 1, -1, 0, 1) };
+}
+
+function nextFrame() {
+  return new Promise((resolve) => requestAnimationFrame(resolve));
 }
 
 export function disposeTree(obj) {

@@ -66,6 +66,8 @@ export async function enterSite(id, ctx) {
   const scene = parseScene(buf);
   const built = buildSiteScene(scene);
   sv.setContent(built.group);
+  sv.setTerrainLod(built.terrain, () =>
+    meshes.decimatedMesh(scene.arrays.terrain_vertices, scene.arrays.terrain_triangles, built.terrainColors, built.terrain));
   sv.setFrame(built.frame);
   renderSiteTable(info, scene);
   $('site-legend').append(
@@ -102,7 +104,7 @@ function buildSiteScene(scene) {
   }
   const box = terrain.box, c = box.getCenter(new THREE.Vector3()), size = box.getSize(new THREE.Vector3());
   const radius = Math.max(0.55 * Math.max(size.x, size.y), 1);
-  return { group, zlo, zhi, frame: { target: [c.x, c.y, box.min.z], radius, zMax: box.max.z } };
+  return { group, zlo, zhi, terrain: terrain.mesh, terrainColors: colors, frame: { target: [c.x, c.y, box.min.z], radius, zMax: box.max.z } };
 }
 
 function renderSiteTable(info, scene) {

@@ -1,0 +1,133 @@
+// (c) The job view of a finished job: WebGL canvas rendered (non-blank), summary table equal to
+// GET /v1/jobs/{id}/summary (HFD to 1 decimal, building count), buildings table, density plot,
+// legend, downloads (summary.json fetched with the header, saved from a Blob), 3-D <-> top view;
+// no console errors, no page errors.
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import { after, before, test } from 'node:test';
+import * as h from './harness.mjs';
+
+let daemon, browser, page, run;
+
+before(async () => {
+  daemon = await h.startDaemon();
+  browser = await h.launchBrowser();
+  run = await daemon.runScenario(h.minimalScenario());
+  page = await h.openPage(browser, { viewport: { width: 1400, height: 900 } });
+  await h.login(page, daemon);
+  page.diag.consoleErrors.length = 0; // the 401 before the token was given is expected
+});
+
+after(async () => {
+  await h.finish({ page, browser, daemon });
+});
+
+const MIN_COLOURS = 16;
+
+function assertRendered(stats, what) {
+  assert.ok(stats.distinct >= MIN_COLOURS && stats.dominantFraction < 0.98,
+    `${what} looks blank: ${stats.distinct} distinct colours, dominant colour ${(100 * stats.dominantFraction).toFixed(1)} % of ${stats.width}x${stats.height}`);
+}
+
+test('open the done job from the jobs table; the scene renders', { timeout: 60000 }, async () => {
+  const id = run.job.job_id;
+  const open = page.locator(`#jobs-table tr[data-job-id="${id}"] a.open`);
+  await open.click();
+  await h.waitReady(page, 'job');
+  assert.ok(page.url().endsWith(`#/jobs/${id}`), `URL after a.open: ${page.url()}`);
+  await page.locator('#view-job').waitFor({ state: 'visible' });
+  await h.nextFrames(page);
+  await h.screenshot(page, 'job-1-view', { fullPage: true });
+
+  const s3d = await h.canvasStats(page, '#scene-canvas', 'job-2-canvas-3d');
+  assertRendered(s3d, '#scene-canvas (compositor)');
+  const buf = await h.canvasDataUrlStats(page, '#scene-canvas');
+  assertRendered(buf, '#scene-canvas toDataURL() (preserveDrawingBuffer: true?)');
+
+  const fv = await page.evaluate(() => {
+    const v = window.fragsimViewer;
+    return v ? { loadMs: v.loadMs, triangles: v.triangles, hasMeasure: typeof v.measureRotation === 'function' } : null;
+  });
+  assert.ok(fv, 'window.fragsimViewer missing');
+  assert.ok(fv.loadMs > 0, `fragsimViewer.loadMs = ${fv.loadMs}`);
+  assert.ok(fv.triangles >= run.site.terrain_triangles, `fragsimViewer.triangles = ${fv.triangles}, site has ${run.site.terrain_triangles} terrain triangles`);
+  assert.ok(fv.hasMeasure, 'fragsimViewer.measureRotation missing');
+
+  const gl = await page.$eval('#scene-canvas', (c) => {
+    const ctx = c.getContext('webgl2') || c.getContext('webgl');
+    return ctx ? { preserve: ctx.getContextAttributes().preserveDrawingBuffer } : null;
+  });
+  assert.ok(gl, '#scene-canvas has no WebGL context');
+  assert.equal(gl.preserve, true, 'WebGL context without preserveDrawingBuffer');
+});
+
+test('summary table matches GET /v1/jobs/{id}/summary', async () => {
+  const sum = run.summary;
+  const hfd = (await h.summaryValue(page, 'hfd')).replace(/\s*m$/, '');
+  assert.equal(hfd, sum.hazardous_fragment_distance_m.toFixed(1), 'HFD cell');
+  const nb = await h.summaryValue(page, 'buildings');
+  assert.equal(Number(nb), sum.buildings.length, `buildings cell "${nb}"`);
+  const keys = await page.$$eval('#summary-table tr[data-key]', (rows) => rows.map((r) => r.dataset.key));
+  for (const k of ['hfd', 'buildings']) assert.ok(keys.includes(k), `summary-table has no data-key=${k} (has ${keys})`);
+  assert.ok(keys.length >= 8, `summary-table has only ${keys.length} rows: ${keys}`);
+  for (const b of sum.buildings) {
+    const row = page.locator(`#buildings-table tr[data-building="${b.id}"]`);
+    assert.equal(await row.count(), 1, `buildings-table row for ${b.id}`);
+  }
+  assert.equal(await page.locator('#buildings-table tr[data-building]').count(), sum.buildings.length);
+});
+
+test('density plot, legend and downloads', { timeout: 30000 }, async () => {
+  await page.locator('#density-plot').scrollIntoViewIfNeeded();
+  assert.ok(await page.locator('#density-plot').isVisible(), '#density-plot not visible');
+  const plot = await h.canvasStats(page, '#density-plot', 'job-4-density-plot');
+  assert.ok(plot.distinct >= 3 && plot.dominantFraction < 0.995,
+    `#density-plot looks empty: ${plot.distinct} colours, dominant ${(100 * plot.dominantFraction).toFixed(2)} %`);
+  assert.ok(await page.locator('#legend').isVisible(), '#legend not visible');
+  await h.screenshot(page.locator('#legend'), 'job-5-legend');
+
+  const links = page.locator('#downloads a');
+  assert.ok(await links.count() >= 2, `#downloads has ${await links.count()} links`);
+  const texts = await links.evaluateAll((as) => as.map((a) => `${a.textContent} ${a.getAttribute('download') || ''} ${a.getAttribute('href') || ''}`));
+  assert.ok(texts.some((t) => /results\.h5/.test(t)), `no results.h5 link: ${JSON.stringify(texts)}`);
+  const summaryLink = links.filter({ hasText: /summary/ }).first();
+  assert.ok(await summaryLink.count(), `no summary.json link: ${JSON.stringify(texts)}`);
+  const [download] = await Promise.all([page.waitForEvent('download', { timeout: 15000 }), summaryLink.click()]);
+  const file = await download.path();
+  const got = JSON.parse(fs.readFileSync(file, 'utf8'));
+  assert.equal(got.hazardous_fragment_distance_m, run.summary.hazardous_fragment_distance_m, 'downloaded summary.json differs');
+  assert.ok(!download.url().includes(daemon.token), 'token in the download URL');
+});
+
+test('3-D <-> top view toggle', { timeout: 30000 }, async () => {
+  await page.locator('#scene-canvas').scrollIntoViewIfNeeded();
+  await h.nextFrames(page);
+  const before3d = await h.canvasStats(page, '#scene-canvas');
+  await page.click('#toggle-2d');
+  await h.nextFrames(page, 3);
+  await h.sleep(300);
+  await h.nextFrames(page, 2);
+  const top = await h.canvasStats(page, '#scene-canvas', 'job-3-canvas-top');
+  assertRendered(top, 'top view');
+  assert.ok(!top.png.equals(before3d.png), 'the canvas did not change after #toggle-2d');
+  await h.screenshot(page, 'job-6-view-top', { fullPage: true });
+  await page.click('#toggle-2d');
+  await h.nextFrames(page, 3);
+  await h.sleep(300);
+  const back = await h.canvasStats(page, '#scene-canvas');
+  assertRendered(back, '3-D view after toggling back');
+  assert.ok(!back.png.equals(top.png), 'toggling back did not change the canvas');
+});
+
+test('reloading the job URL (deep link) renders the job again', { timeout: 30000 }, async () => {
+  await page.reload();
+  await h.waitReady(page, 'job');
+  await h.nextFrames(page);
+  assertRendered(await h.canvasStats(page, '#scene-canvas'), 'after reload');
+  assert.equal(await h.summaryValue(page, 'hfd').then((t) => t.replace(/\s*m$/, '')), run.summary.hazardous_fragment_distance_m.toFixed(1));
+});
+
+test('no console errors, no page errors in the job view', () => {
+  assert.deepEqual(page.diag.pageErrors, [], 'page errors');
+  assert.deepEqual(page.diag.consoleErrors, [], `console errors\n${h.fmtDiag(page)}`);
+});
