@@ -578,7 +578,8 @@ Response Service::site_scene(const std::string& id) {
   if (!e) return error_response(404, "not_found", "no site " + id);
   Response r;
   r.content_type = api::kSceneContentType;
-  r.body = api::encode_scene(api::scene_from_site(*e->site));
+  r.file = scenes_.ensure(data_dir_ / "sites", SceneFiles::site_scene_name(id),
+                          [&] { return api::scene_from_site(*e->site); });
   return r;
 }
 
@@ -862,10 +863,16 @@ Response Service::job_scene(const Request& req, const std::string& id) {
   }
   auto job = finished_job(id);
   if (auto* r = std::get_if<Response>(&job)) return *r;
+  const auto dir = scheduler_.job_dir(id);
+  const auto build = [&] {
+    return api::scene_from_results(dir / api::kResultsFileName, max_trajectories);
+  };
   Response r;
   r.content_type = api::kSceneContentType;
-  r.body = api::encode_scene(
-      api::scene_from_results(scheduler_.job_dir(id) / api::kResultsFileName, max_trajectories));
+  if (max_trajectories == api::kDefaultSceneTrajectories)
+    r.file = scenes_.ensure(dir, SceneFiles::kJobSceneName, build);
+  else
+    r.body = scenes_.encode_now(build);
   return r;
 }
 

@@ -19,6 +19,7 @@
 #include "server/config.h"
 #include "server/job_maps.h"
 #include "server/metrics.h"
+#include "server/scene_files.h"
 #include "server/scheduler.h"
 #include "server/site_registry.h"
 #include "server/store.h"
@@ -143,6 +144,7 @@ class Service {
   Scheduler scheduler_;
   Metrics metrics_;
   JobMaps maps_;
+  SceneFiles scenes_;
   // Site deletion and job submission check and change "which jobs use which site" together.
   std::mutex catalogue_mutex_;
 };

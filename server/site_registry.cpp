@@ -121,6 +121,7 @@ bool SiteRegistry::remove(const std::string& site_id) {
   order_.erase(std::remove(order_.begin(), order_.end(), site_id), order_.end());
   store_.delete_site(site_id);
   std::error_code ec;
+  std::filesystem::remove(dir_ / (site_id + ".scene.bin"), ec);  // server/scene_files.h
   std::filesystem::remove(dir_ / (site_id + ".json"), ec);
   if (ec)
     log(LogLevel::kWarn, "site file not removed", {{"site_id", site_id}, {"error", ec.message()}});

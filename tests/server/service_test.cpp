@@ -1555,11 +1555,16 @@ TEST_F(ServiceViewer, CorsIsOffByDefaultAndOnlyForConfiguredOrigins) {
 TEST_F(ServiceViewer, ScenesOfSitesAndDoneJobs) {
   start();
   const std::string site = add_site();
+  // Written once, then served as a file (server/scene_files.h).
   Response r = get("/v1/sites/" + site + "/scene");
   ASSERT_EQ(r.status, 200) << r.body;
   EXPECT_EQ(r.content_type, "application/vnd.fragsim.scene");
-  ASSERT_GT(r.body.size(), 12u);
-  EXPECT_EQ(r.body.substr(0, 8), "FSSCENE1");
+  ASSERT_TRUE(r.file.has_value());
+  const fs::path site_scene = fs::path(config().data_dir) / "sites" / (site + ".scene.bin");
+  EXPECT_EQ(fs::weakly_canonical(*r.file), fs::weakly_canonical(site_scene));
+  const std::string site_bytes = api::testing::read_text(site_scene);
+  EXPECT_EQ(site_bytes.substr(0, 8), "FSSCENE1");
+  EXPECT_EQ(get("/v1/sites/" + site + "/scene").file, r.file);
   expect_error(get("/v1/sites/" + std::string(kUnknownSite) + "/scene"), 404, "not_found");
   expect_error(get_anonymous("/v1/sites/" + site + "/scene"), 401, "unauthorized");
 
@@ -1567,8 +1572,16 @@ TEST_F(ServiceViewer, ScenesOfSitesAndDoneJobs) {
   scenario["settings"]["record_trajectories"] = true;
   const std::string id = add_job(scenario);
   ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
+  // The default sample is stored beside results.h5; another is built for the request.
+  r = get("/v1/jobs/" + id + "/scene");
+  ASSERT_EQ(r.status, 200) << r.body;
+  ASSERT_TRUE(r.file.has_value());
+  const fs::path job_scene = fs::path(config().data_dir) / "jobs" / id / "scene.bin";
+  EXPECT_EQ(fs::weakly_canonical(*r.file), fs::weakly_canonical(job_scene));
+  EXPECT_NE(api::testing::read_text(job_scene).find("\"sent\":200"), std::string::npos);
   r = get("/v1/jobs/" + id + "/scene", {{"max_trajectories", "5"}});
   ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_FALSE(r.file.has_value());
   std::uint32_t h = 0;
   std::memcpy(&h, r.body.data() + 8, 4);
   const Json head = Json::parse(r.body.substr(12, h));
@@ -1586,6 +1599,12 @@ TEST_F(ServiceViewer, ScenesOfSitesAndDoneJobs) {
   expect_error(get("/v1/jobs/" + std::string(kUnknownJob) + "/scene"), 404, "not_found");
   const std::string busy = add_job(blocker_job(site));
   expect_error(get("/v1/jobs/" + busy + "/scene"), 409, "not_ready");
+  EXPECT_EQ(del("/v1/jobs/" + busy).status, 200);
+  // A deleted site takes its scene file along; the job's stays with its results.
+  wait_for_state(busy, "cancelled");
+  EXPECT_EQ(del("/v1/sites/" + site).status, 204);
+  EXPECT_FALSE(fs::exists(site_scene));
+  EXPECT_EQ(get("/v1/jobs/" + id + "/scene").status, 200);
 }
 
 }  // namespace

@@ -40,6 +40,7 @@ export async function enterJob(id, ctx) {
   const built = buildJobScene(scene, summary);
   state = { id, scene, summary, ...built };
   sv.setContent(built.group);
+  sv.offset = scene.offset;
   sv.setTerrainLod(built.terrain, () =>
     meshes.decimatedMesh(scene.arrays.terrain_vertices, scene.arrays.terrain_triangles, built.terrainColors, built.terrain));
   sv.setFrame(built.frame);

@@ -21,6 +21,16 @@ const perf = {
     perf.frameTimesMs = times;
     return { ...frameTimeStats(times), ...rest };
   },
+  // Test hooks: input coordinates [x, y, z] -> {x, y} CSS pixels in the current 3-D canvas
+  // (see SceneView.project), and the canvas's render state {settled, settledFrames, topView}.
+  project(p) {
+    if (!perf.sceneView) throw new Error('no 3-D view on this page');
+    return perf.sceneView.project(p);
+  },
+  renderState() {
+    const v = perf.sceneView;
+    return v ? { settled: v.settled, settledFrames: v.settledFrames, topView: v.topView, moving: v.moving } : null;
+  },
 };
 window.fragsimViewer = perf;
 

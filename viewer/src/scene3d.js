@@ -43,6 +43,8 @@ export class SceneView {
     this.moving = false;  // drawing interactive-quality frames
     this.interacting = false;  // between the controls' 'start' and 'end'
     this.settleTimer = null;
+    this.offset = [0, 0, 0];  // scene offset_m: input coordinate = world position + offset
+    this.settledFrames = 0;  // full-quality frames drawn (tests wait for one after a change)
     this.makeCameras();
     this.observeSize();
   }
@@ -234,6 +236,26 @@ export class SceneView {
     r.setRenderTarget(null);
     r.render(this.msaa.scene, this.msaa.camera);
     r.info.render.triangles = triangles;
+    this.settledFrames++;
+  }
+
+  // Input coordinates [x, y, z] (site frame, metres) -> CSS pixels in the canvas with the current
+  // camera: {x, y} from the canvas's top-left corner, clientX/clientY in the viewport, and
+  // `inside` (in front of the camera and within the canvas).
+  project(p) {
+    const o = this.offset || [0, 0, 0];
+    const cam = this.camera;
+    cam.updateMatrixWorld();
+    const v = new THREE.Vector3(p[0] - o[0], p[1] - o[1], p[2] - o[2]).project(cam);
+    const r = this.canvas.getBoundingClientRect();
+    const x = ((v.x + 1) / 2) * r.width, y = ((1 - v.y) / 2) * r.height;
+    const inside = v.z >= -1 && v.z <= 1 && x >= 0 && y >= 0 && x < r.width && y < r.height;
+    return { x, y, clientX: r.left + x, clientY: r.top + y, inside };
+  }
+
+  // Is the last full-quality frame on the canvas (no motion, no render pending)?
+  get settled() {
+    return !this.moving && !this.pending && this.settledFrames > 0;
   }
 
   // Client coordinates -> first intersection with `objects` (or null).

@@ -66,6 +66,7 @@ export async function enterSite(id, ctx) {
   const scene = parseScene(buf);
   const built = buildSiteScene(scene);
   sv.setContent(built.group);
+  sv.offset = scene.offset;
   sv.setTerrainLod(built.terrain, () =>
     meshes.decimatedMesh(scene.arrays.terrain_vertices, scene.arrays.terrain_triangles, built.terrainColors, built.terrain));
   sv.setFrame(built.frame);

@@ -152,6 +152,34 @@ export class Daemon {
     return { site: siteSummary, job: done, summary };
   }
 
+  /** Stop the daemon (SIGTERM) and start it again on the same port and data directory; with
+   *  `token`, the token file holds only that token afterwards (the old token is revoked). */
+  async restart({ token } = {}) {
+    const p = this.proc;
+    if (p.exitCode === null && p.signalCode === null) {
+      const exited = new Promise((r) => p.once('exit', r));
+      p.kill('SIGTERM');
+      const t = setTimeout(() => { try { p.kill('SIGKILL'); } catch { /* gone */ } }, 5000);
+      await exited;
+      clearTimeout(t);
+    }
+    if (token !== undefined) {
+      if (!this.tokenFile) throw new Error('restart({token}): the daemon runs without a token file');
+      fs.writeFileSync(this.tokenFile, `# rewritten by viewer/test/harness.mjs\n${token}\n`, { mode: 0o600 });
+      this.token = token;
+    }
+    const port = new URL(this.base).port;
+    const args = this.args.map((a, i) => (this.args[i - 1] === '--listen' ? `127.0.0.1:${port}` : a));
+    fs.rmSync(this.portFile, { force: true });
+    const log = fs.openSync(this.logFile, 'a');
+    const proc = spawn(FRAGSIMD, args, { stdio: ['ignore', log, log] });
+    proc.unref();
+    fs.closeSync(log);
+    this.proc = proc;
+    await waitForFile(this.portFile, 15000, proc);
+    await this.expectOk('/v1/health', { token: false });
+  }
+
   logTail(lines = 40) {
     try { return fs.readFileSync(this.logFile, 'utf8').split('\n').slice(-lines).join('\n'); } catch { return ''; }
   }
@@ -210,6 +238,7 @@ export async function startDaemon(opts = {}) {
   proc.unref(); // a daemon left behind by a failed test must not keep node alive (killed at exit)
   fs.closeSync(log);
   const d = new Daemon(proc, null, token, dir, logFile);
+  Object.assign(d, { args, portFile, tokenFile: token ? path.join(dir, 'tokens') : null });
   liveDaemons.add(d);
   try {
     const port = await waitForFile(portFile, 15000, proc);
@@ -298,6 +327,28 @@ export function nextFrames(page, n = 2) {
   }), n);
 }
 
+/** The 3-D canvas's render state (window.fragsimViewer.renderState()):
+ *  {settled, settledFrames, topView, moving}, or null without a 3-D view. */
+export function renderState(page) {
+  return page.evaluate(() => (window.fragsimViewer && window.fragsimViewer.renderState ? window.fragsimViewer.renderState() : null));
+}
+
+/** Wait until the canvas shows a full-quality (settled) frame drawn after `sinceFrames` settled
+ *  frames (take renderState().settledFrames before the action that changes the view). */
+export async function waitSettled(page, sinceFrames = 0, timeout = 15000) {
+  await page.waitForFunction((n) => {
+    const s = window.fragsimViewer && window.fragsimViewer.renderState && window.fragsimViewer.renderState();
+    return s && s.settled && s.settledFrames > n;
+  }, sinceFrames, { timeout, polling: 50 });
+}
+
+/** Input coordinates [x, y, z] -> canvas CSS pixels {x, y, clientX, clientY, inside}, with the
+ *  page's own camera (window.fragsimViewer.project). `points` may be one point or an array. */
+export function project(page, points) {
+  return page.evaluate((ps) => (Array.isArray(ps[0]) ? ps.map((p) => window.fragsimViewer.project(p))
+    : window.fragsimViewer.project(ps)), points);
+}
+
 let shotCounter = 0;
 /** Screenshot the page (or a locator) into SCREENSHOT_DIR/<name>.png; returns the PNG buffer. */
 export async function screenshot(target, name, opts = {}) {
@@ -309,9 +360,9 @@ export async function screenshot(target, name, opts = {}) {
 
 // ---------------------------------------------------------------- PNG pixel statistics
 
-/** Decode an 8-bit non-interlaced PNG (greyscale, RGB, RGBA, grey+alpha) and return
- *  {width, height, distinct, dominantFraction, opaqueFraction}. */
-export function pngStats(buf) {
+/** Decode an 8-bit non-interlaced PNG (greyscale, RGB, RGBA, grey+alpha):
+ *  {width, height, channels, data (Buffer, rows of width*channels bytes)}. */
+export function decodePng(buf) {
   if (buf.readUInt32BE(0) !== 0x89504e47) throw new Error('not a PNG');
   let pos = 8, width = 0, height = 0, bitDepth = 0, colorType = 0, interlace = 0;
   const idat = [];
@@ -348,6 +399,21 @@ export function pngStats(buf) {
     }
     prev = out;
   }
+  return { width, height, channels, data: img };
+}
+
+/** [r, g, b] of pixel (x, y) of a decodePng() image (integers, clamped to the image). */
+export function pixelAt(image, x, y) {
+  const xi = Math.min(Math.max(Math.floor(x), 0), image.width - 1);
+  const yi = Math.min(Math.max(Math.floor(y), 0), image.height - 1);
+  const i = (yi * image.width + xi) * image.channels;
+  const d = image.data;
+  return image.channels >= 3 ? [d[i], d[i + 1], d[i + 2]] : [d[i], d[i], d[i]];
+}
+
+/** PNG statistics: {width, height, distinct, dominantFraction, opaqueFraction}. */
+export function pngStats(buf) {
+  const { width, height, channels, data: img } = decodePng(buf);
   const counts = new Map();
   let opaque = 0;
   for (let i = 0; i < img.length; i += channels) {
@@ -369,6 +435,17 @@ export async function canvasStats(page, selector, name) {
   const loc = page.locator(selector);
   const png = name ? await screenshot(loc, name) : await loc.screenshot();
   return { png, ...pngStats(png) };
+}
+
+/** A canvas's own buffer via toDataURL() (needs preserveDrawingBuffer for WebGL), decoded:
+ *  decodePng()'s result plus cssWidth/cssHeight (the element's CSS size) and png. */
+export async function canvasImage(page, selector) {
+  const r = await page.$eval(selector, (c) => {
+    const b = c.getBoundingClientRect();
+    return { url: c.toDataURL('image/png'), cssWidth: b.width, cssHeight: b.height };
+  });
+  const png = Buffer.from(r.url.slice(r.url.indexOf(',') + 1), 'base64');
+  return { ...decodePng(png), cssWidth: r.cssWidth, cssHeight: r.cssHeight, png };
 }
 
 /** Pixel statistics of a canvas's own buffer via toDataURL() (needs preserveDrawingBuffer for WebGL). */
@@ -416,6 +493,38 @@ export async function finish({ page, browser, daemon }) {
     try { await browser?.close(); } finally { await daemon?.stop(); }
   }
   if (leaks.length) throw new Error(`token leaked: ${leaks.join('; ')}`);
+}
+
+// ---------------------------------------------------------------- scene (FSSCENE1)
+
+/** Parse a binary scene (CONTRACT.md "NEW binary route") without checks:
+ *  {header, offset: offset_m, buildingIds, arrays: {name: TypedArray}}. */
+export function parseSceneBuffer(buf) {
+  if (buf.toString('latin1', 0, 8) !== 'FSSCENE1') throw new Error('not a FSSCENE1 buffer');
+  const H = buf.readUInt32LE(8);
+  const header = JSON.parse(buf.toString('utf8', 12, 12 + H));
+  const start = 12 + H;
+  const arrays = {};
+  for (const [name, a] of Object.entries(header.arrays)) {
+    const ab = buf.buffer.slice(buf.byteOffset + start + a.offset, buf.byteOffset + start + a.offset + a.bytes);
+    arrays[name] = a.type === 'f32' ? new Float32Array(ab) : a.type === 'u32' ? new Uint32Array(ab) : new Uint8Array(ab);
+  }
+  return { header, offset: header.offset_m || [0, 0, 0], buildingIds: header.building_ids || [], arrays };
+}
+
+/** GET /v1/jobs/{id}/scene (no trajectories), parsed. */
+export async function jobScene(daemon, id) {
+  const r = await daemon.request(`/v1/jobs/${id}/scene?max_trajectories=0`);
+  if (r.status !== 200) throw new Error(`GET /v1/jobs/${id}/scene -> ${r.status} ${r.text().slice(0, 300)}`);
+  return parseSceneBuffer(r.body);
+}
+
+/** Centroid of terrain triangle t in input coordinates (scene position + offset_m). */
+export function terrainCentroid(scene, t) {
+  const V = scene.arrays.terrain_vertices, T = scene.arrays.terrain_triangles, o = scene.offset;
+  const c = [0, 0, 0];
+  for (let k = 0; k < 3; k++) for (let j = 0; j < 3; j++) c[j] += V[3 * T[3 * t + k] + j] / 3;
+  return c.map((v, j) => v + o[j]);
 }
 
 /** Text of a summary-table value cell. */

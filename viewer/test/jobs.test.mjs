@@ -98,3 +98,56 @@ test('cancel a running job from the page', { timeout: 60000 }, async () => {
   assert.deepEqual(page.diag.pageErrors, [], 'page errors');
   assert.deepEqual(h.unexpectedConsoleErrors(page, [401]), [], 'console errors');
 });
+
+test('cancel a queued job from the page; the running one keeps running', { timeout: 60000 }, async () => {
+  // Two long jobs (demo x20 each, 10-30 s on 2 threads); the daemon runs one job at a time.
+  const { job } = h.splitScenario(h.demoScenario(20), demoSiteId);
+  const running = (await daemon.submitJob(job)).job_id;
+  let queued = null;
+  try {
+    await daemon.waitForState(running, 'running', 15000);
+    queued = (await daemon.submitJob(job)).job_id;
+    assert.equal((await daemon.getJob(queued)).state, 'queued', 'the second job is not queued behind the first');
+
+    const qrow = rowOf(queued);
+    await qrow.locator('td.state', { hasText: 'queued' }).waitFor({ timeout: 10000 });
+    await rowOf(running).locator('td.state', { hasText: 'running' }).waitFor({ timeout: 10000 });
+    const cancel = qrow.locator('button.cancel');
+    await cancel.waitFor();
+    await h.screenshot(page, 'jobs-5-queued-before-cancel', { fullPage: true });
+    const before = await daemon.getJob(running);
+    await cancel.click();
+
+    const st = await daemon.waitForState(queued, 'cancelled', 10000);
+    assert.equal(st.state, 'cancelled');
+    assert.equal(st.started_utc ?? null, null, 'the cancelled queued job was started');
+    assert.ok(page.diag.requests.some((r) => r.method === 'DELETE' && r.url.endsWith(`/v1/jobs/${queued}`)),
+      'no DELETE /v1/jobs/{queued id} request from the page');
+    assert.ok(!page.diag.requests.some((r) => r.method === 'DELETE' && r.url.endsWith(`/v1/jobs/${running}`)),
+      'the page sent a DELETE for the running job');
+    await qrow.locator('td.state', { hasText: 'cancelled' }).waitFor({ timeout: 5000 });
+    assert.equal(await qrow.locator('button.cancel').count(), 0, 'cancelled job still has a cancel button');
+
+    // The running job goes on: still running, progress moving, its row still has its cancel button.
+    await h.sleep(1200);
+    const now = await daemon.getJob(running);
+    assert.equal(now.state, 'running', `the running job is ${now.state} after the queued one was cancelled`);
+    assert.ok(now.histories_done > before.histories_done,
+      `the running job made no progress (${before.histories_done} -> ${now.histories_done} histories)`);
+    const rrow = rowOf(running);
+    assert.equal((await rrow.locator('td.state').innerText()).trim(), 'running');
+    assert.equal(await rrow.locator('button.cancel').count(), 1, 'the running job lost its cancel button');
+    await h.screenshot(page, 'jobs-6-queued-cancelled', { fullPage: true });
+
+    // Clean up: cancel the running one from the page too.
+    await rrow.locator('button.cancel').click();
+    assert.equal((await daemon.waitForState(running, 'cancelled', 10000)).state, 'cancelled');
+    await rrow.locator('td.state', { hasText: 'cancelled' }).waitFor({ timeout: 5000 });
+  } finally {
+    for (const id of [running, queued]) {
+      if (id) await daemon.request(`/v1/jobs/${id}`, { method: 'DELETE' }).catch(() => {});
+    }
+  }
+  assert.deepEqual(page.diag.pageErrors, [], 'page errors');
+  assert.deepEqual(h.unexpectedConsoleErrors(page, [401]), [], 'console errors');
+});
