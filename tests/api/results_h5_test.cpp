@@ -18,14 +18,8 @@ class ResultsH5 : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = testing::fresh_test_dir("fragsim_h5_test_");
-    scenario_ = parse_scenario(testing::minimal_example());
-    // A coarse plane (4 x 4 cells) far from the origin, so that input != local coordinates.
-    auto& plane = std::get<scene::PlaneTerrainSpec>(scenario_.site.terrain.geometry);
-    plane.extent_m = {500000, 4000000, 500400, 4000400};
-    plane.cell_m = 100;
-    plane.elevation_m = 250;
-    scenario_.site.buildings[0].footprint_m = {
-        {500260, 4000190}, {500280, 4000190}, {500280, 4000210}, {500260, 4000210}};
+    // A coarse plane far from the origin, so that input != local coordinates.
+    scenario_ = testing::far_plane_scenario();
     site_ = scene::Site::build(scenario_.site);
     result_ = make_result();
   }

@@ -77,14 +77,8 @@ class SceneFromRun : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = testing::fresh_test_dir("fragsim_scene_test_");
-    scenario_ = parse_scenario(testing::minimal_example());
     // A UTM-sized site: float32 alone would keep only 0.25 m here; offset_m keeps 0.1 mm.
-    auto& plane = std::get<scene::PlaneTerrainSpec>(scenario_.site.terrain.geometry);
-    plane.extent_m = {500000, 4000000, 500400, 4000400};
-    plane.cell_m = 100;
-    plane.elevation_m = 250;
-    scenario_.site.buildings[0].footprint_m = {
-        {500260, 4000190}, {500280, 4000190}, {500280, 4000210}, {500260, 4000210}};
+    scenario_ = testing::far_plane_scenario();
     scenario_.settings.record_trajectories = true;
     site_ = scene::Site::build(scenario_.site);
   }

@@ -58,6 +58,20 @@ inline run::BuildingResult example_building() {
 inline Json minimal_example() {
   return Json::parse(read_text(source_path("examples/minimal/scenario.json")));
 }
+
+// The minimal example on a coarse plane (4 x 4 cells of 100 m) at UTM-sized coordinates, its
+// building moved along: input coordinates far from the local ones.
+inline run::Scenario far_plane_scenario() {
+  run::Scenario sc = parse_scenario(minimal_example());
+  auto& plane = std::get<scene::PlaneTerrainSpec>(sc.site.terrain.geometry);
+  plane.extent_m = {500000, 4000000, 500400, 4000400};
+  plane.cell_m = 100;
+  plane.elevation_m = 250;
+  sc.site.buildings[0].footprint_m = {
+      {500260, 4000190}, {500280, 4000190}, {500280, 4000210}, {500260, 4000210}};
+  return sc;
+}
+
 inline Json demo_example() {
   return Json::parse(read_text(source_path("examples/demo/scenario.json")));
 }

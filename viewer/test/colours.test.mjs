@@ -136,10 +136,7 @@ test('the largest density is the top colour of the legend scale (viridis yellow)
     await h.sleep(60);
     p = await h.project(page, c);
   }
-  // Moving: wait for the settled frame after the motion; already settled: that frame is drawn.
-  const st = await h.renderState(page);
-  await h.waitSettled(page, st.moving ? st.settledFrames : st.settledFrames - 1);
-  p = await h.project(page, c);
+  p = await h.settledProjection(page, c);
   const o = await h.project(page, origin);
   assert.ok(p.inside, 'densest triangle not in the view after zooming');
   assert.ok(Math.hypot(p.x - o.x, p.y - o.y) >= 40, `zoom did not separate the triangle from the launch point (${Math.hypot(p.x - o.x, p.y - o.y).toFixed(1)} px)`);

@@ -82,6 +82,16 @@ function waitForFile(file, ms, proc) {
 const liveDaemons = new Set();
 process.on('exit', () => { for (const d of liveDaemons) { try { d.proc.kill('SIGKILL'); } catch { /* gone */ } } });
 
+/** SIGTERM, then SIGKILL after 5 s; resolves when the process has exited. */
+async function terminate(p) {
+  if (p.exitCode !== null || p.signalCode !== null) return;
+  const exited = new Promise((r) => p.once('exit', r));
+  p.kill('SIGTERM');
+  const t = setTimeout(() => { try { p.kill('SIGKILL'); } catch { /* gone */ } }, 5000);
+  await exited;
+  clearTimeout(t);
+}
+
 export class Daemon {
   constructor(proc, base, token, dir, logFile) {
     this.proc = proc; this.base = base; this.token = token; this.dir = dir; this.logFile = logFile;
@@ -155,14 +165,7 @@ export class Daemon {
   /** Stop the daemon (SIGTERM) and start it again on the same port and data directory; with
    *  `token`, the token file holds only that token afterwards (the old token is revoked). */
   async restart({ token } = {}) {
-    const p = this.proc;
-    if (p.exitCode === null && p.signalCode === null) {
-      const exited = new Promise((r) => p.once('exit', r));
-      p.kill('SIGTERM');
-      const t = setTimeout(() => { try { p.kill('SIGKILL'); } catch { /* gone */ } }, 5000);
-      await exited;
-      clearTimeout(t);
-    }
+    await terminate(this.proc);
     if (token !== undefined) {
       if (!this.tokenFile) throw new Error('restart({token}): the daemon runs without a token file');
       fs.writeFileSync(this.tokenFile, `# rewritten by viewer/test/harness.mjs\n${token}\n`, { mode: 0o600 });
@@ -185,15 +188,8 @@ export class Daemon {
   }
 
   async stop() {
-    const p = this.proc;
     liveDaemons.delete(this);
-    if (p.exitCode === null && p.signalCode === null) {
-      const exited = new Promise((r) => p.once('exit', r));
-      p.kill('SIGTERM');
-      const t = setTimeout(() => { try { p.kill('SIGKILL'); } catch { /* gone */ } }, 5000);
-      await exited;
-      clearTimeout(t);
-    }
+    await terminate(this.proc);
     if (!process.env.VIEWER_TEST_KEEP) fs.rmSync(this.dir, { recursive: true, force: true });
   }
 }
@@ -344,6 +340,14 @@ export async function waitSettled(page, sinceFrames = 0, timeout = 15000) {
 
 /** Input coordinates [x, y, z] -> canvas CSS pixels {x, y, clientX, clientY, inside}, with the
  *  page's own camera (window.fragsimViewer.project). `points` may be one point or an array. */
+/** Waits for the full-quality frame that follows the last camera motion (or takes the one drawn
+ *  already), then projects `point` with the settled camera. */
+export async function settledProjection(page, point) {
+  const st = await renderState(page);
+  await waitSettled(page, st.moving ? st.settledFrames : st.settledFrames - 1);
+  return project(page, point);
+}
+
 export function project(page, points) {
   return page.evaluate((ps) => (Array.isArray(ps[0]) ? ps.map((p) => window.fragsimViewer.project(p))
     : window.fragsimViewer.project(ps)), points);

@@ -72,9 +72,7 @@ test('hovering a hit building shows its id, impacts ± se and penetrations ± se
       p = await h.project(page, centre);
     }
   }
-  const st = await h.renderState(page);
-  await h.waitSettled(page, st.moving ? st.settledFrames : st.settledFrames - 1);
-  p = await h.project(page, centre);
+  p = await h.settledProjection(page, centre);
   const onCanvas = await page.evaluate(({ x, y }) => document.elementFromPoint(x, y)?.id, { x: p.clientX, y: p.clientY });
   assert.equal(onCanvas, 'scene-canvas', `the building's centre is covered by #${onCanvas}`);
 
