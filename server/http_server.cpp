@@ -84,12 +84,12 @@ void send_stream(const std::function<bool(std::string&)>& stream, const std::str
 // compressing it with Brotli at its slowest quality (server/compression.h).
 // Error answers keep cpp-httplib's set_content: they are small, and the error handler below
 // recognises an answer of ours by its body.
-void send_body(const httplib::Request& req, const Response& r, httplib::Response& res) {
+void send_body(const httplib::Request& req, Response& r, httplib::Response& res) {
   if (r.status >= 400 || r.body.empty()) {
     res.set_content(r.body, r.content_type);
     return;
   }
-  auto body = std::make_shared<std::string>(r.body);
+  auto body = std::make_shared<std::string>(std::move(r.body));
   if (compressible(r.content_type)) {
     res.set_header("Vary", "Accept-Encoding");
     if (body->size() >= kCompressMinBytes && body->size() < (1ULL << 31) &&
@@ -205,7 +205,7 @@ HttpServer::HttpServer(Service& service) : service_(service) {
 
   const auto handler = [this](const httplib::Request& req, httplib::Response& res) {
     const auto t0 = std::chrono::steady_clock::now();
-    const Response r = service_.handle(to_request(req));
+    Response r = service_.handle(to_request(req));
     res.status = r.status;
     for (const auto& [k, v] : r.headers) res.set_header(k, v);
     if (r.file) {

@@ -275,40 +275,40 @@ bool Service::is_ui_path(const std::string& path) {
 // and API (no inline script, no other origin): text the page shows from a scenario cannot run.
 Response Service::ui_file(const Request& req) {
   Response r;
-  r.route = "/ui/";
   if (req.method != "GET" && req.method != "HEAD") {
     r = error_response(405, "method_not_allowed",
                        req.method + " is not allowed on /ui/ (allowed: GET)");
     r.headers.emplace_back("Allow", "GET");
-    r.route = "/ui/";
-    return r;
-  }
-  const auto path = config_.ui ? ui_file_path(std::string_view(req.path).substr(
-                                     std::min<std::size_t>(req.path.size(), 4)))
-                               : std::nullopt;
-  if (config_.ui && (req.path == "/" || req.path == "/ui")) {
+  } else if (config_.ui && (req.path == "/" || req.path == "/ui")) {
     r.status = 302;
     r.headers.emplace_back("Location", "/ui/");
     r.content_type = "text/plain; charset=utf-8";
     r.body = "the viewer is at /ui/\n";
-    return r;
+  } else {
+    const auto path =
+        req.path.size() >= 4 ? ui_file_path(std::string_view(req.path).substr(4)) : std::nullopt;
+    auto content = config_.ui && path ? read_ui_file(config_.ui_dir, *path) : std::nullopt;
+    if (content) {
+      r = ui_answer(req, *path, std::move(*content));
+    } else {
+      r = error_response(404, "not_found", "no route " + req.path);
+    }
   }
-  std::optional<std::string> bytes;
-  if (path) bytes = read_ui_file(config_.ui_dir, *path);
-  if (!bytes) {
-    r = error_response(404, "not_found", "no route " + req.path);
-    r.route = "/ui/";
-    return r;
-  }
-  // With no-cache, a browser revalidates each file on every load: an unchanged file costs a 304.
-  const std::string etag = "\"" + api::sha256_hex(*bytes).substr(0, 32) + "\"";
-  r.headers.emplace_back("ETag", etag);
+  r.route = "/ui/";
+  return r;
+}
+
+// A viewer file, or a 304 when the browser holds it already (with no-cache, a browser
+// revalidates each file on every load).
+Response Service::ui_answer(const Request& req, const std::string& path, UiContent content) {
+  Response r;
+  r.headers.emplace_back("ETag", content.etag);
   if (const auto it = req.headers.find("if-none-match");
-      it != req.headers.end() && it->second.find(etag) != std::string::npos) {
+      it != req.headers.end() && it->second.find(content.etag) != std::string::npos) {
     r.status = 304;
   } else {
-    r.content_type = ui_content_type(*path);
-    r.body = std::move(*bytes);
+    r.content_type = ui_content_type(path);
+    r.body = std::move(content.bytes);
   }
   r.headers.emplace_back("Content-Security-Policy",
                          "default-src 'self'; img-src 'self' data: blob:; style-src 'self'; "

@@ -23,6 +23,7 @@
 #include "server/scheduler.h"
 #include "server/site_registry.h"
 #include "server/store.h"
+#include "server/ui_assets.h"
 
 namespace fragsim::server {
 
@@ -87,6 +88,7 @@ class Service {
   // The web viewer's files at /ui/ ("/" and "/ui" redirect there).
   static bool is_ui_path(const std::string& path);
   Response ui_file(const Request& req);
+  static Response ui_answer(const Request& req, const std::string& path, UiContent content);
   // CORS for the configured origins only.
   bool cors_allowed(const Request& req) const;
   std::optional<Response> cors_preflight(const Request& req) const;

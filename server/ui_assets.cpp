@@ -5,6 +5,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "api/sha256.h"
+
 namespace fragsim::server {
 
 namespace {
@@ -56,14 +58,35 @@ std::string ui_content_type(std::string_view path) {
   return "application/octet-stream";
 }
 
-std::optional<std::string> read_ui_file(const std::string& dir, const std::string& path) {
+namespace {
+
+std::string etag_of(std::string_view bytes) {
+  std::string tag(1, '"');  // appended piece by piece: GCC 12 misreads "\"" + s (-Wrestrict)
+  tag += api::sha256_hex(std::string(bytes)).substr(0, 32);
+  tag += '"';
+  return tag;
+}
+
+// The embedded files' ETags, in embedded_ui_files() order.
+const std::vector<std::string>& embedded_etags() {
+  static const std::vector<std::string> kTags = [] {
+    std::vector<std::string> tags;
+    for (const UiFile& f : embedded_ui_files()) tags.push_back(etag_of(f.bytes));
+    return tags;
+  }();
+  return kTags;
+}
+
+}  // namespace
+
+std::optional<UiContent> read_ui_file(const std::string& dir, const std::string& path) {
   if (dir.empty()) {
     const auto& files = embedded_ui_files();
     const auto it =
         std::lower_bound(files.begin(), files.end(), path,
                          [](const UiFile& f, const std::string& p) { return f.path < p; });
     if (it == files.end() || it->path != path) return std::nullopt;
-    return std::string(it->bytes);
+    return UiContent{std::string(it->bytes), embedded_etags()[it - files.begin()]};
   }
   const std::filesystem::path file = std::filesystem::path(dir) / path;
   std::error_code ec;
@@ -72,7 +95,9 @@ std::optional<std::string> read_ui_file(const std::string& dir, const std::strin
   if (!in) return std::nullopt;
   std::ostringstream bytes;
   bytes << in.rdbuf();
-  return bytes.str();
+  std::string text = bytes.str();
+  std::string etag = etag_of(text);
+  return UiContent{std::move(text), std::move(etag)};
 }
 
 }  // namespace fragsim::server

@@ -26,7 +26,13 @@ std::optional<std::string> ui_file_path(std::string_view below_ui);
 // Content type by extension ("text/javascript; charset=utf-8", ...).
 std::string ui_content_type(std::string_view path);
 
-// The file's bytes: from `dir` when not empty (nullopt when missing), else the embedded copy.
-std::optional<std::string> read_ui_file(const std::string& dir, const std::string& path);
+// A file's bytes and its ETag (a quoted prefix of its SHA-256).
+struct UiContent {
+  std::string bytes;
+  std::string etag;
+};
+// From `dir` when not empty (nullopt when missing), else the embedded copy, whose ETags are
+// computed once for all files rather than on every request.
+std::optional<UiContent> read_ui_file(const std::string& dir, const std::string& path);
 
 }  // namespace fragsim::server
