@@ -1,9 +1,11 @@
 #include "cli/args.h"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 
 #include "api/scenario_json.h"
+#include "core/run/partial.h"
 
 namespace fragsim::cli {
 
@@ -42,6 +44,26 @@ double parse_scale(const std::string& v) {
   return x;
 }
 
+// "I/N" with 0 <= I < N <= run::kMaxShards.
+ShardArg parse_shard(const std::string& v) {
+  const auto slash = v.find('/');
+  auto num = [&](const std::string& t, std::int64_t& out) {
+    char* end = nullptr;
+    errno = 0;
+    const long long x = std::strtoll(t.c_str(), &end, 10);
+    if (t.empty() || *end != '\0' || errno != 0 || t[0] == '+' || t[0] == '-') return false;
+    out = x;
+    return true;
+  };
+  ShardArg s;
+  if (slash == std::string::npos || !num(v.substr(0, slash), s.index) ||
+      !num(v.substr(slash + 1), s.count) || s.count < 1 || s.count > run::kMaxShards ||
+      s.index >= s.count)
+    throw UsageError("--shard: expected I/N with 0 <= I < N <= " + std::to_string(run::kMaxShards) +
+                     ", got \"" + v + "\"");
+  return s;
+}
+
 }  // namespace
 
 Options parse_args(const std::vector<std::string>& args) {
@@ -64,6 +86,8 @@ Options parse_args(const std::vector<std::string>& args) {
     o.command = Command::kSubmit;
   } else if (first == "export") {
     o.command = Command::kExport;
+  } else if (first == "merge") {
+    o.command = Command::kMerge;
   } else if (first == "site") {
     if (args.size() < 2 || (args[1] != "import" && args[1] != "export-gis"))
       throw UsageError(
@@ -99,6 +123,34 @@ Options parse_args(const std::vector<std::string>& args) {
       }
       if (a == "--quiet" || a == "-q") {
         o.quiet = true;
+        continue;
+      }
+      if (take_value(args, k, "--shard", value)) {
+        o.shard = parse_shard(value);
+        continue;
+      }
+      if (take_value(args, k, "--progress-file", value)) {
+        if (value.empty()) throw UsageError("--progress-file: empty file name");
+        o.progress_file = value;
+        continue;
+      }
+    }
+    if (o.command == Command::kMerge) {
+      if (take_value(args, k, "--out", value)) {
+        if (value.empty()) throw UsageError("--out: empty directory name");
+        o.out = value;
+        continue;
+      }
+      if (take_value(args, k, "--samples-scale", value)) {
+        o.samples_scale = parse_scale(value);
+        continue;
+      }
+      if (a == "--quiet" || a == "-q") {
+        o.quiet = true;
+        continue;
+      }
+      if (!(a.size() > 1 && a[0] == '-') && !o.scenario.empty()) {
+        o.parts.push_back(a);
         continue;
       }
     }
@@ -180,6 +232,10 @@ Options parse_args(const std::vector<std::string>& args) {
   }
   if (o.scenario.empty()) throw UsageError("missing SCENARIO.json");
   if (o.command == Command::kRun && o.out.empty()) throw UsageError("run needs --out DIR");
+  if (o.command == Command::kMerge) {
+    if (o.out.empty()) throw UsageError("merge needs --out DIR");
+    if (o.parts.empty()) throw UsageError("merge: no partial files (PART.fsp ...)");
+  }
   if (o.maps && o.out.empty()) throw UsageError("--maps needs --out DIR (the maps go to DIR/maps)");
   return o;
 }
@@ -189,6 +245,8 @@ const char* usage_text() {
 
 Usage:
   fragsim run SCENARIO.json --out DIR [--threads N] [--samples-scale X] [--quiet]
+              [--shard I/N] [--progress-file FILE]
+  fragsim merge SCENARIO.json PART.fsp... --out DIR [--samples-scale X] [--quiet]
   fragsim validate SCENARIO.json
   fragsim site import IMPORT.json --out SITE.json
   fragsim site export-gis SITE.json --out DIR
@@ -201,6 +259,9 @@ Usage:
 Commands:
   run        Validate the scenario, simulate it and write DIR/summary.json and DIR/results.h5.
              The files appear only when the run completes (Ctrl-C cancels: nothing is written).
+  merge      Merge the partial files of `run --shard` (docs/cluster.md), in any order, into
+             the outputs `run` writes: the figures are bit-identical to one process's run.
+             Every shard 0..N-1 must be there once, from the same scenario and --samples-scale.
   validate   Check the scenario (JSON contract and site geometry) without running it.
   site import
              Build a site from GIS files (docs/gis.md): a DEM raster (GeoTIFF, DTED, ASCII
@@ -225,6 +286,11 @@ Options (run):
   --samples-scale X   Multiply every group's samples (histories) by X, e.g. 0.1 for a quick look.
                       The real fragment counts are unchanged; standard errors grow.
   --quiet, -q         No progress and no report on success (errors still go to stderr).
+  --shard I/N         Run only shard I (0-based) of N: of every group the histories
+                      [floor(I n/N), floor((I+1) n/N)). Writes DIR/partial.fsp, for `merge`.
+                      Not with settings.precision.
+  --progress-file F   Keep F (JSON: state, histories_done, histories_total, elapsed_s) up to
+                      date, rewritten whole about every 0.5 s; for batch systems and fragsimd.
 
 Options (submit):
   --server URL        fragsimd address (default http://127.0.0.1:8080).

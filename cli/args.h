@@ -1,5 +1,6 @@
 #pragma once
 // Command-line arguments of `fragsim`.
+#include <cstdint>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -21,7 +22,13 @@ enum class Command {
   kSubmit,
   kSiteImport,
   kSiteExportGis,
-  kExport
+  kExport,
+  kMerge
+};
+
+struct ShardArg {
+  std::int64_t index = 0;
+  std::int64_t count = 1;
 };
 
 struct Options {
@@ -30,7 +37,10 @@ struct Options {
   std::string out;                      // run: --out DIR (required); site import: --out FILE
   std::optional<int> threads;           // run: --threads N overrides settings.threads
   std::optional<double> samples_scale;  // run: --samples-scale X multiplies every group's samples
-  bool quiet = false;                   // run, submit: no progress, no report
+  bool quiet = false;                   // run, submit, merge: no progress, no report
+  std::optional<ShardArg> shard;        // run: --shard I/N writes DIR/partial.fsp
+  std::string progress_file;            // run: --progress-file FILE (JSON, rewritten atomically)
+  std::vector<std::string> parts;       // merge: the partial files
   // submit
   std::string server = "http://127.0.0.1:8080";
   std::string token_file;

@@ -12,14 +12,18 @@
 #include <fstream>
 #include <iostream>
 #include <mutex>
+#include <optional>
 #include <sstream>
 
 #include "api/output_dir.h"
+#include "api/partial_file.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
 #include "api/sha256.h"
 #include "api/summary_json.h"
+#include "cli/progress.h"
 #include "core/common/error.h"
+#include "core/run/partial.h"
 #include "core/run/precision.h"
 #include "core/run/run.h"
 
@@ -74,69 +78,6 @@ void apply_overrides(const Options& o, run::Scenario& sc) {
                                             std::to_string(api::kMaxRecordedFragments) + ")");
 }
 
-// " batch 4: 7 of 9 targets met, ETA 35 s" (settings.precision).
-std::string precision_progress(const run::PrecisionReport& r) {
-  const auto met = std::count_if(r.targets.begin(), r.targets.end(),
-                                 [](const run::TargetStatus& t) { return t.met; });
-  std::string s = " batch " + std::to_string(r.batches) + ": " + std::to_string(met) + " of " +
-                  std::to_string(r.targets.size()) + " targets met";
-  if (!r.all_met) {
-    char eta[64];
-    if (std::isfinite(r.eta_s))
-      std::snprintf(eta, sizeof eta, ", ETA %.0f s", r.eta_s);
-    else
-      std::snprintf(eta, sizeof eta, ", ETA unknown");
-    s += eta;
-  }
-  return s;
-}
-
-// Progress on stderr, rewritten in place; only when stderr is a terminal.
-class ProgressLine {
- public:
-  // `enabled`: a line rewritten in place (a terminal). `batch_lines`: otherwise, one line per
-  // batch boundary of a settings.precision run, at most one per progress interval (logs of
-  // overnight runs show the way to the targets).
-  ProgressLine(bool enabled, bool batch_lines) : enabled_(enabled), batch_lines_(batch_lines) {}
-  ~ProgressLine() { finish(); }
-  ProgressLine(const ProgressLine&) = delete;
-  ProgressLine& operator=(const ProgressLine&) = delete;
-
-  void update(const run::Progress& p) {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    if (!enabled_) {
-      if (batch_lines_ && p.precision && p.precision->batches != last_batch_) {
-        last_batch_ = p.precision->batches;
-        std::fprintf(stderr, "%lld histories, %.1f s:%s\n",
-                     static_cast<long long>(p.precision->histories), p.elapsed_s,
-                     precision_progress(*p.precision).c_str());
-      }
-      return;
-    }
-    const double pct = p.histories_total > 0 ? 100.0 * static_cast<double>(p.histories_done) /
-                                                   static_cast<double>(p.histories_total)
-                                             : 0.0;
-    std::fprintf(stderr, "\r%5.1f%%  %lld / %lld histories  %.1f s ", pct,
-                 static_cast<long long>(p.histories_done),
-                 static_cast<long long>(p.histories_total), p.elapsed_s);
-    if (p.precision) std::fputs((precision_progress(*p.precision) + "      ").c_str(), stderr);
-    std::fflush(stderr);
-    shown_ = true;
-  }
-  void finish() {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    if (shown_) std::fputc('\n', stderr);
-    shown_ = false;
-  }
-
- private:
-  bool enabled_;
-  bool batch_lines_;
-  std::int64_t last_batch_ = 0;
-  bool shown_ = false;
-  std::mutex mutex_;
-};
-
 }  // namespace
 
 int validate_command(const Options& o) {
@@ -161,52 +102,142 @@ int validate_command(const Options& o) {
   return kExitOk;
 }
 
-int run_command(const Options& o, const std::atomic<bool>& cancel) {
-  // Everything that can be wrong with the input is found before anything is created.
+namespace {
+
+// What run and merge share: the scenario parsed, overridden and checked, its site built.
+struct PreparedRun {
+  std::string text;
+  api::ScenarioDocument doc;
+  std::shared_ptr<const scene::Site> site;
+  double parse_s = 0.0, build_s = 0.0;
+};
+
+PreparedRun prepare(const Options& o) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
-  const std::string text = read_file(o.scenario);
-  api::ScenarioDocument doc = api::parse_scenario_document_text(text);
-  apply_overrides(o, doc.scenario);
+  PreparedRun p;
+  p.text = read_file(o.scenario);
+  p.doc = api::parse_scenario_document_text(p.text);
+  apply_overrides(o, p.doc.scenario);
   const auto t1 = Clock::now();
-  const auto site = api::validate_scenario(doc.scenario);  // builds the site
-  const auto t2 = Clock::now();
+  p.site = api::validate_scenario(p.doc.scenario);  // builds the site
+  p.parse_s = std::chrono::duration<double>(t1 - t0).count();
+  p.build_s = std::chrono::duration<double>(Clock::now() - t1).count();
   std::error_code ec;
   if (std::filesystem::exists(o.out, ec) && !std::filesystem::is_directory(o.out, ec))
     throw InputError("--out", o.out + " exists and is not a directory");
+  return p;
+}
 
+api::PartialIdentity identity_of(const Options& o, const PreparedRun& p) {
+  return {api::sha256_hex(p.text), o.samples_scale.value_or(1.0)};
+}
+
+// summary.json, results.h5, ... into --out, all at once.
+int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result,
+                  const std::atomic<bool>& cancel) {
+  result.timing.parse_s = p.parse_s;
+  result.timing.build_s = p.build_s;
   api::Provenance provenance = api::build_provenance();
-  provenance.scenario_sha256 = api::sha256_hex(text);
-  if (!o.quiet) std::cerr << illustrative_note(doc);
-
+  provenance.scenario_sha256 = api::sha256_hex(p.text);
   api::OutputDir out(o.out);  // removed again (if created here) unless commit() is reached
-  ProgressLine progress(!o.quiet && ::isatty(STDERR_FILENO) == 1, !o.quiet);
-  run::RunControl control;
-  control.cancel = &cancel;
-  control.on_progress = [&progress](const run::Progress& p) { progress.update(p); };
-  run::RunResult result = run::run(doc.scenario, site, control);
-  result.timing.parse_s = std::chrono::duration<double>(t1 - t0).count();
-  result.timing.build_s = std::chrono::duration<double>(t2 - t1).count();
-  progress.finish();
-  if (result.cancelled || cancel.load()) {
-    std::cerr << "cancelled: no output written\n";
-    return kExitCancelled;
-  }
-
   const nlohmann::ordered_json summary =
-      api::stage_run_outputs(out, result, *site, doc, provenance);
+      api::stage_run_outputs(out, result, *p.site, p.doc, provenance);
   if (cancel.load()) {
     std::cerr << "cancelled: no output written\n";
     return kExitCancelled;
   }
   out.commit();
-
   if (!o.quiet) {
     std::cout << api::render_summary_text(summary) << "\nWrote "
               << (out.path() / "summary.json").string() << " and "
               << (out.path() / "results.h5").string() << "\n";
   }
   return kExitOk;
+}
+
+// --shard I/N: DIR/partial.fsp.
+int write_partial(const Options& o, const PreparedRun& p, const run::PartialRun& part) {
+  api::OutputDir out(o.out);
+  out.stage("partial.fsp", [&](const std::filesystem::path& tmp) {
+    api::write_partial_file(tmp, part, identity_of(o, p));
+  });
+  out.commit();
+  if (!o.quiet)
+    std::cout << "Shard " << o.shard->index << " of " << o.shard->count << ": "
+              << part.histories_done << " histories in " << part.wall_s << " s\nWrote "
+              << (out.path() / "partial.fsp").string() << "\n";
+  return kExitOk;
+}
+
+}  // namespace
+
+int run_command(const Options& o, const std::atomic<bool>& cancel) {
+  // Everything that can be wrong with the input is found before anything is created.
+  ProgressFile progress_file(o.progress_file);
+  try {
+    const PreparedRun p = prepare(o);
+    if (o.shard && p.doc.scenario.settings.precision)
+      throw InputError("settings.precision",
+                       "cannot run as a shard (--shard): its checks at batch boundaries need "
+                       "every history of a batch in one process");
+    if (!o.quiet) std::cerr << illustrative_note(p.doc);
+    ProgressLine progress(!o.quiet && ::isatty(STDERR_FILENO) == 1, !o.quiet);
+    run::RunControl control;
+    control.cancel = &cancel;
+    control.on_progress = [&](const run::Progress& pr) {
+      progress.update(pr);
+      progress_file.update(pr);
+    };
+    const run::Shard shard = o.shard ? run::Shard{o.shard->index, o.shard->count} : run::Shard{};
+    run::PartialRun part = run::run_partial(p.doc.scenario, p.site, shard, control);
+    progress.finish();
+    if (part.cancelled || cancel.load()) {
+      std::cerr << "cancelled: no output written\n";
+      progress_file.finish("cancelled");
+      return kExitCancelled;
+    }
+    int code = kExitOk;
+    if (o.shard) {
+      code = write_partial(o, p, part);
+    } else {
+      run::RunResult result = run::finish(p.doc.scenario, *p.site, std::move(part));
+      code = write_outputs(o, p, result, cancel);
+    }
+    progress_file.finish(code == kExitOk ? "done" : "cancelled");
+    return code;
+  } catch (...) {
+    progress_file.finish("failed");
+    throw;
+  }
+}
+
+int merge_command(const Options& o, const std::atomic<bool>& cancel) {
+  const PreparedRun p = prepare(o);
+  const api::PartialIdentity expected = identity_of(o, p);
+  const std::size_t bins = run::tally_bins(*p.site).total;
+  std::optional<run::PartialRun> merged;
+  for (const std::string& path : o.parts) {
+    api::PartialIdentity id;
+    run::PartialRun part = api::read_partial_file(path, bins, id);
+    if (id.scenario_sha256 != expected.scenario_sha256)
+      throw InputError(path, "a shard of another scenario file (its SHA-256 is " +
+                                 id.scenario_sha256 + ", " + o.scenario + "'s " +
+                                 expected.scenario_sha256 + ")");
+    if (id.samples_scale != expected.samples_scale)
+      throw InputError(path, "a shard run with another --samples-scale");
+    if (!merged) {
+      merged = std::move(part);
+      continue;
+    }
+    try {
+      run::merge(*merged, std::move(part));
+    } catch (const InputError& e) {
+      throw InputError(path, e.message());
+    }
+  }
+  run::RunResult result = run::finish(p.doc.scenario, *p.site, std::move(*merged));
+  return write_outputs(o, p, result, cancel);
 }
 
 }  // namespace fragsim::cli

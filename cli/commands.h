@@ -25,6 +25,8 @@ int site_export_gis_command(const Options& options);
 int export_command(const Options& options);
 // `cancel` is set by the SIGINT/SIGTERM handler.
 int run_command(const Options& options, const std::atomic<bool>& cancel);
+// `fragsim merge`: the partial files of `run --shard` into run's outputs (docs/cluster.md).
+int merge_command(const Options& options, const std::atomic<bool>& cancel);
 // Runs the scenario on a fragsimd server; `cancel` stops following (the job keeps running).
 int submit_command(const Options& options, const std::atomic<bool>& cancel);
 

@@ -51,6 +51,7 @@ int main(int argc, char** argv) {
       case Command::kExport: return export_command(options);
       case Command::kSiteExportGis: return site_export_gis_command(options);
       case Command::kRun: install_signal_handlers(); return run_command(options, g_cancel);
+      case Command::kMerge: install_signal_handlers(); return merge_command(options, g_cancel);
       case Command::kSubmit:
         install_signal_handlers();
         // A server that refuses a body before reading it all closes the connection under the

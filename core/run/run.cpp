@@ -5,16 +5,22 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <exception>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <thread>
+#include <tuple>
 
+#include "core/common/error.h"
 #include "core/run/history.h"
 #include "core/run/importance.h"
 #include "core/run/ordered_sequencer.h"
+#include "core/run/partial.h"
 #include "core/run/precision.h"
-#include "core/tally/stratified_estimator.h"
+#include "core/tally/stratified_tally.h"
 
 namespace fragsim::run {
 
@@ -52,19 +58,9 @@ using Clock = std::chrono::steady_clock;
 
 struct ChunkSpec {
   std::uint32_t group;
-  std::int64_t first;
+  std::int64_t first;  // within the batch
   std::int64_t count;
-  bool last_of_group;
-};
-
-// Building figures per building, in this order, each a bin of a StratifiedEstimator.
-enum BuildingFigure : int {
-  kImpacts = 0,
-  kPenetrations = 1,
-  kImpactsBySurface = 2,                                                  // + surface type
-  kPenetrationsBySurface = kImpactsBySurface + scene::kSurfaceTypeCount,  // + surface type
-  kResidualKe = kPenetrationsBySurface + scene::kSurfaceTypeCount,
-  kBuildingFigures = kResidualKe + 1,
+  bool last_of_batch;  // the plan's last chunk of a batch
 };
 
 // settings.stratified_launch: group g's histories of a batch, i = 0 ... samples_g - 1, fall in
@@ -74,6 +70,7 @@ enum BuildingFigure : int {
 class LaunchStrata {
  public:
   explicit LaunchStrata(const Scenario& sc) {
+    for (const auto& g : sc.groups) group_samples_.push_back(g.samples);
     if (!sc.settings.stratified_launch) return;
     m_ = std::max<std::int64_t>(2, sc.settings.stratified_launch->histories_per_stratum);
     for (const auto& g : sc.groups) {
@@ -94,106 +91,112 @@ class LaunchStrata {
     return s;
   }
   // The variance is estimated on collapsed strata of kCollapsed sampling strata, in two
-  // partitions offset by half of one (docs/precision.md): history i (within its batch) ends a
-  // collapsed stratum of `partition` that is not the group's last (that one ends with the group).
+  // partitions offset by half of one (docs/precision.md). Without stratified sampling a group's
+  // batch is one stratum. History i (within its batch) of group g lies in stratum `index` of
+  // `partition`, which holds `size` histories starting at `first`.
   static constexpr std::int64_t kCollapsed = 4;
-  bool ends_variance_stratum(std::uint32_t g, std::int64_t i, int partition) const {
-    if (!on()) return false;
+  struct VarianceStratum {
+    std::int64_t index = 0, first = 0, size = 0;
+  };
+  VarianceStratum variance_stratum(std::uint32_t g, std::int64_t i, std::size_t partition) const {
+    const std::int64_t n = group_samples_[g];
+    if (!on()) return {0, 0, n};
     const std::int64_t size = m_ * kCollapsed, offset = partition == 0 ? 0 : size / 2;
-    return (i + 1 + offset) % size == 0 && i + 1 < samples_[g];
+    const std::int64_t j = (i + offset) / size;
+    const std::int64_t lo = std::max<std::int64_t>(0, j * size - offset);
+    const std::int64_t hi = std::min(n, (j + 1) * size - offset);
+    return {j, lo, hi - lo};
   }
 
  private:
   std::int64_t m_ = 0;
   std::vector<std::int64_t> samples_, count_;
+  std::vector<std::int64_t> group_samples_;
 };
 
-// The ordered fold: everything order-dependent happens here, in (group, history) order.
+// The fold of chunks into the run's exact tally (tally/stratified_tally.h). The sums are exact,
+// so the order of chunks, threads and shards cannot change a bit of the result.
 class Reducer {
  public:
-  Reducer(const Scenario& sc, const scene::Site& site, const LaunchStrata& strata)
-      : ptn_(site.terrain_triangle_count(), strata.on() ? 2 : 1),
-        buildings_(site.buildings().size() * kBuildingFigures, strata.on() ? 2 : 1),
-        outcomes_(kOutcomeCount, strata.on() ? 2 : 1),
-        strata_(strata) {
+  Reducer(const Scenario& sc, const scene::Site& site, const LaunchStrata& strata, PartialRun& out)
+      : out_(out), bins_(tally_bins(site)), strata_(strata) {
+    out_.tally = tally::StratifiedTally(bins_.total, strata.on() ? 2 : 1);
     for (const auto& g : sc.groups) samples_.push_back(g.samples);
   }
 
   void fold(ChunkOutput& c) {
-    std::uint32_t begin = 0;
+    tally::StratifiedTally& t = out_.tally;
     const std::int64_t samples = samples_[c.group];
+    const std::int64_t batch = c.first_history / samples;
+    const std::int64_t first = c.first_history - batch * samples;  // within the batch
+    std::uint32_t begin = 0;
     for (std::int64_t i = 0; i < c.count; ++i) {
+      start_strata(c.group, batch, first + i, i == 0);
       const std::uint32_t end = c.ptn_end[static_cast<std::size_t>(i)];
-      for (std::uint32_t k = begin; k < end; ++k) ptn_.add(c.ptn[k].triangle, c.ptn[k].value);
+      for (std::uint32_t k = begin; k < end; ++k)
+        t.add(bins_.terrain + c.ptn[k].triangle, c.ptn[k].value);
       begin = end;
-      const std::int32_t bi = c.building_index[static_cast<std::size_t>(i)];
-      const double w = c.weights[static_cast<std::size_t>(i)];  // with the likelihood ratio
-      if (bi >= 0) {
-        const BuildingContribution& b = c.buildings[static_cast<std::size_t>(bi)];
-        const std::size_t base = static_cast<std::size_t>(b.building) * kBuildingFigures;
-        buildings_.add(base + kImpacts, w);
-        buildings_.add(base + kImpactsBySurface + b.surface, w);
-        if (b.penetrated) {
-          buildings_.add(base + kPenetrations, w);
-          buildings_.add(base + kPenetrationsBySurface + b.surface, w);
-          buildings_.add(base + kResidualKe, w * b.residual_ke_j);
-        }
-      }
-      const auto o = static_cast<std::size_t>(c.outcomes[static_cast<std::size_t>(i)]);
-      outcomes_.add(o, w);
-      ++outcome_histories_[o];
-      for (int k = 0; k < 2; ++k) {
-        ++stratum_histories_[k];
-        if (strata_.ends_variance_stratum(c.group, (c.first_history + i) % samples, k))
-          close_stratum(k);
-      }
+      const auto h = static_cast<std::size_t>(i);
+      const double w = c.weights[h];  // with the likelihood ratio
+      if (c.building_index[h] >= 0)
+        add_building(c.buildings[static_cast<std::size_t>(c.building_index[h])], w);
+      const auto o = static_cast<std::size_t>(c.outcomes[h]);
+      t.add(bins_.outcomes + o, w);
+      ++out_.outcome_histories[o];
+      t.history_done();
     }
-    histories_done_ += c.count;
-    if (c.last_of_group) close_group();
-    for (auto& r : c.records) records_.push_back(r);
-    for (auto& t : c.trajectories) trajectories_.push_back(std::move(t));
-    stats_.rhs_evaluations += c.stats.rhs_evaluations;
-    stats_.integrator_steps += c.stats.integrator_steps;
-    stats_.chords += c.stats.chords;
-    stats_.scene_queries += c.stats.scene_queries;
-    stats_.chords_skipped += c.stats.chords_skipped;
-    stats_.ptn_triangle_tests += c.stats.ptn_triangle_tests;
-    stats_.bounces += c.stats.bounces;
-    stats_.ground_steps += c.stats.ground_steps;
-    stats_.ground_impacts += c.stats.ground_impacts;
-    stats_.takeoffs += c.stats.takeoffs;
-    stats_.ground_step_caps += c.stats.ground_step_caps;
-    integration_s_ += c.integration_s;
-    geometry_s_ += c.geometry_s;
-    tally_s_ += c.tally_s;
+    for (std::size_t k = 0; k < t.partitions(); ++k) t.flush(k);
+    out_.histories_done += c.count;
+    add_records_and_stats(c);
   }
-
-  // Closes the group (also one cut short by cancellation): the current stratum of each
-  // partition.
-  void close_group() {
-    for (int k = 0; k < 2; ++k) close_stratum(k);
-  }
-  // Closes partition k's current stratum (partition 1 exists with stratified launch sampling).
-  void close_stratum(int k) {
-    const std::int64_t n = stratum_histories_[k];
-    stratum_histories_[k] = 0;
-    if (n == 0 || static_cast<std::size_t>(k) >= ptn_.partitions()) return;
-    const auto part = static_cast<std::size_t>(k);
-    ptn_.end_stratum(part, n);
-    buildings_.end_stratum(part, n);
-    outcomes_.end_stratum(part, n);
-  }
-
-  tally::StratifiedEstimator ptn_, buildings_, outcomes_;
-  std::array<std::int64_t, kOutcomeCount> outcome_histories_{};
-  std::array<std::int64_t, 2> stratum_histories_{};  // histories in each partition's stratum
-  std::int64_t histories_done_ = 0;
-  std::vector<FragmentRecord> records_;
-  std::vector<TrajectoryRecord> trajectories_;
-  RunStats stats_;
-  double integration_s_ = 0.0, geometry_s_ = 0.0, tally_s_ = 0.0;
 
  private:
+  // Names each partition's stratum at history i (within its batch) when one starts there (or
+  // at a chunk's first history), ending the piece of the previous one.
+  void start_strata(std::uint32_t g, std::int64_t batch, std::int64_t i, bool chunk_start) {
+    tally::StratifiedTally& t = out_.tally;
+    for (std::size_t k = 0; k < t.partitions(); ++k) {
+      const LaunchStrata::VarianceStratum v = strata_.variance_stratum(g, i, k);
+      if (!chunk_start && v.first != i) continue;
+      t.flush(k);
+      t.start(k, tally::StratumKey{static_cast<std::uint32_t>(k), g, batch, v.index}, v.size);
+    }
+  }
+
+  void add_building(const BuildingContribution& b, double w) {
+    tally::StratifiedTally& t = out_.tally;
+    const std::size_t base =
+        bins_.buildings + static_cast<std::size_t>(b.building) * kBuildingFigures;
+    t.add(base + kImpacts, w);
+    t.add(base + kImpactsBySurface + b.surface, w);
+    if (!b.penetrated) return;
+    t.add(base + kPenetrations, w);
+    t.add(base + kPenetrationsBySurface + b.surface, w);
+    t.add(base + kResidualKe, w * b.residual_ke_j);
+  }
+
+  void add_records_and_stats(ChunkOutput& c) {
+    for (auto& r : c.records) out_.records.push_back(r);
+    for (auto& tr : c.trajectories) out_.trajectories.push_back(std::move(tr));
+    RunStats& s = out_.stats;
+    s.rhs_evaluations += c.stats.rhs_evaluations;
+    s.integrator_steps += c.stats.integrator_steps;
+    s.chords += c.stats.chords;
+    s.scene_queries += c.stats.scene_queries;
+    s.chords_skipped += c.stats.chords_skipped;
+    s.ptn_triangle_tests += c.stats.ptn_triangle_tests;
+    s.bounces += c.stats.bounces;
+    s.ground_steps += c.stats.ground_steps;
+    s.ground_impacts += c.stats.ground_impacts;
+    s.takeoffs += c.stats.takeoffs;
+    s.ground_step_caps += c.stats.ground_step_caps;
+    out_.integration_s += c.integration_s;
+    out_.geometry_s += c.geometry_s;
+    out_.tally_s += c.tally_s;
+  }
+
+  PartialRun& out_;
+  const TallyBins bins_;
   const LaunchStrata& strata_;
   std::vector<std::int64_t> samples_;
 };
@@ -237,17 +240,18 @@ struct BatchPlan {
   }
 };
 
-BatchPlan plan_batches(const Scenario& sc) {
+BatchPlan plan_batches(const Scenario& sc, const Shard& shard) {
   BatchPlan plan;
   const std::int64_t chunk = std::max<std::int64_t>(1, sc.settings.chunk_histories);
   for (std::uint32_t g = 0; g < sc.groups.size(); ++g) {
     const std::int64_t n = sc.groups[g].samples;
-    plan.histories += n;
-    for (std::int64_t first = 0; first < n; first += chunk) {
-      const std::int64_t cnt = std::min(chunk, n - first);
-      plan.chunks.push_back({g, first, cnt, first + cnt == n});
-    }
+    const std::int64_t begin = shard_begin(n, shard),
+                       end = shard_begin(n, {shard.index + 1, shard.count});
+    plan.histories += end - begin;
+    for (std::int64_t first = begin; first < end; first += chunk)
+      plan.chunks.push_back({g, first, std::min(chunk, end - first), false});
   }
+  if (!plan.chunks.empty()) plan.chunks.back().last_of_batch = true;
   if (sc.settings.precision)
     plan.max_batches = std::max<std::int64_t>(1, sc.settings.precision->max_batches);
   return plan;
@@ -288,9 +292,9 @@ Vec3 hfd_origin_input(const Scenario& sc, const scene::Site& site) {
 // whether the run stops there.
 class PrecisionControl {
  public:
-  PrecisionControl(const Scenario& sc, const scene::Site& site, const Reducer& reducer,
+  PrecisionControl(const Scenario& sc, const scene::Site& site, const PartialRun& tallies,
                    Clock::time_point t_start)
-      : sc_(sc), site_(site), reducer_(reducer), t_start_(t_start) {
+      : sc_(sc), site_(site), tallies_(tallies), bins_(tally_bins(site)), t_start_(t_start) {
     if (!sc.settings.precision) return;
     p_ = &*sc.settings.precision;
     if (p_->hfd_half_band_m || p_->hfd_half_band_rel || p_->ptn_rel_error_at_hfd ||
@@ -304,7 +308,7 @@ class PrecisionControl {
     if (p_ == nullptr) return true;  // one batch
     if (tallied == 0) return false;  // the pilot: nothing to check yet
     const double elapsed = std::chrono::duration<double>(Clock::now() - t_start_).count();
-    const std::int64_t histories = reducer_.histories_done_;
+    const std::int64_t histories = tallies_.histories_done;
     const PrecisionSnapshot snap = snapshot(tallied);
     hfd_m_ = snap.hfd_m;
     auto report = std::make_shared<PrecisionReport>(
@@ -337,11 +341,13 @@ class PrecisionControl {
   PrecisionSnapshot snapshot(std::int64_t batches) const {
     PrecisionSnapshot s;
     s.batches = batches;
-    s.histories = reducer_.histories_done_;
+    s.histories = tallies_.histories_done;
     const double scale = 1.0 / static_cast<double>(batches);
     const Settings& st = sc_.settings;
     if (!distance_.empty()) {
-      std::vector<double> density = reducer_.ptn_.means(), se = reducer_.ptn_.std_errors();
+      const tally::StratifiedTally& tally = tallies_.tally;
+      std::vector<double> density = tally.means(bins_.terrain, distance_.size()),
+                          se = tally.std_errors(bins_.terrain, distance_.size());
       for (std::size_t t = 0; t < density.size(); ++t) {
         density[t] *= scale;
         se[t] *= scale;
@@ -357,10 +363,9 @@ class PrecisionControl {
     }
     const auto& bs = site_.buildings();
     for (std::size_t b = 0; b < bs.size(); ++b) {
-      const std::size_t base = b * kBuildingFigures;
+      const std::size_t base = bins_.buildings + b * kBuildingFigures;
       auto est = [&](std::size_t bin) {
-        return Estimate{reducer_.buildings_.mean(bin) * scale,
-                        reducer_.buildings_.std_error(bin) * scale};
+        return Estimate{tallies_.tally.mean(bin) * scale, tallies_.tally.std_error(bin) * scale};
       };
       s.buildings.push_back({bs[b].id, est(base + kImpacts), est(base + kPenetrations)});
     }
@@ -377,7 +382,8 @@ class PrecisionControl {
 
   const Scenario& sc_;
   const scene::Site& site_;
-  const Reducer& reducer_;
+  const PartialRun& tallies_;
+  const TallyBins bins_;
   Clock::time_point t_start_;
   const PrecisionSettings* p_ = nullptr;
   std::vector<double> distance_;
@@ -452,12 +458,13 @@ void learn(DirectionLearner& learner, const ChunkOutput& c) {
 }
 
 // Turns the folded tallies of `batches` batches into the result's figures.
-void fill_figures(const Scenario& sc, const scene::Site& site, const Reducer& reducer,
+void fill_figures(const Scenario& sc, const scene::Site& site, const PartialRun& p,
                   std::int64_t batches, RunResult& r) {
   const Settings& st = sc.settings;
   const double scale = 1.0 / static_cast<double>(std::max<std::int64_t>(1, batches));
-  r.ptn_density_per_m2 = reducer.ptn_.means();
-  r.ptn_std_error_per_m2 = reducer.ptn_.std_errors();
+  const TallyBins bins = tally_bins(site);
+  r.ptn_density_per_m2 = p.tally.means(bins.terrain, site.terrain_triangle_count());
+  r.ptn_std_error_per_m2 = p.tally.std_errors(bins.terrain, site.terrain_triangle_count());
   for (std::size_t t = 0; t < r.ptn_density_per_m2.size(); ++t) {
     r.ptn_density_per_m2[t] *= scale;
     r.ptn_std_error_per_m2[t] *= scale;
@@ -483,28 +490,26 @@ void fill_figures(const Scenario& sc, const scene::Site& site, const Reducer& re
     shifted[t] = r.ptn_density_per_m2[t] + r.ptn_std_error_per_m2[t];
   r.hfd_upper_m = hazardous_distance(site, shifted, st.hfd_threshold_per_m2, hfd_origin, nullptr);
 
-  auto est = [&](const tally::StratifiedEstimator& e, std::size_t bin) {
-    return Estimate{e.mean(bin) * scale, e.std_error(bin) * scale};
+  auto est = [&](std::size_t bin) {
+    return Estimate{p.tally.mean(bin) * scale, p.tally.std_error(bin) * scale};
   };
   const auto& bs = site.buildings();
   r.buildings.resize(bs.size());
   for (std::size_t b = 0; b < bs.size(); ++b) {
-    const std::size_t base = b * kBuildingFigures;
+    const std::size_t base = bins.buildings + b * kBuildingFigures;
     BuildingResult& br = r.buildings[b];
     br.id = bs[b].id;
-    br.impacts = est(reducer.buildings_, base + kImpacts);
-    br.penetrations = est(reducer.buildings_, base + kPenetrations);
-    for (int s = 0; s < scene::kSurfaceTypeCount; ++s) {
-      br.impacts_by_surface[static_cast<std::size_t>(s)] =
-          est(reducer.buildings_, base + kImpactsBySurface + s);
-      br.penetrations_by_surface[static_cast<std::size_t>(s)] =
-          est(reducer.buildings_, base + kPenetrationsBySurface + s);
+    br.impacts = est(base + kImpacts);
+    br.penetrations = est(base + kPenetrations);
+    for (std::size_t s = 0; s < scene::kSurfaceTypeCount; ++s) {
+      br.impacts_by_surface[s] = est(base + kImpactsBySurface + s);
+      br.penetrations_by_surface[s] = est(base + kPenetrationsBySurface + s);
     }
-    br.residual_ke_j = est(reducer.buildings_, base + kResidualKe);
+    br.residual_ke_j = est(base + kResidualKe);
   }
   for (std::size_t o = 0; o < kOutcomeCount; ++o) {
-    r.outcome_fragments[o] = est(reducer.outcomes_, o);
-    r.outcome_histories[o] = reducer.outcome_histories_[o];
+    r.outcome_fragments[o] = est(bins.outcomes + o);
+    r.outcome_histories[o] = p.outcome_histories[o];
   }
 }
 
@@ -521,13 +526,37 @@ const char* stop_reason_name(StopReason s) {
   return "unknown";
 }
 
-RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
-              const RunControl& control) {
+TallyBins tally_bins(const scene::Site& site) {
+  TallyBins b;
+  b.terrain = 0;
+  b.buildings = site.terrain_triangle_count();
+  b.outcomes = b.buildings + site.buildings().size() * kBuildingFigures;
+  b.total = b.outcomes + kOutcomeCount;
+  return b;
+}
+
+namespace {
+
+void check_shard(const Scenario& sc, const Shard& shard) {
+  if (shard.count < 1 || shard.index < 0 || shard.index >= shard.count)
+    throw InputError("shard", "must be I/N with 0 <= I < N (got " + std::to_string(shard.index) +
+                                  "/" + std::to_string(shard.count) + ")");
+  if (shard.count > 1 && sc.settings.precision)
+    throw InputError("settings.precision",
+                     "cannot be split into shards: its checks at batch boundaries need every "
+                     "history of a batch in one process");
+}
+
+}  // namespace
+
+PartialRun run_partial(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
+                       const Shard& shard, const RunControl& control) {
+  check_shard(sc, shard);
   const auto t_start = Clock::now();
   const scene::Site& site = *site_ptr;
   const Settings& st = sc.settings;
   const RunContext ctx(sc, site);
-  const BatchPlan plan = plan_batches(sc);
+  const BatchPlan plan = plan_batches(sc, shard);
   const auto per_batch = static_cast<std::int64_t>(plan.chunks.size());
   const std::int64_t total = plan.histories * plan.max_batches;
   // Trajectories are recorded for the first max_recorded_trajectories histories in global order.
@@ -537,8 +566,11 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
   const int threads = thread_count(st, plan.total_chunks());
 
   const LaunchStrata strata(sc);
-  Reducer reducer(sc, site, strata);
-  PrecisionControl precision(sc, site, reducer, t_start);
+  PartialRun part;
+  part.shard_count = shard.count;
+  part.shards = {shard.index};
+  Reducer reducer(sc, site, strata, part);
+  PrecisionControl precision(sc, site, part, t_start);
   std::unique_ptr<DirectionLearner> learner;
   SamplingPlans plans;
   if (st.precision && st.precision->direction_importance) {
@@ -563,11 +595,11 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
       pilot_histories += c.count;
     else
       reducer.fold(c);
-    if (!c.last_of_group || c.group + 1 != sc.groups.size()) return;
+    if (!c.last_of_batch) return;
     ++batches;
     pilot_batches += pilot ? 1 : 0;
     if (precision.batch_done(batches, batches - pilot_batches,
-                             reducer.histories_done_ + pilot_histories)) {
+                             part.histories_done + pilot_histories)) {
       finished.store(true);
       plans.abort();
     } else if (learner) {
@@ -615,7 +647,7 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
       out.group = cs.group;
       out.first_history = first;
       out.count = cs.count;
-      out.last_of_group = cs.last_of_group;
+      out.last_of_batch = cs.last_of_batch;
       const auto& grp = sc.groups[cs.group];
       out.weight = grp.count / static_cast<double>(grp.samples);
       out.ptn_end.reserve(static_cast<std::size_t>(cs.count));
@@ -648,39 +680,132 @@ RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
     }
   };
 
+  // A worker's exception (an exact sum out of range, memory) stops the others and is rethrown.
+  std::mutex error_mutex;
+  std::exception_ptr error;
+  auto guarded = [&]() {
+    try {
+      worker();
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = std::current_exception();
+      stop.store(true);
+      plans.abort();
+    }
+  };
   std::vector<std::thread> pool;
-  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
-  worker();
+  for (int i = 1; i < threads; ++i) pool.emplace_back(guarded);
+  guarded();
   for (auto& th : pool) th.join();
+  if (error) std::rethrow_exception(error);
 
+  part.cancelled = !finished.load() && (cancelled() || stop.load());
+  part.tallied_batches = batches - pilot_batches;
+  // A shard without histories has no batch to fold (shards run without settings.precision).
+  part.batches = plan.chunks.empty() && !part.cancelled ? 1 : batches;
+  if (plan.chunks.empty()) part.tallied_batches = part.batches;
+  part.pilot_histories = pilot_histories;
+  part.stop_reason = part.cancelled ? StopReason::kCancelled : precision.reason();
+  part.precision = precision.report();
+  part.wall_s = std::chrono::duration<double>(Clock::now() - t_start).count();
+  part.threads = threads;
+  if (control.on_progress) progress(part.histories_done + pilot_histories, part.wall_s);
+  return part;
+}
+
+void merge(PartialRun& into, PartialRun&& other) {
+  if (into.shard_count != other.shard_count)
+    throw InputError("shards", "partials of different splits (" + std::to_string(into.shard_count) +
+                                   " and " + std::to_string(other.shard_count) + " shards)");
+  if (into.tally.size() != other.tally.size() ||
+      into.tally.partitions() != other.tally.partitions())
+    throw InputError("shards", "partials of different sites or settings");
+  for (const std::int64_t k : other.shards)
+    if (std::find(into.shards.begin(), into.shards.end(), k) != into.shards.end())
+      throw InputError("shards", "shard " + std::to_string(k) + " is there twice");
+  into.shards.insert(into.shards.end(), other.shards.begin(), other.shards.end());
+  std::sort(into.shards.begin(), into.shards.end());
+  into.tally.merge(other.tally);
+  for (std::size_t o = 0; o < kOutcomeCount; ++o)
+    into.outcome_histories[o] += other.outcome_histories[o];
+  into.histories_done += other.histories_done;
+  into.pilot_histories += other.pilot_histories;
+  into.batches = std::max(into.batches, other.batches);
+  into.tallied_batches = std::max(into.tallied_batches, other.tallied_batches);
+  into.cancelled = into.cancelled || other.cancelled;
+  if (into.cancelled) into.stop_reason = StopReason::kCancelled;
+  std::move(other.records.begin(), other.records.end(), std::back_inserter(into.records));
+  std::move(other.trajectories.begin(), other.trajectories.end(),
+            std::back_inserter(into.trajectories));
+  RunStats& s = into.stats;
+  const RunStats& o = other.stats;
+  s.rhs_evaluations += o.rhs_evaluations;
+  s.integrator_steps += o.integrator_steps;
+  s.chords += o.chords;
+  s.scene_queries += o.scene_queries;
+  s.chords_skipped += o.chords_skipped;
+  s.ptn_triangle_tests += o.ptn_triangle_tests;
+  s.bounces += o.bounces;
+  s.ground_steps += o.ground_steps;
+  s.ground_impacts += o.ground_impacts;
+  s.takeoffs += o.takeoffs;
+  s.ground_step_caps += o.ground_step_caps;
+  into.integration_s += other.integration_s;
+  into.geometry_s += other.geometry_s;
+  into.tally_s += other.tally_s;
+  into.wall_s = std::max(into.wall_s, other.wall_s);
+  into.threads += other.threads;
+}
+
+RunResult finish(const Scenario& sc, const scene::Site& site, PartialRun&& p) {
+  if (!p.cancelled && static_cast<std::int64_t>(p.shards.size()) != p.shard_count)
+    throw InputError("shards",
+                     std::to_string(p.shard_count - static_cast<std::int64_t>(p.shards.size())) +
+                         " of " + std::to_string(p.shard_count) + " shards missing");
+  if (p.cancelled) p.tally.close_open_strata();  // the strata a cancellation cut short
+  if (!p.tally.open_strata().empty())
+    throw InputError("shards", "partials do not cover the run's histories");
   RunResult r;
-  r.cancelled = !finished.load() && (cancelled() || stop.load());
-  reducer.close_group();  // a group cut short by cancellation
-  const std::int64_t tallied = batches - pilot_batches;
-  r.samples = r.cancelled ? total : plan.histories * tallied;
-  r.histories_done = reducer.histories_done_ + pilot_histories;
-  r.pilot_histories = pilot_histories;
-  r.seed = st.seed;
-  r.batches = r.cancelled ? batches + 1 : batches;  // the partial batch counts (one's estimate)
-  r.stop_reason = r.cancelled ? StopReason::kCancelled : precision.reason();
-  r.precision = precision.report();
-  for (const auto& g : sc.groups) r.real_fragments += g.count;
-  fill_figures(sc, site, reducer, r.cancelled ? tallied + 1 : tallied, r);
-  r.fragments = std::move(reducer.records_);
-  r.trajectories = std::move(reducer.trajectories_);
-  r.stats = reducer.stats_;
-
-  r.timing.wall_s = std::chrono::duration<double>(Clock::now() - t_start).count();
-  r.timing.threads = threads;
-  r.timing.integration_s = reducer.integration_s_;
-  r.timing.geometry_s = reducer.geometry_s_;
-  r.timing.tally_s = reducer.tally_s_;
+  r.cancelled = p.cancelled;
+  std::int64_t histories = 0;
+  for (const auto& g : sc.groups) {
+    histories += g.samples;
+    r.real_fragments += g.count;
+  }
+  const std::int64_t max_batches =
+      sc.settings.precision ? std::max<std::int64_t>(1, sc.settings.precision->max_batches) : 1;
+  r.samples = r.cancelled ? histories * max_batches : histories * p.tallied_batches;
+  r.histories_done = p.histories_done + p.pilot_histories;
+  r.pilot_histories = p.pilot_histories;
+  r.seed = sc.settings.seed;
+  r.batches = r.cancelled ? p.batches + 1 : p.batches;  // the partial batch counts (one's estimate)
+  r.stop_reason = p.stop_reason;
+  r.precision = p.precision;
+  fill_figures(sc, site, p, r.cancelled ? p.tallied_batches + 1 : p.tallied_batches, r);
+  auto by_history = [](const auto& a, const auto& b) {
+    return std::tie(a.group, a.history) < std::tie(b.group, b.history);
+  };
+  std::sort(p.records.begin(), p.records.end(), by_history);
+  std::sort(p.trajectories.begin(), p.trajectories.end(), by_history);
+  r.fragments = std::move(p.records);
+  r.trajectories = std::move(p.trajectories);
+  r.stats = p.stats;
+  r.timing.wall_s = p.wall_s;
+  r.timing.threads = p.threads;
+  r.timing.integration_s = p.integration_s;
+  r.timing.geometry_s = p.geometry_s;
+  r.timing.tally_s = p.tally_s;
   if (r.timing.wall_s > 0.0) {
     r.timing.fragments_per_s = static_cast<double>(r.histories_done) / r.timing.wall_s;
-    r.timing.fragments_per_s_per_thread = r.timing.fragments_per_s / threads;
+    r.timing.fragments_per_s_per_thread = r.timing.fragments_per_s / r.timing.threads;
   }
-  if (control.on_progress) progress(r.histories_done, r.timing.wall_s);
   return r;
+}
+
+RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site,
+              const RunControl& control) {
+  PartialRun p = run_partial(sc, site, Shard{}, control);
+  return finish(sc, *site, std::move(p));
 }
 
 RunResult run(const Scenario& sc, const RunControl& control) {

@@ -6,7 +6,6 @@
 #include <random>
 
 #include "core/scene/site.h"
-#include "core/tally/stratified_estimator.h"
 
 namespace fragsim::tally {
 namespace {
@@ -84,21 +83,6 @@ TEST(PtnPrisms, ClipKeepsThePartInsideTheBand) {
   // Vertical fall outside the triangle.
   EXPECT_FALSE(p.clip(0, L(3, 3, 10), L(3, 3, 2), s0, s1));
   EXPECT_NEAR(p.top_z(), L(0, 0, 3.8).z(), 1e-12);
-}
-
-TEST(StratifiedEstimator, MeanAndStandardErrorOfTwoStrata) {
-  StratifiedEstimator e(1);
-  // Group A: 4 histories, contributions 1, 0, 3, 0 (zeros need no add()).
-  e.add(0, 1.0);
-  e.add(0, 3.0);
-  e.end_group(4);
-  // Group B: 2 histories: 2, 2.
-  e.add(0, 2.0);
-  e.add(0, 2.0);
-  e.end_group(2);
-  // Means add: 4 + 4. Var A = 4/3 (10 - 16/4) = 8; var B = 2 (8 - 16/2) = 0.
-  EXPECT_DOUBLE_EQ(e.mean(0), 8.0);
-  EXPECT_DOUBLE_EQ(e.std_error(0), std::sqrt(8.0));
 }
 
 }  // namespace

@@ -1,0 +1,382 @@
+#include "api/partial_file.h"
+
+#include <bit>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <type_traits>
+
+#include "api/sha256.h"
+#include "core/common/error.h"
+
+namespace fragsim::api {
+
+namespace {
+
+constexpr std::string_view kMagic = "FSPART01";
+constexpr std::uint32_t kVersion = 1;
+constexpr std::size_t kTrailer = 64;  // hex SHA-256
+
+static_assert(std::endian::native == std::endian::little, "partial files are little-endian");
+
+class Writer {
+ public:
+  template <class T>
+  void put(T v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const auto* p = reinterpret_cast<const char*>(&v);
+    out_.append(p, sizeof(T));
+  }
+  void put_string(std::string_view s) {
+    put<std::uint64_t>(s.size());
+    out_.append(s);
+  }
+  void put_sum(const tally::ExactSum& s) {
+    for (const std::uint64_t l : s.limbs()) put(l);
+  }
+  void put_vec3(const Vec3& v) {
+    put(v.x());
+    put(v.y());
+    put(v.z());
+  }
+  std::string take() { return std::move(out_); }
+
+ private:
+  std::string out_;
+};
+
+class Reader {
+ public:
+  Reader(std::string_view bytes, const std::string& what) : b_(bytes), what_(what) {}
+  template <class T>
+  T get() {
+    need(sizeof(T));
+    T v;
+    std::memcpy(&v, b_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  // A count of items of `item_bytes` each that must fit in the bytes left.
+  std::uint64_t count(std::size_t item_bytes) {
+    const auto n = get<std::uint64_t>();
+    if (item_bytes > 0 && n > (b_.size() - pos_) / item_bytes) fail("a count exceeds the file");
+    return n;
+  }
+  std::string get_string() {
+    const std::uint64_t n = count(1);
+    std::string s(b_.substr(pos_, n));
+    pos_ += n;
+    return s;
+  }
+  tally::ExactSum get_sum() {
+    tally::ExactSum::Limbs l{};
+    for (auto& x : l) x = get<std::uint64_t>();
+    return tally::ExactSum::from_limbs(l);
+  }
+  Vec3 get_vec3() {
+    const double x = get<double>(), y = get<double>(), z = get<double>();
+    return {x, y, z};
+  }
+  bool at_end() const { return pos_ == b_.size(); }
+  const std::string& what() const { return what_; }
+  [[noreturn]] void fail(const std::string& why) const {
+    throw InputError(what_, "not an intact partial file: " + why);
+  }
+
+ private:
+  void need(std::size_t n) const {
+    if (b_.size() - pos_ < n) fail("it ends early");
+  }
+  std::string_view b_;
+  std::string what_;
+  std::size_t pos_ = 0;
+};
+
+constexpr std::size_t kSumBytes = 8 * tally::ExactSum::kLimbs;
+
+void put_bins(Writer& w, const tally::ExactBins& bins) {
+  w.put<std::uint64_t>(bins.bins().size());
+  for (std::size_t k = 0; k < bins.bins().size(); ++k) {
+    w.put(bins.bins()[k]);
+    w.put_sum(bins.sums()[k]);
+  }
+}
+
+tally::ExactBins get_bins(Reader& r, std::size_t size) {
+  tally::ExactBins bins(size);
+  const std::uint64_t n = r.count(4 + kSumBytes);
+  for (std::uint64_t k = 0; k < n; ++k) {
+    const auto bin = r.get<std::uint32_t>();
+    if (bin >= size) r.fail("a bin beyond the tally");
+    bins.add(bin, r.get_sum());
+  }
+  return bins;
+}
+
+void put_tally(Writer& w, const tally::StratifiedTally& t) {
+  w.put<std::uint64_t>(t.size());
+  w.put<std::uint32_t>(static_cast<std::uint32_t>(t.partitions()));
+  put_bins(w, t.mean_sums());
+  for (std::size_t k = 0; k < t.partitions(); ++k) put_bins(w, t.variance_sums(k));
+  w.put<std::uint64_t>(t.open_strata().size());
+  for (const auto& [key, st] : t.open_strata()) {
+    w.put(key.partition);
+    w.put(key.group);
+    w.put(key.batch);
+    w.put(key.index);
+    w.put(st.size);
+    w.put(st.n);
+    w.put<std::uint64_t>(st.entries.size());
+    for (const auto& e : st.entries) {
+      w.put(e.bin);
+      w.put_sum(e.s);
+      w.put_sum(e.q);
+    }
+  }
+}
+
+// The tally's shape must be the site's (checked before anything of its size is allocated).
+tally::StratifiedTally get_tally(Reader& r, std::size_t expected_bins) {
+  const auto size = r.get<std::uint64_t>();
+  const auto partitions = r.get<std::uint32_t>();
+  if (size != expected_bins)
+    throw InputError(r.what(), "a partial of another site: " + std::to_string(size) +
+                                   " tally bins, the scenario's site has " +
+                                   std::to_string(expected_bins));
+  if (partitions < 1 || partitions > 2) r.fail("a tally of an impossible shape");
+  return tally::StratifiedTally(size, static_cast<int>(partitions));
+}
+
+std::map<tally::StratumKey, tally::OpenStratum> get_open(Reader& r, std::size_t size,
+                                                         std::uint32_t partitions) {
+  std::map<tally::StratumKey, tally::OpenStratum> open;
+  const std::uint64_t n = r.count(4 * 8);
+  for (std::uint64_t k = 0; k < n; ++k) {
+    tally::StratumKey key;
+    key.partition = r.get<std::uint32_t>();
+    key.group = r.get<std::uint32_t>();
+    key.batch = r.get<std::int64_t>();
+    key.index = r.get<std::int64_t>();
+    tally::OpenStratum st;
+    st.size = r.get<std::int64_t>();
+    st.n = r.get<std::int64_t>();
+    if (key.partition >= partitions || st.n < 1 || st.n >= st.size) r.fail("a bad open stratum");
+    const std::uint64_t entries = r.count(4 + 2 * kSumBytes);
+    st.entries.resize(entries);
+    for (auto& e : st.entries) {
+      e.bin = r.get<std::uint32_t>();
+      if (e.bin >= size) r.fail("a bin beyond the tally");
+      e.s = r.get_sum();
+      e.q = r.get_sum();
+    }
+    for (std::size_t i = 1; i < st.entries.size(); ++i)
+      if (st.entries[i - 1].bin >= st.entries[i].bin) r.fail("open stratum bins out of order");
+    if (!open.emplace(key, std::move(st)).second) r.fail("an open stratum twice");
+  }
+  return open;
+}
+
+void put_stats(Writer& w, const run::RunStats& s) {
+  for (const std::int64_t v : {s.rhs_evaluations, s.integrator_steps, s.chords, s.scene_queries,
+                               s.chords_skipped, s.ptn_triangle_tests, s.bounces, s.ground_steps,
+                               s.ground_impacts, s.takeoffs, s.ground_step_caps})
+    w.put(v);
+}
+
+run::RunStats get_stats(Reader& r) {
+  run::RunStats s;
+  for (std::int64_t* v : {&s.rhs_evaluations, &s.integrator_steps, &s.chords, &s.scene_queries,
+                          &s.chords_skipped, &s.ptn_triangle_tests, &s.bounces, &s.ground_steps,
+                          &s.ground_impacts, &s.takeoffs, &s.ground_step_caps})
+    *v = r.get<std::int64_t>();
+  return s;
+}
+
+void put_record(Writer& w, const run::FragmentRecord& f) {
+  w.put(f.group);
+  w.put(f.history);
+  w.put(f.weight);
+  w.put(f.mass_kg);
+  w.put(f.area_m2);
+  w.put_vec3(f.launch_position_m);
+  w.put_vec3(f.launch_velocity_mps);
+  w.put(static_cast<std::uint8_t>(f.outcome));
+  w.put(f.end_time_s);
+  w.put_vec3(f.end_position_m);
+  w.put_vec3(f.end_velocity_mps);
+  w.put(f.first_impact_time_s);
+  w.put_vec3(f.first_impact_position_m);
+  w.put_vec3(f.first_impact_velocity_mps);
+  w.put(f.impact_angle_deg);
+  w.put(f.impact_ke_j);
+  w.put(f.building);
+  w.put(f.surface);
+  w.put(static_cast<std::uint8_t>(f.penetrated));
+  w.put(f.residual_ke_j);
+  w.put(f.bounces);
+  w.put(f.ground_impacts);
+  w.put(f.takeoffs);
+  w.put(f.ground_path_m);
+}
+
+run::FragmentRecord get_record(Reader& r) {
+  run::FragmentRecord f;
+  f.group = r.get<std::uint32_t>();
+  f.history = r.get<std::uint64_t>();
+  f.weight = r.get<double>();
+  f.mass_kg = r.get<double>();
+  f.area_m2 = r.get<double>();
+  f.launch_position_m = r.get_vec3();
+  f.launch_velocity_mps = r.get_vec3();
+  const auto outcome = r.get<std::uint8_t>();
+  if (outcome >= run::kOutcomeCount) r.fail("an unknown outcome");
+  f.outcome = static_cast<run::Outcome>(outcome);
+  f.end_time_s = r.get<double>();
+  f.end_position_m = r.get_vec3();
+  f.end_velocity_mps = r.get_vec3();
+  f.first_impact_time_s = r.get<double>();
+  f.first_impact_position_m = r.get_vec3();
+  f.first_impact_velocity_mps = r.get_vec3();
+  f.impact_angle_deg = r.get<double>();
+  f.impact_ke_j = r.get<double>();
+  f.building = r.get<std::int32_t>();
+  f.surface = r.get<std::int32_t>();
+  f.penetrated = r.get<std::uint8_t>() != 0;
+  f.residual_ke_j = r.get<double>();
+  f.bounces = r.get<std::uint32_t>();
+  f.ground_impacts = r.get<std::uint32_t>();
+  f.takeoffs = r.get<std::uint32_t>();
+  f.ground_path_m = r.get<double>();
+  return f;
+}
+
+void put_trajectory(Writer& w, const run::TrajectoryRecord& t) {
+  w.put(t.group);
+  w.put(t.history);
+  w.put<std::uint64_t>(t.t_s.size());
+  for (std::size_t i = 0; i < t.t_s.size(); ++i) {
+    w.put(t.t_s[i]);
+    w.put_vec3(t.position_m[i]);
+    w.put_vec3(t.velocity_mps[i]);
+    w.put(static_cast<std::uint8_t>(t.event[i]));
+  }
+}
+
+run::TrajectoryRecord get_trajectory(Reader& r) {
+  run::TrajectoryRecord t;
+  t.group = r.get<std::uint32_t>();
+  t.history = r.get<std::uint64_t>();
+  const std::uint64_t n = r.count(7 * 8 + 1);
+  t.t_s.resize(n);
+  t.position_m.resize(n);
+  t.velocity_mps.resize(n);
+  t.event.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    t.t_s[i] = r.get<double>();
+    t.position_m[i] = r.get_vec3();
+    t.velocity_mps[i] = r.get_vec3();
+    const auto e = r.get<std::uint8_t>();
+    if (e >= run::kTrajectoryEventCount) r.fail("an unknown trajectory event");
+    t.event[i] = static_cast<run::TrajectoryEvent>(e);
+  }
+  return t;
+}
+
+}  // namespace
+
+std::string encode_partial(const run::PartialRun& p, const PartialIdentity& id) {
+  if (p.precision) throw std::logic_error("a partial with a precision report cannot be encoded");
+  Writer w;
+  for (const char c : kMagic) w.put(c);
+  w.put(kVersion);
+  w.put_string(id.scenario_sha256);
+  w.put(id.samples_scale);
+  w.put(p.shard_count);
+  w.put<std::uint64_t>(p.shards.size());
+  for (const std::int64_t s : p.shards) w.put(s);
+  w.put(p.histories_done);
+  w.put(p.pilot_histories);
+  w.put(p.batches);
+  w.put(p.tallied_batches);
+  w.put(static_cast<std::uint8_t>(p.cancelled));
+  w.put(static_cast<std::uint8_t>(p.stop_reason));
+  for (const std::int64_t n : p.outcome_histories) w.put(n);
+  put_stats(w, p.stats);
+  for (const double s : {p.integration_s, p.geometry_s, p.tally_s, p.wall_s}) w.put(s);
+  w.put(static_cast<std::int32_t>(p.threads));
+  put_tally(w, p.tally);
+  w.put<std::uint64_t>(p.records.size());
+  for (const auto& f : p.records) put_record(w, f);
+  w.put<std::uint64_t>(p.trajectories.size());
+  for (const auto& t : p.trajectories) put_trajectory(w, t);
+  std::string bytes = w.take();
+  bytes += sha256_hex(bytes);
+  return bytes;
+}
+
+run::PartialRun decode_partial(std::string_view bytes, std::size_t tally_bins, PartialIdentity& id,
+                               const std::string& what) {
+  if (bytes.size() < kMagic.size() + kTrailer || bytes.substr(0, kMagic.size()) != kMagic)
+    throw InputError(what, "not a partial file (no FSPART01 header)");
+  const std::string_view body = bytes.substr(0, bytes.size() - kTrailer);
+  if (sha256_hex(body) != bytes.substr(bytes.size() - kTrailer))
+    throw InputError(what, "not an intact partial file: its checksum does not match");
+  Reader r(body.substr(kMagic.size()), what);
+  if (r.get<std::uint32_t>() != kVersion) r.fail("an unknown version");
+  id.scenario_sha256 = r.get_string();
+  id.samples_scale = r.get<double>();
+  run::PartialRun p;
+  p.shard_count = r.get<std::int64_t>();
+  if (p.shard_count < 1 || p.shard_count > run::kMaxShards) r.fail("a bad shard count");
+  const std::uint64_t shards = r.count(8);
+  for (std::uint64_t k = 0; k < shards; ++k) {
+    p.shards.push_back(r.get<std::int64_t>());
+    if (p.shards.back() < 0 || p.shards.back() >= p.shard_count ||
+        (k > 0 && p.shards[k - 1] >= p.shards[k]))
+      r.fail("a bad shard list");
+  }
+  p.histories_done = r.get<std::int64_t>();
+  p.pilot_histories = r.get<std::int64_t>();
+  p.batches = r.get<std::int64_t>();
+  p.tallied_batches = r.get<std::int64_t>();
+  p.cancelled = r.get<std::uint8_t>() != 0;
+  const auto reason = r.get<std::uint8_t>();
+  if (reason > static_cast<std::uint8_t>(run::StopReason::kCancelled)) r.fail("a bad stop reason");
+  p.stop_reason = static_cast<run::StopReason>(reason);
+  for (std::int64_t& n : p.outcome_histories) n = r.get<std::int64_t>();
+  p.stats = get_stats(r);
+  for (double* s : {&p.integration_s, &p.geometry_s, &p.tally_s, &p.wall_s}) *s = r.get<double>();
+  p.threads = r.get<std::int32_t>();
+  p.tally = get_tally(r, tally_bins);
+  tally::ExactBins mean = get_bins(r, p.tally.size());
+  std::vector<tally::ExactBins> var;
+  for (std::size_t k = 0; k < p.tally.partitions(); ++k) var.push_back(get_bins(r, p.tally.size()));
+  auto open = get_open(r, p.tally.size(), static_cast<std::uint32_t>(p.tally.partitions()));
+  p.tally.restore(std::move(mean), std::move(var), std::move(open));
+  const std::uint64_t records = r.count(1);
+  for (std::uint64_t k = 0; k < records; ++k) p.records.push_back(get_record(r));
+  const std::uint64_t trajectories = r.count(1);
+  for (std::uint64_t k = 0; k < trajectories; ++k) p.trajectories.push_back(get_trajectory(r));
+  if (!r.at_end()) r.fail("bytes after its end");
+  return p;
+}
+
+void write_partial_file(const std::filesystem::path& path, const run::PartialRun& partial,
+                        const PartialIdentity& identity) {
+  const std::string bytes = encode_partial(partial, identity);
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  f.close();
+  if (!f) throw std::runtime_error("cannot write " + path.string());
+}
+
+run::PartialRun read_partial_file(const std::filesystem::path& path, std::size_t tally_bins,
+                                  PartialIdentity& identity) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw InputError(path.string(), "cannot read the partial file");
+  std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  if (f.bad()) throw InputError(path.string(), "cannot read the partial file");
+  return decode_partial(bytes, tally_bins, identity, path.string());
+}
+
+}  // namespace fragsim::api

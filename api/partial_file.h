@@ -1,0 +1,39 @@
+#pragma once
+// The partial result of a shard (core/run/partial.h) as bytes and as a file, "partial.fsp"
+// (docs/cluster.md, "The partial file"): the exact tally sums, the open strata, counts, records
+// and recorded trajectories, with the scenario's digest, so that `fragsim merge` and fragsim-mpi
+// can check that every piece belongs to the same run.
+//
+// Layout, little-endian: "FSPART01", u32 version, the identity (scenario SHA-256, samples scale),
+// the partial, and a trailer of the SHA-256 (hex) of everything before it. The reader checks the
+// trailer and every count against the bytes left, so a truncated or altered file is an error
+// naming the file, never a wrong result.
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "core/run/partial.h"
+
+namespace fragsim::api {
+
+// What a partial must share with the others it is merged with.
+struct PartialIdentity {
+  std::string scenario_sha256;  // of the scenario file's bytes as read
+  double samples_scale = 1.0;   // --samples-scale (1 without)
+  friend bool operator==(const PartialIdentity&, const PartialIdentity&) = default;
+};
+
+std::string encode_partial(const run::PartialRun& partial, const PartialIdentity& identity);
+// Throws InputError(`what`, ...) for bytes that are not a whole, intact partial, or a partial
+// whose tally has not `tally_bins` bins (run::tally_bins(site).total of the scenario's site).
+run::PartialRun decode_partial(std::string_view bytes, std::size_t tally_bins,
+                               PartialIdentity& identity, const std::string& what);
+
+// A file (callers stage it in an OutputDir, so no half-written partial.fsp is ever seen).
+void write_partial_file(const std::filesystem::path& path, const run::PartialRun& partial,
+                        const PartialIdentity& identity);
+run::PartialRun read_partial_file(const std::filesystem::path& path, std::size_t tally_bins,
+                                  PartialIdentity& identity);
+
+}  // namespace fragsim::api

@@ -1,0 +1,87 @@
+#pragma once
+// A run split into shards, and the exact merge of their results (docs/cluster.md).
+//
+// Shard i of N runs, of every fragment group g, the histories [floor(i n_g / N),
+// floor((i + 1) n_g / N)) of its n_g samples. Its tallies are kept exactly (tally/exact_sum.h),
+// with the strata it cuts left open, so that merging the partials of all N shards, in any order,
+// and finishing gives the same bits as the whole run in one process, whatever the thread counts,
+// chunk sizes and N.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "core/run/result.h"
+#include "core/run/run.h"
+#include "core/run/scenario.h"
+#include "core/scene/site.h"
+#include "core/tally/stratified_tally.h"
+
+namespace fragsim::run {
+
+struct Shard {
+  std::int64_t index = 0;
+  std::int64_t count = 1;
+};
+
+// The histories [first, end) of a group of `samples` histories that shard `s` runs.
+// (Written so that no product overflows for count <= kMaxShards.)
+inline constexpr std::int64_t kMaxShards = 1'000'000;
+inline std::int64_t shard_begin(std::int64_t samples, const Shard& s) {
+  return samples / s.count * s.index + samples % s.count * s.index / s.count;
+}
+
+// The exact, mergeable state of a run or of some of its shards.
+struct PartialRun {
+  std::int64_t shard_count = 1;
+  std::vector<std::int64_t> shards;  // the shards merged in, ascending
+  // Bins: terrain triangles, then building figures (kBuildingFigures per building), then
+  // outcomes (see tally_bins()).
+  tally::StratifiedTally tally;
+  std::array<std::int64_t, kOutcomeCount> outcome_histories{};
+  std::int64_t histories_done = 0;  // tallied histories (not the pilot's)
+  std::int64_t pilot_histories = 0;
+  std::int64_t batches = 0;          // batches completed, the pilot's included
+  std::int64_t tallied_batches = 0;  // of them, tallied
+  bool cancelled = false;
+  StopReason stop_reason = StopReason::kSamples;
+  std::shared_ptr<const PrecisionReport> precision;
+  std::vector<FragmentRecord> records;         // any order until finish()
+  std::vector<TrajectoryRecord> trajectories;  // any order until finish()
+  RunStats stats;
+  double integration_s = 0.0, geometry_s = 0.0, tally_s = 0.0;  // summed over threads
+  double wall_s = 0.0;                                          // the longest shard's
+  int threads = 1;                                              // summed over shards
+};
+
+// Building figures per building, each a bin of the tally.
+enum BuildingFigure : int {
+  kImpacts = 0,
+  kPenetrations = 1,
+  kImpactsBySurface = 2,                                                  // + surface type
+  kPenetrationsBySurface = kImpactsBySurface + scene::kSurfaceTypeCount,  // + surface type
+  kResidualKe = kPenetrationsBySurface + scene::kSurfaceTypeCount,
+  kBuildingFigures = kResidualKe + 1,
+};
+struct TallyBins {
+  std::size_t terrain = 0;    // first bin of the terrain triangles
+  std::size_t buildings = 0;  // first bin of the building figures
+  std::size_t outcomes = 0;   // first bin of the outcomes
+  std::size_t total = 0;
+};
+TallyBins tally_bins(const scene::Site& site);
+
+// Runs shard `shard` of the scenario on a built site. Throws InputError for a shard that is not
+// one of 0..count-1, or a split scenario with settings.precision (its batch-boundary checks need
+// every history of a batch in one process).
+PartialRun run_partial(const Scenario& scenario, std::shared_ptr<const scene::Site> site,
+                       const Shard& shard, const RunControl& control = {});
+
+// Adds `other` into `into`: exact, so any order of merging gives the same bits. Throws
+// InputError when they are shards of different splits or share a shard.
+void merge(PartialRun& into, PartialRun&& other);
+
+// The result of the merged shards. Throws InputError when a shard is missing (unless cancelled).
+RunResult finish(const Scenario& scenario, const scene::Site& site, PartialRun&& partial);
+
+}  // namespace fragsim::run

@@ -1,0 +1,141 @@
+#include "core/tally/stratified_tally.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace fragsim::tally {
+
+namespace {
+
+// One stratum's variance term from its exact sums, rounded once (the formula of the header).
+double variance_term(const ExactSum& s, const ExactSum& q, std::int64_t n) {
+  if (n <= 1) return 0.0;
+  const double dn = static_cast<double>(n), sv = s.value(), qv = q.value();
+  return std::max(0.0, dn / (dn - 1.0) * (qv - sv * sv / dn));
+}
+
+}  // namespace
+
+StratifiedTally::StratifiedTally(std::size_t bins, int partitions)
+    : bins_(bins), mean_(bins), var_(partitions > 1 ? 2 : 1, ExactBins(bins)) {
+  parts_.resize(var_.size());
+  for (Scratch& p : parts_) {
+    p.s = ExactBins(bins);
+    p.q = ExactBins(bins);
+  }
+}
+
+void StratifiedTally::start(std::size_t partition, const StratumKey& key, std::int64_t size) {
+  Scratch& p = parts_[partition];
+  p.key = key;
+  p.size = size;
+  p.n = 0;
+}
+
+void StratifiedTally::flush(std::size_t partition) {
+  Scratch& p = parts_[partition];
+  if (p.n == 0) return;
+  OpenStratum piece;
+  piece.size = p.size;
+  piece.n = p.n;
+  piece.entries.resize(p.s.bins().size());
+  for (std::size_t k = 0; k < piece.entries.size(); ++k)
+    piece.entries[k] = {p.s.bins()[k], p.s.sums()[k], p.q.sums()[k]};
+  p.s.clear();
+  p.q.clear();
+  p.n = 0;
+  if (piece.n >= piece.size) {
+    close(piece, partition);  // the whole stratum is here: no need to sort or keep it
+    return;
+  }
+  std::sort(piece.entries.begin(), piece.entries.end(),
+            [](const OpenStratum::Entry& a, const OpenStratum::Entry& b) { return a.bin < b.bin; });
+  merge_open(p.key, std::move(piece));
+}
+
+void StratifiedTally::close(const OpenStratum& st, std::size_t partition) {
+  for (const OpenStratum::Entry& e : st.entries) {
+    if (partition == 0) mean_.add(e.bin, e.s);
+    const double v = variance_term(e.s, e.q, st.n);
+    if (v > 0.0) var_[partition].add(e.bin, v);
+  }
+}
+
+// Adds a piece to the open stratum `key`, closing it when it is complete. The entries of both
+// are sorted by bin; the sum of two pieces is exact, so the order of pieces does not matter.
+void StratifiedTally::merge_open(const StratumKey& key, OpenStratum&& piece) {
+  auto [it, inserted] = open_.try_emplace(key, std::move(piece));
+  if (!inserted) {
+    OpenStratum& st = it->second;
+    std::vector<OpenStratum::Entry> merged;
+    merged.reserve(st.entries.size() + piece.entries.size());
+    auto a = st.entries.begin(), b = piece.entries.begin();
+    while (a != st.entries.end() || b != piece.entries.end()) {
+      if (b == piece.entries.end() || (a != st.entries.end() && a->bin < b->bin)) {
+        merged.push_back(*a++);
+      } else if (a == st.entries.end() || b->bin < a->bin) {
+        merged.push_back(*b++);
+      } else {
+        OpenStratum::Entry e = *a++;
+        e.s.add(b->s);
+        e.q.add(b->q);
+        ++b;
+        merged.push_back(e);
+      }
+    }
+    st.entries = std::move(merged);
+    st.n += piece.n;
+  }
+  if (it->second.n >= it->second.size) {
+    close(it->second, key.partition);
+    open_.erase(it);
+  }
+}
+
+void StratifiedTally::merge(const StratifiedTally& o) {
+  mean_.merge(o.mean_);
+  for (std::size_t k = 0; k < var_.size() && k < o.var_.size(); ++k) var_[k].merge(o.var_[k]);
+  for (const auto& [key, st] : o.open_) merge_open(key, OpenStratum(st));
+}
+
+void StratifiedTally::close_open_strata() {
+  for (const auto& [key, st] : open_) close(st, key.partition);
+  open_.clear();
+}
+
+double StratifiedTally::std_error(std::size_t bin) const {
+  double v = 0.0;
+  for (const ExactBins& p : var_) v = std::max(v, p.value(bin));
+  return std::sqrt(v);
+}
+
+std::vector<double> StratifiedTally::means(std::size_t first, std::size_t count) const {
+  std::vector<double> m(count, 0.0);
+  for (std::size_t k = 0; k < mean_.bins().size(); ++k) {
+    const std::size_t b = mean_.bins()[k];
+    if (b >= first && b < first + count) m[b - first] = mean_.sums()[k].value();
+  }
+  return m;
+}
+
+std::vector<double> StratifiedTally::std_errors(std::size_t first, std::size_t count) const {
+  std::vector<double> v(count, 0.0);
+  for (const ExactBins& p : var_)
+    for (std::size_t k = 0; k < p.bins().size(); ++k) {
+      const std::size_t b = p.bins()[k];
+      if (b >= first && b < first + count)
+        v[b - first] = std::max(v[b - first], p.sums()[k].value());
+    }
+  for (double& x : v) x = std::sqrt(x);
+  return v;
+}
+
+void StratifiedTally::restore(ExactBins mean, std::vector<ExactBins> var,
+                              std::map<StratumKey, OpenStratum> open) {
+  mean_ = std::move(mean);
+  var_ = std::move(var);
+  open_ = std::move(open);
+}
+
+}  // namespace fragsim::tally
