@@ -102,21 +102,19 @@ int validate_command(const Options& o) {
   return kExitOk;
 }
 
-namespace {
-
-// What run and merge share: the scenario parsed, overridden and checked, its site built.
-struct PreparedRun {
-  std::string text;
-  api::ScenarioDocument doc;
-  std::shared_ptr<const scene::Site> site;
-  double parse_s = 0.0, build_s = 0.0;
-};
+api::PartialIdentity identity_of(const Options& o, const PreparedRun& p) {
+  return {api::sha256_hex(p.text), o.samples_scale.value_or(1.0)};
+}
 
 PreparedRun prepare(const Options& o) {
+  return prepare_text(o, read_file(o.scenario));
+}
+
+PreparedRun prepare_text(const Options& o, std::string text) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   PreparedRun p;
-  p.text = read_file(o.scenario);
+  p.text = std::move(text);
   p.doc = api::parse_scenario_document_text(p.text);
   apply_overrides(o, p.doc.scenario);
   const auto t1 = Clock::now();
@@ -129,11 +127,6 @@ PreparedRun prepare(const Options& o) {
   return p;
 }
 
-api::PartialIdentity identity_of(const Options& o, const PreparedRun& p) {
-  return {api::sha256_hex(p.text), o.samples_scale.value_or(1.0)};
-}
-
-// summary.json, results.h5, ... into --out, all at once.
 int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result,
                   const std::atomic<bool>& cancel) {
   result.timing.parse_s = p.parse_s;
@@ -155,6 +148,8 @@ int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result
   }
   return kExitOk;
 }
+
+namespace {
 
 // --shard I/N: DIR/partial.fsp.
 int write_partial(const Options& o, const PreparedRun& p, const run::PartialRun& part) {

@@ -2,9 +2,14 @@
 // The `fragsim` commands. Each returns the process exit code or throws: fragsim::InputError and
 // cli::UsageError mean invalid input (exit 2), anything else an internal error (exit 1).
 #include <atomic>
+#include <memory>
 #include <string>
 
+#include "api/partial_file.h"
+#include "api/scenario_json.h"
 #include "cli/args.h"
+#include "core/run/result.h"
+#include "core/scene/site.h"
 
 namespace fragsim::cli {
 
@@ -17,6 +22,22 @@ inline constexpr int kExitCancelled = 130;  // 128 + SIGINT, as shells report it
 std::string read_file(const std::string& path, const std::string& field = "");
 
 int validate_command(const Options& options);
+
+// What run, merge and fragsim-mpi share: the scenario parsed, overridden (--threads,
+// --samples-scale) and checked, its site built, --out checked. Throws InputError.
+struct PreparedRun {
+  std::string text;  // the scenario file as read
+  api::ScenarioDocument doc;
+  std::shared_ptr<const scene::Site> site;
+  double parse_s = 0.0, build_s = 0.0;
+};
+PreparedRun prepare(const Options& options);
+PreparedRun prepare_text(const Options& options, std::string text);
+// What a partial of this run must share with the others it is merged with.
+api::PartialIdentity identity_of(const Options& options, const PreparedRun& prepared);
+// summary.json, results.h5, ... into --out, all at once; the report on stdout unless --quiet.
+int write_outputs(const Options& options, const PreparedRun& prepared, run::RunResult& result,
+                  const std::atomic<bool>& cancel);
 // `fragsim site import`: GIS files to a site document (gis/site_import.h).
 int site_import_command(const Options& options);
 // `fragsim site export-gis`: a site document to GIS files (gis/site_to_gis.h).
