@@ -1,0 +1,185 @@
+// Any split of a run's histories into shards, each run with any thread count and chunk size,
+// merged in any order, gives the bits of the whole run in one process (core/run/partial.h).
+#include "core/run/partial.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <random>
+
+#include "core/common/error.h"
+#include "validation/scenario_fixtures.h"
+
+namespace fragsim::run {
+namespace {
+
+Scenario shard_scenario() {
+  Scenario sc = validation::flat_site_scenario(300.0, 5.0);
+  scene::MaterialSpec wall;
+  wall.penetration_ke_per_area_j_per_m2 = 2.0e6;
+  sc.site.materials["wall"] = wall;
+  sc.site.materials["roof"] = wall;
+  sc.site.buildings = {validation::box_building("a", 40, -10, 60, 10, 8.0),
+                       validation::box_building("b", -80, 20, -60, 50, 12.0)};
+  auto g = validation::sphere_group(Vec3(0, 0, 1.0), 0.05, 300.0, 500.0, 1201);
+  g.mass_kg.kind = fragments::Distribution::Kind::kUniform;
+  g.mass_kg.min = 0.01;
+  g.mass_kg.max = 0.5;
+  g.cd.constant = 0.47;
+  g.direction.elevation_min_deg = -5.0;
+  g.direction.elevation_max_deg = 40.0;
+  auto g2 = g;
+  g2.samples = 517;
+  g2.count = 333.0;
+  sc.groups = {g, g2};
+  sc.settings.record_fragments = true;
+  sc.settings.record_trajectories = true;
+  sc.settings.max_recorded_trajectories = 50;
+  return sc;
+}
+
+template <class T>
+bool same_bits(const T& a, const T& b) {
+  return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+template <class T>
+bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
+}
+
+void expect_same_figures(const RunResult& a, const RunResult& b) {
+  EXPECT_TRUE(same_bits(a.ptn_density_per_m2, b.ptn_density_per_m2));
+  EXPECT_TRUE(same_bits(a.ptn_std_error_per_m2, b.ptn_std_error_per_m2));
+  EXPECT_TRUE(same_bits(a.hazardous_fragment_distance_m, b.hazardous_fragment_distance_m));
+  EXPECT_TRUE(same_bits(a.hfd_lower_m, b.hfd_lower_m));
+  EXPECT_TRUE(same_bits(a.hfd_upper_m, b.hfd_upper_m));
+  EXPECT_TRUE(same_bits(a.hfd_by_sector_m, b.hfd_by_sector_m));
+  ASSERT_EQ(a.buildings.size(), b.buildings.size());
+  for (std::size_t i = 0; i < a.buildings.size(); ++i) {
+    EXPECT_TRUE(same_bits(a.buildings[i].impacts, b.buildings[i].impacts)) << i;
+    EXPECT_TRUE(same_bits(a.buildings[i].penetrations, b.buildings[i].penetrations)) << i;
+    EXPECT_TRUE(same_bits(a.buildings[i].impacts_by_surface, b.buildings[i].impacts_by_surface));
+    EXPECT_TRUE(same_bits(a.buildings[i].residual_ke_j, b.buildings[i].residual_ke_j));
+  }
+  EXPECT_TRUE(same_bits(a.outcome_fragments, b.outcome_fragments));
+  EXPECT_EQ(a.outcome_histories, b.outcome_histories);
+  EXPECT_EQ(a.samples, b.samples);
+  EXPECT_EQ(a.histories_done, b.histories_done);
+  EXPECT_EQ(a.stats.integrator_steps, b.stats.integrator_steps);
+  EXPECT_EQ(a.stats.scene_queries, b.stats.scene_queries);
+  ASSERT_EQ(a.fragments.size(), b.fragments.size());
+  for (std::size_t i = 0; i < a.fragments.size(); ++i) {
+    EXPECT_EQ(a.fragments[i].history, b.fragments[i].history);
+    EXPECT_TRUE(same_bits(a.fragments[i].end_position_m, b.fragments[i].end_position_m));
+  }
+  ASSERT_EQ(a.trajectories.size(), b.trajectories.size());
+  for (std::size_t i = 0; i < a.trajectories.size(); ++i) {
+    EXPECT_EQ(a.trajectories[i].group, b.trajectories[i].group);
+    EXPECT_EQ(a.trajectories[i].history, b.trajectories[i].history);
+    EXPECT_TRUE(same_bits(a.trajectories[i].t_s, b.trajectories[i].t_s));
+  }
+}
+
+// Runs the scenario as `n` shards, each with its own thread count and chunk size (drawn from
+// `gen`), and merges them in a shuffled order.
+RunResult sharded(Scenario sc, std::int64_t n, std::mt19937& gen) {
+  const auto site = scene::Site::build(sc.site);
+  std::vector<PartialRun> parts;
+  for (std::int64_t i = 0; i < n; ++i) {
+    sc.settings.threads = 1 + static_cast<int>(gen() % 2);
+    sc.settings.chunk_histories = std::array<std::int64_t, 4>{1, 7, 64, 1000}[gen() % 4];
+    parts.push_back(run_partial(sc, site, Shard{i, n}));
+  }
+  std::shuffle(parts.begin(), parts.end(), gen);
+  PartialRun all = std::move(parts[0]);
+  for (std::size_t k = 1; k < parts.size(); ++k) merge(all, std::move(parts[k]));
+  return finish(sc, *site, std::move(all));
+}
+
+TEST(Shards, AnySplitMergedInAnyOrderGivesTheBitsOfOneRun) {
+  Scenario sc = shard_scenario();
+  sc.settings.threads = 2;
+  const RunResult whole = run(sc);
+  ASSERT_GT(whole.buildings[0].impacts.mean + whole.buildings[1].impacts.mean, 0.0);
+  ASSERT_GT(whole.max_ptn_density_per_m2, 0.0);
+  std::mt19937 gen(11);
+  for (const std::int64_t n : {1, 2, 3, 7, 600}) {  // 600 > 517: some shards hold no history
+    SCOPED_TRACE(n);
+    expect_same_figures(whole, sharded(sc, n, gen));
+  }
+}
+
+TEST(Shards, StratifiedLaunchStrataCutByShardsAreClosedWhole) {
+  Scenario sc = shard_scenario();
+  sc.settings.record_trajectories = false;
+  StratifiedLaunchSettings strat;
+  strat.histories_per_stratum = 5;
+  sc.settings.stratified_launch = strat;
+  const RunResult whole = run(sc);
+  std::mt19937 gen(5);
+  for (const std::int64_t n : {2, 3, 13}) {  // boundaries that cut collapsed strata of both
+    SCOPED_TRACE(n);                          // partitions
+    expect_same_figures(whole, sharded(sc, n, gen));
+  }
+}
+
+TEST(Shards, APartialLeavesTheStrataItCutsOpen) {
+  Scenario sc = shard_scenario();
+  const auto site = scene::Site::build(sc.site);
+  const PartialRun p = run_partial(sc, site, Shard{1, 3});
+  // Shard 1 of 3 holds the middle of both groups: one open stratum per group (no stratified
+  // launch: a group's batch is one stratum).
+  ASSERT_EQ(p.tally.open_strata().size(), 2u);
+  for (const auto& [key, st] : p.tally.open_strata()) EXPECT_LT(st.n, st.size);
+  EXPECT_EQ(p.histories_done, (800 - 400) + (344 - 172));
+}
+
+TEST(Shards, MissingDuplicateAndForeignShardsAreErrors) {
+  Scenario sc = shard_scenario();
+  sc.settings.record_trajectories = false;
+  sc.settings.record_fragments = false;
+  const auto site = scene::Site::build(sc.site);
+  PartialRun a = run_partial(sc, site, Shard{0, 3});
+  PartialRun b = run_partial(sc, site, Shard{2, 3});
+  PartialRun b2 = run_partial(sc, site, Shard{2, 3});
+  PartialRun other = run_partial(sc, site, Shard{0, 2});
+  merge(a, std::move(b));
+  EXPECT_THROW(merge(a, std::move(b2)), InputError);     // shard 2 twice
+  EXPECT_THROW(merge(a, std::move(other)), InputError);  // a split of 2
+  try {
+    finish(sc, *site, std::move(a));
+    ADD_FAILURE() << "a run with a shard missing finished";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("1 of 3 shards missing"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Shards, BadShardsAndPrecisionSplitsAreRefused) {
+  Scenario sc = shard_scenario();
+  const auto site = scene::Site::build(sc.site);
+  EXPECT_THROW(run_partial(sc, site, Shard{3, 3}), InputError);
+  EXPECT_THROW(run_partial(sc, site, Shard{-1, 3}), InputError);
+  EXPECT_THROW(run_partial(sc, site, Shard{0, 0}), InputError);
+  sc.settings.precision = PrecisionSettings{};
+  EXPECT_THROW(run_partial(sc, site, Shard{0, 2}), InputError);
+}
+
+TEST(Shards, ShardBoundariesCoverEveryHistoryOnce) {
+  for (const std::int64_t samples : {1, 2, 517, 1'000'000'007}) {
+    for (const std::int64_t n : {1, 2, 3, 600, 1'000'000}) {
+      std::int64_t covered = 0, prev = 0;
+      for (std::int64_t i = 0; i < n; ++i) {
+        const std::int64_t b = shard_begin(samples, {i, n}), e = shard_begin(samples, {i + 1, n});
+        ASSERT_EQ(b, prev);
+        ASSERT_LE(b, e);
+        covered += e - b;
+        prev = e;
+      }
+      EXPECT_EQ(covered, samples) << samples << " " << n;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace fragsim::run
