@@ -119,7 +119,7 @@ TEST(Shards, StratifiedLaunchStrataCutByShardsAreClosedWhole) {
   const RunResult whole = run(sc);
   std::mt19937 gen(5);
   for (const std::int64_t n : {2, 3, 13}) {  // boundaries that cut collapsed strata of both
-    SCOPED_TRACE(n);                          // partitions
+    SCOPED_TRACE(n);                         // partitions
     expect_same_figures(whole, sharded(sc, n, gen));
   }
 }

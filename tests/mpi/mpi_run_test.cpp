@@ -1,0 +1,135 @@
+// fragsim-mpi under a real mpirun (Open MPI): any number of ranks writes the figures of one
+// `fragsim run`, bit for bit; bad input is one clear message and exit 2 (mpi/mpi_run.h).
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int exit_code = -1;
+  std::string err;
+};
+
+std::string read_text(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+// Runs argv (argv[0] a path) with stdout/stderr to files in `dir`; Open MPI is allowed to run as
+// root (CI containers) and to place more ranks than cores (2-core machines).
+Result run(const fs::path& dir, std::vector<std::string> args) {
+  const std::string err = (dir / "stderr.txt").string(), out = (dir / "stdout.txt").string();
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+    ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+    ::setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 1);
+    const int fo = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int fe = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fo, STDOUT_FILENO);
+    ::dup2(fe, STDERR_FILENO);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  Result r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.err = read_text(err);
+  return r;
+}
+
+nlohmann::json figures(const fs::path& summary) {
+  nlohmann::json j = nlohmann::json::parse(read_text(summary));
+  j.erase("timing");
+  j.erase("provenance");
+  return j;
+}
+
+class MpiRun : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("fragsim_mpi_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::vector<std::string> mpirun(int np) const {
+    return {MPIEXEC, "-np", std::to_string(np), FRAGSIM_MPI};
+  }
+  fs::path dir_;
+  const std::string scenario_ = std::string(FRAGSIM_SOURCE_DIR) + "/examples/demo/scenario.json";
+};
+
+TEST_F(MpiRun, AnyNumberOfRanksWritesTheFiguresOfOneProcess) {
+  const Result one = run(dir_, {FRAGSIM_CLI, "run", scenario_, "--out", (dir_ / "one").string(),
+                                "--samples-scale", "0.1", "--threads", "1", "--quiet"});
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  const nlohmann::json expected = figures(dir_ / "one" / "summary.json");
+  ASSERT_GT(expected["hazardous_fragment_distance_m"].get<double>(), 0.0);
+  for (const int np : {1, 2, 3}) {
+    SCOPED_TRACE(np);
+    const fs::path out = dir_ / ("np" + std::to_string(np));
+    auto args = mpirun(np);
+    for (const char* a : {"run", scenario_.c_str(), "--out", out.c_str(), "--samples-scale", "0.1",
+                          "--threads", "1", "--quiet", "--progress-file"})
+      args.emplace_back(a);
+    args.push_back((dir_ / "progress.json").string());
+    const Result r = run(dir_, args);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(figures(out / "summary.json"), expected);
+    const auto progress = nlohmann::json::parse(read_text(dir_ / "progress.json"));
+    EXPECT_EQ(progress["state"], "done");
+    EXPECT_EQ(progress["histories_done"], expected["histories_done"]);
+  }
+}
+
+TEST_F(MpiRun, BadInputIsOneMessageAndExitTwo) {
+  auto missing = mpirun(2);
+  for (const char* a : {"run", "/nonexistent/scenario.json", "--out", "/tmp/unused"})
+    missing.emplace_back(a);
+  const Result r = run(dir_, missing);
+  EXPECT_EQ(r.exit_code, 2);
+  const std::string msg = "cannot read /nonexistent/scenario.json";
+  const auto first = r.err.find(msg);
+  ASSERT_NE(first, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find(msg, first + 1), std::string::npos) << "said more than once:\n" << r.err;
+
+  auto shard = mpirun(2);
+  for (const char* a : {"run", scenario_.c_str(), "--out", "/tmp/unused", "--shard", "0/2"})
+    shard.emplace_back(a);
+  const Result s = run(dir_, shard);
+  EXPECT_EQ(s.exit_code, 2);
+  EXPECT_NE(s.err.find("--shard"), std::string::npos) << s.err;
+  EXPECT_FALSE(fs::exists("/tmp/unused"));
+}
+
+TEST_F(MpiRun, PrecisionRunsAreRefusedOnSeveralRanks) {
+  nlohmann::json sc = nlohmann::json::parse(read_text(scenario_));
+  sc["settings"]["precision"] = {{"max_batches", 2}};
+  const fs::path file = dir_ / "precision.json";
+  std::ofstream(file) << sc.dump();
+  auto args = mpirun(2);
+  for (const char* a : {"run", file.c_str(), "--out", (dir_ / "out").c_str()}) args.emplace_back(a);
+  const Result r = run(dir_, args);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("settings.precision"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "out" / "summary.json"));
+}
+
+}  // namespace
