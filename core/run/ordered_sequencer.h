@@ -3,9 +3,9 @@
 //
 // Workers compute chunks in any order on any thread; each calls submit(k, output). The outputs are
 // consumed by `fold` in order 0, 1, 2, ... by whichever thread completes the gap, under a mutex.
-// Since every floating-point accumulation then happens in (group, history) order, results are
-// bit-identical for any number of threads. Chunk boundaries do not matter either as long as the
-// fold treats each history separately (it does: chunk outputs are lists of per-history records).
+// The tallies are exact sums and would not need the order (tally/exact_sum.h); the importance-
+// sampling learner (its sums are doubles) and the batch boundaries of settings.precision do: a
+// boundary's decision reads exactly the batches before it.
 #include <cstdint>
 #include <map>
 #include <mutex>

@@ -1,6 +1,7 @@
 #pragma once
 // One Monte Carlo run: sample histories, fly them, tally. Thread pool over chunks of histories.
-// Results are bit-identical for any thread count and chunk size (see tally/ordered_reducer.h).
+// Results are bit-identical for any thread count, chunk size and shard split (exact sums:
+// tally/exact_sum.h; shards: run/partial.h).
 #include <atomic>
 #include <functional>
 #include <memory>
