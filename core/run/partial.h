@@ -81,7 +81,8 @@ PartialRun run_partial(const Scenario& scenario, std::shared_ptr<const scene::Si
 // InputError when they are shards of different splits or share a shard.
 void merge(PartialRun& into, PartialRun&& other);
 
-// The result of the merged shards. Throws InputError when a shard is missing (unless cancelled).
-RunResult finish(const Scenario& scenario, const scene::Site& site, PartialRun&& partial);
+// The result of the merged shards (taken by value: their memory is freed on return). Throws
+// InputError when a shard is missing (unless cancelled).
+RunResult finish(const Scenario& scenario, const scene::Site& site, PartialRun partial);
 
 }  // namespace fragsim::run

@@ -757,7 +757,7 @@ void merge(PartialRun& into, PartialRun&& other) {
   into.threads += other.threads;
 }
 
-RunResult finish(const Scenario& sc, const scene::Site& site, PartialRun&& p) {
+RunResult finish(const Scenario& sc, const scene::Site& site, PartialRun p) {
   if (!p.cancelled && static_cast<std::int64_t>(p.shards.size()) != p.shard_count)
     throw InputError("shards",
                      std::to_string(p.shard_count - static_cast<std::int64_t>(p.shards.size())) +
