@@ -13,6 +13,7 @@ PACKAGES=(
   libhdf5-dev              # results.h5
   librandom123-dev         # Philox counter-based random streams
   libgtest-dev libgmock-dev googletest  # unit and validation tests
+  libopenmpi-dev openmpi-bin  # fragsim-mpi: a run divided among MPI ranks (mpi/, docs/cluster.md)
   libbenchmark-dev         # micro-benchmarks in bench/
   libgdal-dev gdal-bin     # gis/: DEM and footprint import (GDAL/OGR 3.6, PROJ 9)
   clang llvm libclang-rt-14-dev  # sanitizer builds and libFuzzer (deploy/sanitize.sh, fuzz.sh)
