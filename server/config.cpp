@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cstring>
@@ -14,6 +15,7 @@
 
 #include "api/json_fields.h"
 #include "api/scenario_json.h"
+#include "server/backend.h"
 
 namespace fragsim::server {
 
@@ -96,6 +98,91 @@ std::string read_text_file(const std::string& path, const std::string& what) {
   return s.str();
 }
 
+std::vector<std::string> read_argv(const Json& v, const std::string& path) {
+  if (!v.is_array())
+    throw InputError(path, "expected an array of strings (a command and its arguments)");
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < v.size(); ++i)
+    out.push_back(api::read_string(v[i], api::index_path(path, i)));
+  return out;
+}
+
+double read_seconds(const Json& v, const std::string& path) {
+  const double s = api::read_number(v, path);
+  api::check_gt(s, 0.0, path);
+  api::check_le(s, 86400.0, path);
+  return s;
+}
+
+// "backend": a preset name ("local", "mpi", "slurm") or an object (docs/http-api.md).
+void apply_backend(const Json& j, BackendConfig& b) {
+  if (j.is_string()) {
+    b.kind = j.get<std::string>();
+    return;
+  }
+  if (!j.is_object()) throw InputError("backend", "expected a backend name or an object");
+  static const std::vector<std::string> kKeys = {
+      "kind",         "shards",           "max_jobs",    "threads",         "fragsim",
+      "run",          "submit",           "track",       "status",          "cancel",
+      "mpirun",       "sbatch",           "env",         "poll_interval_s", "status_interval_s",
+      "lost_after_s", "submit_timeout_s", "keep_workdir"};
+  for (const auto& item : j.items()) {
+    const std::string& k = item.key();
+    const std::string at = "backend." + k;
+    const Json& v = item.value();
+    if (k == "kind") {
+      b.kind = api::read_string(v, at);
+    } else if (k == "shards") {
+      b.shards = static_cast<int>(api::read_integer(v, at, 1, 4096));
+    } else if (k == "max_jobs") {
+      b.max_jobs = static_cast<int>(api::read_integer(v, at, 1, 10000));
+    } else if (k == "threads") {
+      b.threads = static_cast<int>(api::read_integer(v, at, 0, api::kMaxThreads));
+    } else if (k == "fragsim") {
+      b.fragsim = api::read_string(v, at);
+    } else if (k == "run") {
+      b.run = read_argv(v, at);
+    } else if (k == "submit") {
+      b.submit = read_argv(v, at);
+    } else if (k == "track") {
+      b.track = api::read_string(v, at);
+    } else if (k == "status") {
+      b.status = read_argv(v, at);
+    } else if (k == "cancel") {
+      b.cancel = read_argv(v, at);
+    } else if (k == "mpirun") {
+      b.mpirun = read_argv(v, at);
+    } else if (k == "sbatch") {
+      b.sbatch = read_argv(v, at);
+    } else if (k == "env") {
+      if (!v.is_object()) throw InputError(at, "expected an object of NAME: value");
+      b.env.clear();
+      for (const auto& e : v.items()) {
+        const std::string name = e.key();
+        const bool ok = !name.empty() && !std::isdigit(static_cast<unsigned char>(name[0])) &&
+                        std::all_of(name.begin(), name.end(),
+                                    [](unsigned char c) { return std::isalnum(c) || c == '_'; });
+        if (!ok) throw InputError(at, "\"" + name + "\" is not an environment variable name");
+        b.env.emplace_back(name, api::read_string(e.value(), api::child_path(at, name)));
+      }
+    } else if (k == "poll_interval_s") {
+      b.poll_interval_s = read_seconds(v, at);
+    } else if (k == "status_interval_s") {
+      b.status_interval_s = read_seconds(v, at);
+    } else if (k == "lost_after_s") {
+      b.lost_after_s = read_seconds(v, at);
+    } else if (k == "submit_timeout_s") {
+      b.submit_timeout_s = read_seconds(v, at);
+    } else if (k == "keep_workdir") {
+      b.keep_workdir = api::read_bool(v, at);
+    } else {
+      const std::string guess = api::suggest_key(k, kKeys);
+      throw InputError(
+          at, guess.empty() ? "unknown key" : "unknown key (did you mean \"" + guess + "\"?)");
+    }
+  }
+}
+
 }  // namespace
 
 // Loopback: "localhost", "::1" or an IPv4 address literal in 127.0.0.0/8. A host *name* that
@@ -150,7 +237,8 @@ void apply_config_file(const std::string& path, Config& c) {
                                                  "job_nice",
                                                  "ui",
                                                  "ui_dir",
-                                                 "cors_origins"};
+                                                 "cors_origins",
+                                                 "backend"};
   try {
     for (const auto& item : j.items()) {
       const std::string& k = item.key();
@@ -200,6 +288,8 @@ void apply_config_file(const std::string& path, Config& c) {
         c.ui = api::read_bool(v, k);
       } else if (k == "ui_dir") {
         c.ui_dir = api::read_string(v, k);
+      } else if (k == "backend") {
+        apply_backend(v, c.backend);
       } else if (k == "cors_origins") {
         if (!v.is_array()) throw InputError(k, "expected array of origins");
         c.cors_origins.clear();
@@ -283,6 +373,12 @@ Invocation parse_command_line(const std::vector<std::string>& args) {
       c.ui = false;
     } else if (a == "--cors-origin") {
       c.cors_origins.push_back(checked_origin(value(), a));
+    } else if (a == "--backend") {
+      c.backend.kind = value();
+    } else if (a == "--backend-shards") {
+      c.backend.shards = static_cast<int>(parse_integer(value(), a, 1, 4096));
+    } else if (a == "--backend-max-jobs") {
+      c.backend.max_jobs = static_cast<int>(parse_integer(value(), a, 1, 10000));
     } else if (a == "--max-crashes") {
       c.max_crashes = static_cast<int>(parse_integer(value(), a, 1, 1000));
     } else {
@@ -299,6 +395,11 @@ void check_config(const Config& c) {
                       " (authentication may only be off on a loopback address)");
   if (!c.ui_dir.empty() && !std::filesystem::is_regular_file(c.ui_dir + "/index.html"))
     throw ConfigError("--ui-dir: " + c.ui_dir + " holds no index.html (give the viewer/ folder)");
+  try {
+    (void)resolve_backend(c.backend);
+  } catch (const InputError& e) {
+    throw ConfigError(e.what());
+  }
   if (c.auth) {
     if (c.token_file.empty())
       throw ConfigError("--token-file: required (or --no-auth on a loopback address)");
@@ -332,6 +433,11 @@ const char* usage_text() {
          "  --no-ui                  serve no web viewer\n"
          "  --cors-origin ORIGIN     let pages of ORIGIN call the API (repeatable; none by "
          "default)\n"
+         "  --backend KIND           where jobs run: local (default), mpi, slurm; a command "
+         "backend\n"
+         "                           and the options of each: config key \"backend\"\n"
+         "  --backend-shards N       shards of each backend job (mpi default 2, slurm 4)\n"
+         "  --backend-max-jobs N     backend jobs submitted at once (default 1)\n"
          "  --log-level LEVEL        debug | info | warn | error (default info)\n"
          "  --version, --help\n";
 }

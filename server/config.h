@@ -9,6 +9,31 @@
 
 namespace fragsim::server {
 
+// Where jobs run (docs/http-api.md, "fragsimd backends"): "local" (the daemon's own thread pool,
+// the default) or an external backend that runs each job as `shards` pieces through commands:
+// "mpi" (mpirun, detached), "slurm" (an sbatch array) or "command" (argv templates given here).
+// The presets fill submit/status/cancel; server/backend.h resolves and checks them.
+struct BackendConfig {
+  std::string kind = "local";       // local | command | mpi | slurm
+  int shards = 0;                   // 0: the preset's default (mpi: 2, slurm: 4); command: required
+  int max_jobs = 1;                 // backend jobs submitted at once
+  int threads = 0;                  // --threads of each shard (0: all cores where it runs)
+  std::string fragsim;              // the fragsim program the shards run (default: beside fragsimd)
+  std::vector<std::string> run;     // one shard's command (default: fragsim run --shard I/N ...)
+  std::vector<std::string> submit;  // argv template; once per shard if it holds {shard}
+  std::string track;                // "process" (the submit's process group) | "queue" (ids)
+  std::vector<std::string> status;  // queue: prints something while the job is queued/running
+  std::vector<std::string> cancel;  // queue: required; process: optional (the group is killed)
+  std::vector<std::string> mpirun = {"mpirun"};          // mpi: the launcher and its options
+  std::vector<std::string> sbatch = {"sbatch"};          // slurm: sbatch and its options
+  std::vector<std::pair<std::string, std::string>> env;  // exported to every shard
+  double poll_interval_s = 0.5;                          // shard files read this often
+  double status_interval_s = 30.0;                       // queue: the status command run this often
+  double lost_after_s = 600.0;      // queue: status unknown this long -> treated as gone
+  double submit_timeout_s = 120.0;  // queue: the submit command must return within this
+  bool keep_workdir = false;        // keep jobs/<id>/backend-<n>/ after the job is done
+};
+
 struct Config {
   std::string listen_host = "127.0.0.1";
   int listen_port = 8080;  // 0: any free port (see port_file)
@@ -39,6 +64,7 @@ struct Config {
   // requests get Access-Control-Allow-Origin and their preflights an answer. None by default
   // (the page fragsimd serves is same-origin and needs none).
   std::vector<std::string> cors_origins;
+  BackendConfig backend;
 };
 
 // What the command line asked for besides running.

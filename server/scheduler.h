@@ -1,14 +1,19 @@
 #pragma once
-// Runs queued jobs one at a time, highest priority then oldest, each on all of the daemon's
-// Monte Carlo threads (core::run's pool; results do not depend on the thread count).
+// Runs queued jobs, highest priority then oldest: with the local backend one at a time on all of
+// the daemon's Monte Carlo threads (core::run's pool; results do not depend on the thread count);
+// with an external backend (server/backend.h) up to backend.max_jobs at once, each submitted as
+// shards and followed through its work directory, then merged here.
 //
-// A job's life: queued -> running (mark_running) -> run -> files staged and renamed into
-// <data>/jobs/<job_id>/ -> one transaction marks it done with its figures. Cancelled meanwhile:
-// the files are removed and the job stays cancelled. Daemon shutdown: the running job is stopped
-// and queued again; being deterministic, its rerun gives the same result.
+// A job's life: queued -> running (mark_running) -> run (local), or submit, follow, merge the
+// shards' partials (backend) -> files staged and renamed into <data>/jobs/<job_id>/ -> one
+// transaction marks it done with its figures. Cancelled meanwhile: the files are removed and the
+// job stays cancelled. Daemon shutdown: a local job is stopped and queued again (being
+// deterministic, its rerun gives the same result); a backend job goes on running where it was
+// submitted, and the next daemon re-attaches to it (adopt_backend_jobs).
 #include <atomic>
 #include <condition_variable>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -16,7 +21,10 @@
 #include <string>
 #include <thread>
 
+#include "api/scenario_json.h"
 #include "core/run/precision.h"
+#include "core/run/result.h"
+#include "server/backend.h"
 #include "server/site_registry.h"
 #include "server/store.h"
 
@@ -36,11 +44,18 @@ class Scheduler {
  public:
   // `job_nice`: the nice value the job's threads run at (0 = the daemon's own), so that requests
   // are answered promptly while a job keeps the cores busy.
+  // `backend`: where jobs run (local: this process); `max_crashes`: a backend job whose merge
+  // was interrupted by the daemon's death this many times fails (code "crashed").
   Scheduler(Store& store, SiteRegistry& sites, std::filesystem::path jobs_dir, int threads,
-            int job_nice = 0);
+            int job_nice = 0, ResolvedBackend backend = {}, int max_crashes = 3);
   ~Scheduler();
   Scheduler(const Scheduler&) = delete;
   Scheduler& operator=(const Scheduler&) = delete;
+
+  // At start, before Store::recover_interrupted: the running jobs an earlier daemon submitted to a
+  // backend are followed again (whatever backend is configured now). Returns their ids; the
+  // others (a local run, a submission the daemon died in) are for recover_interrupted.
+  std::vector<std::string> adopt_backend_jobs();
 
   void start();
   // Stops the running job (queued again) and the worker; returns when the worker has exited.
@@ -51,15 +66,35 @@ class Scheduler {
   // let go of it (well within a second). nullopt: no such job; else the state before.
   std::optional<JobState> cancel(const std::string& job_id);
 
-  std::optional<LiveProgress> running() const;
+  // The live progress of a running job (nullopt: not running here, or not started yet).
+  std::optional<LiveProgress> progress(const std::string& job_id) const;
+  // The speed of every running job, summed (histories per second).
+  double histories_per_s() const;
   // Histories of the jobs finished (done) since start: a counter, it never goes down.
   std::int64_t histories_completed() const;
 
   std::filesystem::path job_dir(const std::string& job_id) const { return jobs_dir_ / job_id; }
+  // A backend attempt's work directory (server/backend.h).
+  std::filesystem::path backend_dir(const std::string& job_id, int attempt) const;
 
  private:
+  struct Tracked;   // a backend job being followed
+  struct Stopping;  // a cancelled or failed backend job whose processes may still be at work
+
   void loop();
   void run_job(const JobRow& job);
+  // Stages and commits the job's results, then marks it done. False: cancelled meanwhile.
+  bool persist(const JobRow& job, const api::ScenarioDocument& doc, const scene::Site& site,
+               const run::RunResult& result, std::chrono::steady_clock::time_point started);
+  // The job's scenario as a stand-alone file would hold it: a site_id replaced by the site.
+  std::string stand_alone_scenario(const JobRow& job);
+
+  void monitor_loop();
+  void submit_queued();
+  void follow_backend_jobs();
+  void finish_backend_job(Tracked& t);
+  void stop_backend_job(const BackendJob& job, bool remove_workdir);
+  void sweep_stopping();
 
   Store& store_;
   SiteRegistry& sites_;
@@ -77,6 +112,13 @@ class Scheduler {
   std::set<std::string> cancel_pending_;  // cancelled between mark_running and run_job
   std::int64_t completed_ = 0;
   std::thread worker_;
+
+  ResolvedBackend backend_;
+  int max_crashes_;
+  std::condition_variable monitor_wake_;
+  std::map<std::string, std::shared_ptr<Tracked>> tracked_;  // backend jobs, by id
+  std::vector<std::shared_ptr<Stopping>> stopping_jobs_;
+  std::thread monitor_;
 };
 
 }  // namespace fragsim::server

@@ -185,12 +185,15 @@ Service::Service(Config config)
       started_(std::chrono::steady_clock::now()),
       store_(data_dir_ / "fragsimd.sqlite"),
       sites_(store_, data_dir_ / "sites"),
-      scheduler_(store_, sites_, data_dir_ / "jobs", config_.threads, config_.job_nice) {
+      scheduler_(store_, sites_, data_dir_ / "jobs", config_.threads, config_.job_nice,
+                 resolve_backend(config_.backend), config_.max_crashes) {
   if (const std::size_t n = clean_stale_temporaries(data_dir_); n > 0)
     log(LogLevel::kWarn, "removed temporaries left by a killed daemon",
         {{"files", std::to_string(n)}});
   sites_.load();
-  for (const auto& id : store_.recover_interrupted(config_.max_crashes, utc_now()))
+  // Backend jobs an earlier daemon submitted go on where they run; the rest is requeued.
+  const auto adopted = scheduler_.adopt_backend_jobs();
+  for (const auto& id : store_.recover_interrupted(config_.max_crashes, utc_now(), adopted))
     log(LogLevel::kWarn, "job interrupted by a previous daemon; queued again", {{"job_id", id}});
   scheduler_.start();
 }
@@ -506,7 +509,7 @@ Response Service::metrics_page() {
   for (std::size_t k = 0; k < counts.size(); ++k) g.jobs_by_state[k] = counts[k];
   g.queue_length = counts[static_cast<std::size_t>(JobState::kQueued)];
   g.histories_total = scheduler_.histories_completed();
-  if (const auto live = scheduler_.running()) g.histories_per_s = live->histories_per_s;
+  g.histories_per_s = scheduler_.histories_per_s();
   g.sites = static_cast<std::int64_t>(sites_.size());
   g.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
   metrics_.fill_connection_gauges(g);
@@ -617,7 +620,7 @@ OJson Service::job_json(const JobRow& row) {
   OJson eta = nullptr;
   OJson precision = nullptr;
   if (row.state == JobState::kRunning) {
-    if (const auto live = scheduler_.running(); live && live->job_id == row.job_id) {
+    if (const auto live = scheduler_.progress(row.job_id)) {
       done = std::max(done, live->histories_done);
       if (live->histories_per_s > 0) {
         rate = live->histories_per_s;

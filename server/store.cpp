@@ -457,29 +457,58 @@ void Store::requeue(const std::string& job_id) {
   s.bind(1, job_id).run();
 }
 
-std::vector<std::string> Store::recover_interrupted(int max_crashes, const std::string& now_utc) {
+std::vector<std::string> Store::recover_interrupted(int max_crashes, const std::string& now_utc,
+                                                    const std::vector<std::string>& still_running) {
   const std::lock_guard<std::mutex> lock(mutex_);
+  // The ids to leave alone, as a JSON array for json_each (SQLite's JSON functions are built in).
+  std::string keep = "[";
+  for (const auto& id : still_running) {
+    if (keep.size() > 1) keep += ',';
+    keep += '"';
+    keep += id;  // job ids are j_ and hex digits: nothing to escape
+    keep += '"';
+  }
+  keep += ']';
   return transaction([&] {
-    Statement mark(*this, "UPDATE jobs SET crashes = crashes + 1 WHERE state = 'running'",
+    constexpr const char* kInterrupted =
+        "state = 'running' AND job_id NOT IN (SELECT value FROM json_each(?9))";
+    Statement mark(*this,
+                   std::string("UPDATE jobs SET crashes = crashes + 1 WHERE ") + kInterrupted,
                    "count crash");
-    mark.run();
+    mark.bind(9, keep).run();
     Statement fail(*this,
-                   "UPDATE jobs SET state = 'failed', finished_utc = ?2, error_code = 'crashed', "
-                   "error_message = 'the daemon stopped abnormally ' || crashes || "
-                   "' times while running this job' WHERE state = 'running' AND crashes >= ?1",
+                   std::string("UPDATE jobs SET state = 'failed', finished_utc = ?2, "
+                               "error_code = 'crashed', error_message = 'the daemon stopped "
+                               "abnormally ' || crashes || ' times while running this job' "
+                               "WHERE crashes >= ?1 AND ") +
+                       kInterrupted,
                    "fail crashed jobs");
-    fail.bind(1, max_crashes).bind(2, now_utc).run();
+    fail.bind(1, max_crashes).bind(2, now_utc).bind(9, keep).run();
     std::vector<std::string> requeued;
-    Statement list(*this, "SELECT job_id FROM jobs WHERE state = 'running' ORDER BY seq",
+    Statement list(*this,
+                   std::string("SELECT job_id FROM jobs WHERE ") + kInterrupted + " ORDER BY seq",
                    "interrupted jobs");
+    list.bind(9, keep);
     while (list.step()) requeued.push_back(list.text(0));
     Statement back(*this,
-                   "UPDATE jobs SET state = 'queued', histories_done = 0, started_utc = NULL "
-                   "WHERE state = 'running'",
+                   std::string("UPDATE jobs SET state = 'queued', histories_done = 0, "
+                               "started_utc = NULL WHERE ") +
+                       kInterrupted,
                    "requeue interrupted");
-    back.run();
+    back.bind(9, keep).run();
     return requeued;
   });
+}
+
+std::vector<JobRow> Store::running_jobs() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(
+      *this,
+      std::string("SELECT ") + kJobColumns + " FROM jobs WHERE state = 'running' ORDER BY seq",
+      "running jobs");
+  std::vector<JobRow> out;
+  while (s.step()) out.push_back(read_job(s));
+  return out;
 }
 
 std::optional<std::string> Store::summary_json(const std::string& job_id) {

@@ -104,8 +104,13 @@ class Store {
   // running -> queued (clean shutdown: the job reruns next time; not counted as a crash).
   void requeue(const std::string& job_id);
   // At start: jobs left running by a dead daemon. Each is queued again (crashes + 1), or marked
-  // failed with code "crashed" once it has crashed `max_crashes` times. Returns the ids requeued.
-  std::vector<std::string> recover_interrupted(int max_crashes, const std::string& now_utc);
+  // failed with code "crashed" once it has crashed `max_crashes` times; except those in
+  // `still_running` (backend jobs the new daemon follows again), which stay running. Returns the
+  // ids requeued.
+  std::vector<std::string> recover_interrupted(int max_crashes, const std::string& now_utc,
+                                               const std::vector<std::string>& still_running = {});
+  // The running jobs, with their scenarios, oldest first.
+  std::vector<JobRow> running_jobs();
 
   std::optional<std::string> summary_json(const std::string& job_id);
   std::vector<BuildingRow> buildings(const std::string& job_id);

@@ -377,6 +377,83 @@ TEST_F(ConfigFile, ViewerAndCorsKeys) {
       std::string::npos);
 }
 
+TEST(ConfigCommandLine, BackendFlags) {
+  EXPECT_EQ(parse_command_line({}).config.backend.kind, "local");
+  const Config c =
+      parse_command_line({"--backend", "mpi", "--backend-shards", "6", "--backend-max-jobs", "3"})
+          .config;
+  EXPECT_EQ(c.backend.kind, "mpi");
+  EXPECT_EQ(c.backend.shards, 6);
+  EXPECT_EQ(c.backend.max_jobs, 3);
+  EXPECT_TRUE(starts_with(command_line_error({"--backend-shards", "0"}), "--backend-shards: "));
+  const std::string usage = usage_text();
+  for (const char* flag : {"--backend", "--backend-shards", "--backend-max-jobs"})
+    EXPECT_NE(usage.find(flag), std::string::npos) << flag;
+}
+
+TEST_F(ConfigFile, BackendKey) {
+  Config c;
+  apply_config_file(write("c.json", R"({"backend": {"kind": "command", "shards": 3,
+      "max_jobs": 2, "threads": 1, "fragsim": "/opt/fragsim",
+      "submit": ["/bin/sh", "submit.sh", "{shard_script}", "{shards}"],
+      "run": ["{fragsim}", "run", "{scenario}", "--out", "{shard_dir}", "--shard", "{shard}/{shards}"],
+      "track": "queue", "status": ["qstat", "{ids}"], "cancel": ["qdel", "{ids}"],
+      "mpirun": ["mpirun", "--oversubscribe"], "sbatch": ["sbatch", "-p", "x"],
+      "env": {"OMP_NUM_THREADS": "1"}, "poll_interval_s": 0.25, "status_interval_s": 5,
+      "lost_after_s": 60, "submit_timeout_s": 30, "keep_workdir": true}})"),
+                    c);
+  const BackendConfig& b = c.backend;
+  EXPECT_EQ(b.kind, "command");
+  EXPECT_EQ(b.shards, 3);
+  EXPECT_EQ(b.max_jobs, 2);
+  EXPECT_EQ(b.threads, 1);
+  EXPECT_EQ(b.fragsim, "/opt/fragsim");
+  EXPECT_EQ(b.submit.size(), 4u);
+  EXPECT_EQ(b.run.size(), 7u);
+  EXPECT_EQ(b.track, "queue");
+  EXPECT_EQ(b.status, (std::vector<std::string>{"qstat", "{ids}"}));
+  EXPECT_EQ(b.cancel, (std::vector<std::string>{"qdel", "{ids}"}));
+  EXPECT_EQ(b.mpirun, (std::vector<std::string>{"mpirun", "--oversubscribe"}));
+  EXPECT_EQ(b.sbatch, (std::vector<std::string>{"sbatch", "-p", "x"}));
+  EXPECT_EQ(b.env, (std::vector<std::pair<std::string, std::string>>{{"OMP_NUM_THREADS", "1"}}));
+  EXPECT_EQ(b.poll_interval_s, 0.25);
+  EXPECT_EQ(b.status_interval_s, 5.0);
+  EXPECT_EQ(b.lost_after_s, 60.0);
+  EXPECT_EQ(b.submit_timeout_s, 30.0);
+  EXPECT_TRUE(b.keep_workdir);
+
+  Config preset;
+  apply_config_file(write("p.json", R"({"backend": "slurm"})"), preset);
+  EXPECT_EQ(preset.backend.kind, "slurm");
+
+  EXPECT_NE(file_error(R"({"backend": {"shard": 2}})")
+                .find("backend.shard: unknown key (did you mean \"shards\"?)"),
+            std::string::npos)
+      << file_error(R"({"backend": {"shard": 2}})");
+  EXPECT_NE(file_error(R"({"backend": {"submit": "sbatch x"}})")
+                .find("backend.submit: expected an array"),
+            std::string::npos);
+  EXPECT_NE(file_error(R"({"backend": {"env": {"1X": "a"}}})").find("not an environment variable"),
+            std::string::npos);
+  EXPECT_NE(file_error(R"({"backend": 3})").find("backend: expected a backend name or an object"),
+            std::string::npos);
+}
+
+TEST_F(ConfigCheck, BackendIsResolvedAtStart) {
+  Config c;
+  c.auth = false;
+  c.backend.kind = "command";
+  c.backend.shards = 2;
+  try {
+    check_config(c);
+    ADD_FAILURE() << "a command backend without submit was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_TRUE(starts_with(e.what(), "backend.submit: ")) << e.what();
+  }
+  c.backend.kind = "mpi";
+  EXPECT_NO_THROW(check_config(c));
+}
+
 TEST_F(ConfigCheck, UiDirMustHoldTheViewer) {
   Config c;
   c.auth = false;

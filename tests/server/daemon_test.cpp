@@ -5,67 +5,10 @@
 #include <cstdlib>
 #include <set>
 
-#include "api/results_h5.h"
 #include "tests/server/daemon_support.h"
 
 namespace fragsim::server::testing {
 namespace {
-
-// Every dataset of two results.h5 files, byte for byte (attributes hold timing and creation time
-// and may differ).
-void expect_same_datasets(const fs::path& a, const fs::path& b) {
-  const auto names = api::list_datasets(a);
-  ASSERT_EQ(names, api::list_datasets(b));
-  ASSERT_FALSE(names.empty());
-  for (const auto& name : names)
-    EXPECT_EQ(api::read_dataset_raw(a, name), api::read_dataset_raw(b, name)) << name;
-}
-
-// summary.json without what legitimately differs between two runs of one scenario: run time,
-// and the hash of the scenario text (a file for the CLI, the stored request for the daemon).
-Json comparable_summary(const std::string& text) {
-  Json s = Json::parse(text);
-  s.erase("timing");
-  s["provenance"].erase("scenario_sha256");
-  return s;
-}
-
-// `fragsim run` on `scenario` into dir/cli-<name>; returns that directory.
-fs::path cli_run(const fs::path& dir, const std::string& name, const Json& scenario) {
-  const fs::path file = dir / (name + ".json");
-  write_text(file, scenario.dump());
-  const fs::path out = dir / ("cli-" + name);
-  EXPECT_EQ(run_process({FRAGSIM_CLI, "run", file.string(), "--out", out.string(), "--quiet",
-                         "--threads", "1"},
-                        dir / "cli.log"),
-            0)
-      << read_text(dir / "cli.log");
-  return out;
-}
-
-// Downloads a finished job's results.h5 and summary.json into dir/<job_id>/.
-fs::path download(httplib::Client& c, const fs::path& dir, const std::string& id) {
-  const fs::path out = dir / id;
-  fs::create_directories(out);
-  auto h5 = c.Get("/v1/jobs/" + id + "/results.h5");
-  EXPECT_TRUE(h5 && h5->status == 200);
-  if (h5) write_text(out / "results.h5", h5->body);
-  auto summary = c.Get("/v1/jobs/" + id + "/summary");
-  EXPECT_TRUE(summary && summary->status == 200);
-  if (summary) write_text(out / "summary.json", summary->body);
-  return out;
-}
-
-Json with_seed(Json scenario, std::uint64_t seed) {
-  scenario["settings"]["seed"] = seed;
-  return scenario;
-}
-
-Json scaled_samples(Json scenario, double factor) {
-  for (auto& g : scenario["fragment_groups"])
-    g["samples"] = static_cast<std::int64_t>(g["samples"].get<double>() * factor);
-  return scenario;
-}
 
 TEST(Daemon, DemoJobIsBitIdenticalToTheCli) {
   const fs::path dir = fresh_dir("fragsimd_demo_");

@@ -378,6 +378,28 @@ TEST_F(StoreTest, RecoverInterruptedListsEveryRequeuedJobInSubmissionOrder) {
   EXPECT_EQ(store().job("j_2")->crashes, 0);
 }
 
+// Backend jobs the new daemon re-attached to stay running, untouched (no crash counted).
+TEST_F(StoreTest, RecoverInterruptedLeavesTheJobsStillRunningAlone) {
+  for (const char* id : {"j_1", "j_2", "j_3"}) store().insert_job(job_row(id));
+  for (const char* id : {"j_1", "j_2", "j_3"}) store().mark_running(id, "t");
+  store().update_progress("j_2", 77);
+  const auto running = store().running_jobs();
+  ASSERT_EQ(running.size(), 3u);
+  EXPECT_EQ(running[0].job_id, "j_1");
+  EXPECT_FALSE(running[0].scenario_json.empty()) << "with the scenario";
+  EXPECT_EQ(store().recover_interrupted(1, "now", {"j_2", "j_3"}),
+            std::vector<std::string>{});  // j_1: failed at once (max_crashes 1)
+  EXPECT_EQ(state("j_1"), JobState::kFailed);
+  for (const char* id : {"j_2", "j_3"}) {
+    EXPECT_EQ(state(id), JobState::kRunning) << id;
+    EXPECT_EQ(store().job(id)->crashes, 0) << id;
+  }
+  EXPECT_EQ(store().job("j_2")->histories_done, 77);
+  EXPECT_EQ(store().recover_interrupted(3, "now", {"j_3"}), std::vector<std::string>{"j_2"});
+  EXPECT_EQ(state("j_2"), JobState::kQueued);
+  EXPECT_EQ(state("j_3"), JobState::kRunning);
+}
+
 // docs/http-api.md, JobStatus: "started_utc is the latest start, null while queued". Both
 // requeue() (clean shutdown) and recover_interrupted() (crash) clear it.
 TEST_F(StoreTest, RecoverInterruptedClearsStartedUtcLikeRequeue) {

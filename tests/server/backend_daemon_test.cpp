@@ -1,0 +1,433 @@
+// fragsimd with an external backend (server/backend.h), end to end: the daemon as a process, jobs
+// run as shards by real `fragsim run --shard` processes started by a plain shell script (the
+// "command" backend, always), by mpirun (the "mpi" preset, when Open MPI runs here) and by a
+// stand-in for sbatch/squeue/scancel (the "slurm" preset's queue tracking, always). Results must
+// be those of `fragsim run` bit for bit; the daemon must survive kill -9 without losing or
+// rerunning the job; failed shards and cancellation must end the job as the contract says.
+#include <signal.h>
+#include <sys/stat.h>
+
+#include <cstdlib>
+
+#include "tests/server/daemon_support.h"
+
+namespace fragsim::server::testing {
+namespace {
+
+void write_script(const fs::path& path, const std::string& text) {
+  write_text(path, text);
+  fs::permissions(path, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                            fs::perms::others_read | fs::perms::others_exec);
+}
+
+// Starts shard.sh for every shard in the background and waits for them: the submit command of a
+// "command" backend, the simplest engine there is.
+fs::path submit_script(const fs::path& dir) {
+  const fs::path p = dir / "submit.sh";
+  write_script(p,
+               "#!/bin/sh\n"
+               "# submit.sh SHARD_SCRIPT N: every shard in the background\n"
+               "n=$2; i=0\n"
+               "while [ $i -lt $n ]; do \"$1\" $i & i=$((i + 1)); done\n"
+               "wait\n");
+  return p;
+}
+
+Json command_backend(const fs::path& dir, int shards) {
+  return {{"kind", "command"},
+          {"shards", shards},
+          {"threads", 1},
+          {"fragsim", FRAGSIM_CLI},
+          {"submit", {"/bin/sh", submit_script(dir).string(), "{shard_script}", "{shards}"}},
+          {"poll_interval_s", 0.1}};
+}
+
+// A daemon whose config file holds `backend`.
+std::unique_ptr<Daemon> backend_daemon(const fs::path& dir, const Json& backend) {
+  write_text(dir / "config.json", Json{{"backend", backend}}.dump(2));
+  return std::make_unique<Daemon>(
+      dir, std::vector<std::string>{"--config", (dir / "config.json").string()});
+}
+
+Json small_demo() {
+  return scaled_samples(demo_scenario(), 0.5);
+}
+
+bool wait_for(const std::function<bool()>& condition, int seconds = 120) {
+  const auto deadline = Clock::now() + std::chrono::seconds(seconds);
+  while (Clock::now() < deadline) {
+    if (condition()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+
+// Waits until the job runs and its shards have reported progress; returns that status.
+Json wait_progress(httplib::Client& c, const std::string& id) {
+  Json s;
+  wait_for([&] {
+    s = job_status(c, id);
+    return s.value("state", "") != "running"
+               ? s.value("state", "") != "queued"
+               : s.value("histories_done", 0) > 0 && !s["histories_per_s"].is_null();
+  });
+  return s;
+}
+
+// The manifest of a job's first backend attempt (server/backend.h).
+Json manifest(const Daemon& d, const std::string& id) {
+  const fs::path p = d.data() / "jobs" / id / "backend-1" / "manifest.json";
+  return fs::exists(p) ? Json::parse(read_text(p)) : Json();
+}
+
+bool group_alive(pid_t pgid) {
+  return ::kill(-pgid, 0) == 0 || errno != ESRCH;
+}
+
+// Every route that serves a done job answers as for a local job.
+void expect_served(httplib::Client& c, const std::string& id) {
+  for (const std::string route : {"/summary", "/buildings", "/ptn", "/ptn?format=geojson",
+                                  "/results.h5", "/scene", "/maps"}) {
+    auto r = c.Get("/v1/jobs/" + id + route);
+    ASSERT_TRUE(r) << route;
+    EXPECT_EQ(r->status, 200) << route << " " << r->body.substr(0, 300);
+  }
+}
+
+// The job through the daemon's backend equals `fragsim run` on the same scenario.
+void expect_same_as_cli(httplib::Client& c, const fs::path& dir, const std::string& id,
+                        const Json& scenario) {
+  const fs::path served = download(c, dir, id);
+  const fs::path cli = cli_run(dir, id, scenario);
+  expect_same_datasets(served / "results.h5", cli / "results.h5");
+  EXPECT_EQ(comparable_summary(read_text(served / "summary.json")),
+            comparable_summary(read_text(cli / "summary.json")));
+}
+
+bool mpirun_works() {
+  return std::system("mpirun --allow-run-as-root --oversubscribe -np 2 true >/dev/null 2>&1") == 0;
+}
+
+Json mpi_backend() {
+  return {{"kind", "mpi"},
+          {"shards", 2},
+          {"threads", 1},
+          {"fragsim", FRAGSIM_CLI},
+          {"mpirun", {"mpirun", "--allow-run-as-root", "--oversubscribe"}},
+          {"poll_interval_s", 0.1}};
+}
+
+TEST(BackendDaemon, CommandBackendJobIsBitIdenticalToTheCli) {
+  const fs::path dir = fresh_dir("fragsimd_backend_same_");
+  auto d = backend_daemon(dir, command_backend(dir, 3));
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  const Json demo = small_demo();
+  const std::string site = upload_site(*c, demo);
+  const std::string id = submit(*c, by_site_id(demo, site));
+  const Json s = wait_final(*c, id);
+  ASSERT_EQ(s.value("state", ""), "done") << s.dump() << "\n" << d->log();
+  EXPECT_EQ(s["histories_done"], s["histories_total"]);
+  EXPECT_EQ(s["attempts"], 1);
+  EXPECT_TRUE(s["error"].is_null());
+  expect_same_as_cli(*c, dir, id, demo);
+  expect_served(*c, id);
+  EXPECT_FALSE(fs::exists(d->data() / "jobs" / id / "backend-1")) << "work directory left";
+  EXPECT_NE(d->log().find("job submitted to backend"), std::string::npos);
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+// kill -9 of the daemon while the shards run: they go on; the restarted daemon re-attaches (the
+// job stays running, attempts 1: not rerun) and finishes it with the same figures.
+void restart_recovery(const fs::path& dir, const Json& backend) {
+  auto d = backend_daemon(dir, backend);
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  const Json scenario = scaled_samples(demo_scenario(), 8.0);
+  const std::string id = submit(*c, scenario);
+  const Json running = wait_progress(*c, id);
+  ASSERT_EQ(running.value("state", ""), "running") << running.dump() << "\n" << d->log();
+  EXPECT_LT(running["histories_done"].get<std::int64_t>(),
+            running["histories_total"].get<std::int64_t>());
+  EXPECT_TRUE(running["eta_s"].is_number()) << running.dump();
+  const Json m = manifest(*d, id);
+  ASSERT_EQ(m.value("state", ""), "submitted") << m.dump();
+  const pid_t pgid = m["groups"][0]["pgid"].get<pid_t>();
+
+  d->kill(SIGKILL);
+  EXPECT_TRUE(group_alive(pgid)) << "the shards run on without the daemon";
+  ASSERT_NO_THROW(d->start()) << d->log();
+  c = d->client();
+  const Json after = job_status(*c, id);
+  EXPECT_EQ(after.value("state", ""), "running") << after.dump();
+  EXPECT_EQ(after["attempts"], 1) << "re-attached, not rerun";
+  const Json s = wait_final(*c, id);
+  ASSERT_EQ(s.value("state", ""), "done") << s.dump() << "\n" << d->log();
+  EXPECT_EQ(s["attempts"], 1);
+  EXPECT_NE(d->log().find("backend job re-attached"), std::string::npos);
+  EXPECT_EQ(d->log().find("interrupted by a previous daemon"), std::string::npos);
+  expect_same_as_cli(*c, dir, id, scenario);
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+TEST(BackendDaemon, CommandBackendJobSurvivesKillNineOfTheDaemon) {
+  const fs::path dir = fresh_dir("fragsimd_backend_restart_");
+  Json backend = command_backend(dir, 2);
+  restart_recovery(dir, backend);
+}
+
+TEST(BackendDaemon, MpiBackendJobSurvivesKillNineOfTheDaemon) {
+  if (!mpirun_works()) GTEST_SKIP() << "mpirun cannot start 2 processes here";
+  restart_recovery(fresh_dir("fragsimd_backend_mpi_"), mpi_backend());
+}
+
+TEST(BackendDaemon, MpiBackendJobIsBitIdenticalToTheCli) {
+  if (!mpirun_works()) GTEST_SKIP() << "mpirun cannot start 2 processes here";
+  const fs::path dir = fresh_dir("fragsimd_backend_mpi_same_");
+  auto d = backend_daemon(dir, mpi_backend());
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  const Json scenario = with_seed(small_demo(), 5);
+  const std::string id = submit(*c, scenario);
+  const Json s = wait_final(*c, id);
+  ASSERT_EQ(s.value("state", ""), "done") << s.dump() << "\n" << d->log();
+  expect_same_as_cli(*c, dir, id, scenario);
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+// A shard's command, `{shard}` first, through a wrapper that makes shard 1 misbehave.
+Json with_run_wrapper(Json backend, const fs::path& wrapper) {
+  backend["run"] = {
+      "/bin/sh",         wrapper.string(), "{shard}", "{fragsim}",        "run",       "{scenario}",
+      "--out",           "{shard_dir}",    "--shard", "{shard}/{shards}", "--threads", "1",
+      "--progress-file", "{progress}",     "--quiet"};
+  return backend;
+}
+
+TEST(BackendDaemon, AShardThatFailsFailsTheJobNamingItsLog) {
+  const fs::path dir = fresh_dir("fragsimd_backend_fail_");
+  const fs::path wrapper = dir / "flaky.sh";
+  write_script(wrapper,
+               "#!/bin/sh\n"
+               "if [ \"$1\" = 1 ]; then echo \"shard one refuses\" >&2; exit 3; fi\n"
+               "shift; exec \"$@\"\n");
+  auto d = backend_daemon(dir, with_run_wrapper(command_backend(dir, 3), wrapper));
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  const std::string id = submit(*c, small_demo());
+  const Json s = wait_final(*c, id);
+  ASSERT_EQ(s.value("state", ""), "failed") << s.dump();
+  EXPECT_EQ(s["error"]["code"], "backend");
+  const std::string message = s["error"]["message"];
+  EXPECT_NE(message.find("shard 1 of 3 failed (exit status 3)"), std::string::npos) << message;
+  const fs::path log = d->data() / "jobs" / id / "backend-1" / "shard-1.log";
+  EXPECT_NE(message.find(log.string()), std::string::npos) << message;
+  EXPECT_NE(message.find("shard one refuses"), std::string::npos) << message;
+  EXPECT_TRUE(fs::exists(log)) << "a failed job keeps its logs";
+  auto r = c->Get("/v1/jobs/" + id + "/summary");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 409);
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+TEST(BackendDaemon, AShardWhoseProcessVanishesFailsTheJob) {
+  const fs::path dir = fresh_dir("fragsimd_backend_vanish_");
+  const fs::path wrapper = dir / "vanish.sh";
+  // Shard 1 kills its shard.sh (its parent) with SIGKILL: no exit status is ever recorded.
+  write_script(wrapper,
+               "#!/bin/sh\n"
+               "if [ \"$1\" = 1 ]; then kill -9 $PPID; exit 0; fi\n"
+               "shift; exec \"$@\"\n");
+  auto d = backend_daemon(dir, with_run_wrapper(command_backend(dir, 2), wrapper));
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  const std::string id = submit(*c, small_demo());
+  const Json s = wait_final(*c, id);
+  ASSERT_EQ(s.value("state", ""), "failed") << s.dump();
+  EXPECT_EQ(s["error"]["code"], "backend");
+  const std::string message = s["error"]["message"];
+  EXPECT_NE(message.find("shard 1 of 2 stopped without recording its end"), std::string::npos)
+      << message;
+  EXPECT_NE(message.find("process group"), std::string::npos) << message;
+  EXPECT_NE(message.find("shard-1.log"), std::string::npos) << message;
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+TEST(BackendDaemon, CancelStopsTheShards) {
+  const fs::path dir = fresh_dir("fragsimd_backend_cancel_");
+  auto d = backend_daemon(dir, command_backend(dir, 2));
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  const std::string id = submit(*c, scaled_samples(demo_scenario(), 20.0));
+  const Json running = wait_progress(*c, id);
+  ASSERT_EQ(running.value("state", ""), "running") << running.dump();
+  const pid_t pgid = manifest(*d, id)["groups"][0]["pgid"].get<pid_t>();
+  ASSERT_TRUE(group_alive(pgid));
+  auto r = c->Delete("/v1/jobs/" + id);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(Json::parse(r->body)["state"], "cancelled");
+  EXPECT_TRUE(wait_for([&] { return !group_alive(pgid); }, 30)) << "the shards were stopped";
+  EXPECT_TRUE(wait_for([&] { return !fs::exists(d->data() / "jobs" / id / "backend-1"); }, 30))
+      << "the work directory goes once nothing writes to it";
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  EXPECT_EQ(job_status(*c, id)["state"], "cancelled");
+  r = c->Delete("/v1/jobs/" + id);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 409);
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+// backend.max_jobs = 1: one job at a time on the backend; the queue's order (priority, then
+// submission) decides which runs next, as for local jobs.
+TEST(BackendDaemon, QueuePrioritiesAndTheBackendsJobLimitApply) {
+  const fs::path dir = fresh_dir("fragsimd_backend_queue_");
+  Json backend = command_backend(dir, 2);
+  backend["max_jobs"] = 1;
+  auto d = backend_daemon(dir, backend);
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  const std::string first = submit(*c, scaled_samples(demo_scenario(), 4.0));
+  ASSERT_EQ(wait_progress(*c, first).value("state", ""), "running");
+  Json low = with_seed(minimal_scenario(), 1);
+  Json high = with_seed(minimal_scenario(), 2);
+  high["priority"] = 5;
+  const std::string b = submit(*c, low);
+  const std::string h = submit(*c, high);
+  EXPECT_EQ(job_status(*c, b)["state"], "queued");
+  EXPECT_EQ(job_status(*c, h)["state"], "queued");
+  for (const auto& id : {first, b, h}) EXPECT_EQ(wait_final(*c, id)["state"], "done");
+  const std::string started_b = job_status(*c, b)["started_utc"];
+  const std::string started_h = job_status(*c, h)["started_utc"];
+  const std::string finished_first = job_status(*c, first)["finished_utc"];
+  EXPECT_LT(started_h, started_b) << "the higher priority went first";
+  EXPECT_GE(started_h, finished_first) << "one job at a time";
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+// The slurm preset's queue tracking, against stand-ins for sbatch, squeue and scancel (first on
+// the daemon's PATH) that run the array's tasks as local processes.
+void write_fake_slurm(const fs::path& bin) {
+  fs::create_directories(bin);
+  write_script(bin / "sbatch",
+               "#!/bin/sh\n"
+               "# sbatch --parsable --array=0-K ... SCRIPT: tasks 0..K in the background\n"
+               "last=0; script=\n"
+               "for a in \"$@\"; do\n"
+               "  case \"$a\" in --array=0-*) last=${a#--array=0-} ;; -*) ;; *) script=$a ;; esac\n"
+               "done\n"
+               "id=$$\n"
+               "state=\"$(dirname \"$0\")/jobs\"; mkdir -p \"$state\"\n"
+               "i=0\n"
+               "while [ $i -le $last ]; do\n"
+               "  SLURM_ARRAY_TASK_ID=$i setsid /bin/sh \"$script\" >/dev/null 2>&1 </dev/null &\n"
+               "  echo $! >>\"$state/$id\"\n"
+               "  i=$((i + 1))\n"
+               "done\n"
+               "echo \"$id;fakecluster\"\n");
+  write_script(bin / "squeue",
+               "#!/bin/sh\n"
+               "# squeue --noheader --jobs=ID ...: the id while one of its tasks lives\n"
+               "state=\"$(dirname \"$0\")/jobs\"\n"
+               "for a in \"$@\"; do case \"$a\" in --jobs=*) id=${a#--jobs=} ;; esac; done\n"
+               "echo \"$*\" >>\"$state/squeue.calls\"\n"
+               "[ -f \"$state/$id\" ] || { echo \"slurm_load_jobs error: Invalid job id "
+               "specified\" >&2; exit 1; }\n"
+               "for p in $(cat \"$state/$id\"); do\n"
+               "  if kill -0 \"$p\" 2>/dev/null; then echo \"$id\"; exit 0; fi\n"
+               "done\n");
+  write_script(bin / "scancel",
+               "#!/bin/sh\n"
+               "state=\"$(dirname \"$0\")/jobs\"\n"
+               "for id in \"$@\"; do\n"
+               "  echo \"$id\" >>\"$state/scancel.calls\"\n"
+               "  for p in $(cat \"$state/$id\"); do kill -TERM -\"$p\" 2>/dev/null; done\n"
+               "done\n");
+}
+
+class FakeSlurm : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fresh_dir("fragsimd_backend_slurm_");
+    write_fake_slurm(dir_ / "bin");
+    const char* path = std::getenv("PATH");
+    old_path_ = path ? path : "";
+    ::setenv("PATH", ((dir_ / "bin").string() + ":" + old_path_).c_str(), 1);
+  }
+  void TearDown() override { ::setenv("PATH", old_path_.c_str(), 1); }
+  Json slurm_backend() const {
+    return {{"kind", "slurm"},        {"shards", 3},
+            {"threads", 1},           {"fragsim", FRAGSIM_CLI},
+            {"poll_interval_s", 0.1}, {"status_interval_s", 0.3}};
+  }
+  fs::path dir_;
+  std::string old_path_;
+};
+
+TEST_F(FakeSlurm, SlurmPresetJobIsBitIdenticalAndRecoversAfterKillNine) {
+  auto d = backend_daemon(dir_, slurm_backend());
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  const Json scenario = scaled_samples(demo_scenario(), 6.0);
+  const std::string id = submit(*c, scenario);
+  ASSERT_EQ(wait_progress(*c, id).value("state", ""), "running") << d->log();
+  const Json m = manifest(*d, id);
+  ASSERT_EQ(m["track"], "queue") << m.dump();
+  ASSERT_EQ(m["ids"].size(), 1u);
+  EXPECT_NE(m["ids"][0].get<std::string>().find(';'), 0u);
+  d->kill(SIGKILL);
+  ASSERT_NO_THROW(d->start()) << d->log();
+  c = d->client();
+  EXPECT_EQ(job_status(*c, id)["state"], "running");
+  const Json s = wait_final(*c, id);
+  ASSERT_EQ(s.value("state", ""), "done") << s.dump() << "\n" << d->log();
+  EXPECT_EQ(s["attempts"], 1);
+  expect_same_as_cli(*c, dir_, id, scenario);
+  EXPECT_TRUE(fs::exists(dir_ / "bin" / "jobs" / "squeue.calls")) << "followed through squeue";
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+TEST_F(FakeSlurm, CancelRunsScancel) {
+  auto d = backend_daemon(dir_, slurm_backend());
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  const std::string id = submit(*c, scaled_samples(demo_scenario(), 20.0));
+  ASSERT_EQ(wait_progress(*c, id).value("state", ""), "running") << d->log();
+  const std::string queue_id = manifest(*d, id)["ids"][0];
+  auto r = c->Delete("/v1/jobs/" + id);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(read_text(dir_ / "bin" / "jobs" / "scancel.calls"), queue_id + "\n");
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  EXPECT_EQ(job_status(*c, id)["state"], "cancelled");
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+// The queue forgets the job (squeue: "Invalid job id") while shards have not ended: after
+// lost_after_s the job fails, naming the shards' state.
+TEST_F(FakeSlurm, AJobTheQueueLostFailsTheJob) {
+  Json backend = slurm_backend();
+  backend["lost_after_s"] = 1.0;
+  // Shard 0's task dies without a word, and the queue no longer knows the job.
+  const fs::path wrapper = dir_ / "lost.sh";
+  write_script(wrapper,
+               "#!/bin/sh\n"
+               "if [ \"$1\" = 0 ]; then rm -f \"" +
+                   (dir_ / "bin" / "jobs").string() +
+                   "\"/[0-9]*; kill -9 $PPID; exit 0; fi\n"
+                   "shift; exec \"$@\"\n");
+  auto d = backend_daemon(dir_, with_run_wrapper(backend, wrapper));
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  const std::string id = submit(*c, small_demo());
+  const Json s = wait_final(*c, id);
+  ASSERT_EQ(s.value("state", ""), "failed") << s.dump();
+  const std::string message = s["error"]["message"];
+  EXPECT_NE(message.find("shard 0 of 3 stopped without recording its end"), std::string::npos)
+      << message;
+  EXPECT_NE(message.find("queue"), std::string::npos) << message;
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+}  // namespace
+}  // namespace fragsim::server::testing
