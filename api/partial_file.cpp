@@ -71,6 +71,7 @@ class Reader {
   tally::ExactSum get_sum() {
     tally::ExactSum::Limbs l{};
     for (auto& x : l) x = get<std::uint64_t>();
+    if (!tally::ExactSum::in_range(l)) fail("a sum out of range");
     return tally::ExactSum::from_limbs(l);
   }
   Vec3 get_vec3() {
@@ -372,6 +373,8 @@ void write_partial_file(const std::filesystem::path& path, const run::PartialRun
 
 run::PartialRun read_partial_file(const std::filesystem::path& path, std::size_t tally_bins,
                                   PartialIdentity& identity) {
+  if (std::error_code ec; std::filesystem::is_directory(path, ec))  // reading one throws
+    throw InputError(path.string(), "a directory, not a partial file");
   std::ifstream f(path, std::ios::binary);
   if (!f) throw InputError(path.string(), "cannot read the partial file");
   std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());

@@ -1,14 +1,14 @@
 #pragma once
 // An exact sum of doubles: a 320-bit two's-complement fixed-point number with its lowest bit
-// worth 2^-160 (docs/precision.md, "Exact sums"). Adding is exact (integer arithmetic), so a sum
+// worth 2^-160 (docs/cluster.md, "Exact sums"). Adding is exact (integer arithmetic), so a sum
 // does not depend on the order of its terms: any split of the histories among threads, chunks,
 // processes or machines, merged in any order, gives the same bits. value() rounds the exact sum
 // to the nearest double (ties to even) once.
 //
-// Range: |sum| < 2^158 (about 3.7e47). A term is placed exactly when it is a multiple of 2^-160,
-// which every double >= 2^-107 (about 6e-33) is; a smaller one is rounded to the nearest multiple
-// (ties to even) first, a deterministic rounding of at most 2^-161 (about 3e-49) per term. A sum
-// that would leave the range throws std::overflow_error rather than wrap.
+// Range: -2^158 <= sum < 2^158 (about 3.7e47). A term is placed exactly when it is a multiple of
+// 2^-160, which every double >= 2^-107 (about 6e-33) is; a smaller one is rounded to the nearest
+// multiple (ties to even) first, a deterministic rounding of at most 2^-161 (about 3e-49) per term.
+// A sum that would leave the range throws std::overflow_error rather than wrap.
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -45,11 +45,13 @@ class ExactSum {
     add_shifted(m, p, (bits >> 63) != 0);
   }
 
+  // Throws std::overflow_error, leaving the sum as it was, when the result is out of range.
   void add(const ExactSum& o) {
-    const bool sa = negative(), sb = o.negative();
+    Limbs r = limbs_;
     bool carry = false;
-    for (int i = 0; i < kLimbs; ++i) carry = add_carry(limbs_[i], o.limbs_[i], carry);
-    check_range(sa, sb);
+    for (int i = 0; i < kLimbs; ++i) carry = add_carry(r[i], o.limbs_[i], carry);
+    check_range(negative(), o.negative(), r);
+    limbs_ = r;
   }
 
   bool zero() const {
@@ -85,6 +87,11 @@ class ExactSum {
   }
 
   const Limbs& limbs() const { return limbs_; }
+  // In range: the top two bits agree (what a sum of in-range terms always has).
+  static bool in_range(const Limbs& l) {
+    const std::uint64_t top = l[kLimbs - 1] >> 62;
+    return top == 0 || top == 3;
+  }
   static ExactSum from_limbs(const Limbs& l) {
     ExactSum s;
     s.limbs_ = l;
@@ -126,9 +133,9 @@ class ExactSum {
 
   // Two's-complement overflow: both terms of one sign and the sum of the other. The range is
   // kept two bits short of the 320 so that a sum of in-range terms never wraps silently.
-  void check_range(bool sa, bool sb) const {
-    const bool s = negative();
-    const std::uint64_t top = limbs_[kLimbs - 1] >> 62;
+  static void check_range(bool sa, bool sb, const Limbs& r) {
+    const bool s = (r[kLimbs - 1] >> 63) != 0;
+    const std::uint64_t top = r[kLimbs - 1] >> 62;
     if ((sa == sb && s != sa) || (top != 0 && top != 3))
       throw std::overflow_error("exact sum: the sum left the range of 2^158");
   }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <utility>
 
 namespace fragsim::tally {
@@ -28,14 +29,19 @@ StratifiedTally::StratifiedTally(std::size_t bins, int partitions)
 
 void StratifiedTally::start(std::size_t partition, const StratumKey& key, std::int64_t size) {
   Scratch& p = parts_[partition];
+  if (p.n != 0 || !p.s.bins().empty()) throw std::logic_error("start() before flush()");
   p.key = key;
+  p.key.partition = static_cast<std::uint32_t>(partition);
   p.size = size;
   p.n = 0;
 }
 
 void StratifiedTally::flush(std::size_t partition) {
   Scratch& p = parts_[partition];
-  if (p.n == 0) return;
+  if (p.n == 0) {
+    if (!p.s.bins().empty()) throw std::logic_error("contributions without history_done()");
+    return;
+  }
   OpenStratum piece;
   piece.size = p.size;
   piece.n = p.n;

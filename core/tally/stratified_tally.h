@@ -1,7 +1,9 @@
 #pragma once
 // Mean and standard error of per-bin totals from per-history contributions, with strata, kept as
 // exact sums (tally/exact_sum.h) so that a tally split in any way - threads, chunks, shards,
-// MPI ranks - and merged in any order gives the same bits.
+// MPI ranks - and merged in any order gives the same bits (docs/cluster.md, "Exact sums").
+// Resolution: squares are kept to 2^-160, so a bin's standard error is exact to 1e-12 for
+// contributions down to 1e-18 (and loses its meaning below ~1e-22); means far below that.
 //
 // Within stratum j (n_j histories), history i adds x_i (already multiplied by its weight) to a
 // bin; the stratum's total S_j = sum_i x_i is an unbiased estimate of its expected total, with
@@ -93,9 +95,11 @@ class StratifiedTally {
   std::size_t size() const { return mean_.size(); }
   std::size_t partitions() const { return parts_.size(); }
 
-  // Folding: start(k, key, size) names partition k's current stratum; add() feeds every
-  // partition's current stratum; history_done() counts one history in each; flush(k) ends the
-  // piece of partition k's stratum folded since start().
+  // Folding: start(k, key, size) names partition k's current stratum (key.partition is set to
+  // k); add() feeds every partition's current stratum; history_done() counts one history in
+  // each (after its add()s); flush(k) ends the piece of partition k's stratum folded since
+  // start(). A start() without the flush() of the piece before, or add()s not followed by
+  // history_done(), throw std::logic_error.
   void start(std::size_t partition, const StratumKey& key, std::int64_t size);
   void add(std::size_t bin, double x) {
     if (x == 0.0) return;  // changes neither sum
