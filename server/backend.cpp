@@ -239,10 +239,19 @@ pid_t spawn(const std::vector<std::string>& argv, const fs::path& out, const fs:
   args.push_back(nullptr);
   for (auto& e : envs) envp.push_back(e.data());
   envp.push_back(nullptr);
-  const std::string failure = "fragsimd: cannot execute " + program + "\n";
   const int in_fd = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
   const int out_fd = open_output(out);
   const int err_fd = open_output(err);
+  // Closed by a successful exec (O_CLOEXEC), or carries exec's errno: the parent returns only
+  // once the child is in its own session, so the group is there to be watched at once.
+  int exec_pipe[2] = {-1, -1};
+  if (::pipe2(exec_pipe, O_CLOEXEC) != 0) {
+    const int e = errno;
+    ::close(in_fd);
+    ::close(out_fd);
+    ::close(err_fd);
+    throw std::runtime_error(std::string("pipe: ") + std::strerror(e));
+  }
   rlimit lim{};
   ::getrlimit(RLIMIT_NOFILE, &lim);
   const int max_fd = static_cast<int>(std::min<rlim_t>(lim.rlim_cur, 1 << 16));
@@ -254,27 +263,56 @@ pid_t spawn(const std::vector<std::string>& argv, const fs::path& out, const fs:
     ::dup2(in_fd, 0);
     ::dup2(out_fd, 1);
     ::dup2(err_fd, 2);
+    const int report = exec_pipe[1] > 2 ? exec_pipe[1] : -1;
+    // Every descriptor but 0-2 and the report pipe (closed by exec) goes.
+    bool closed = false;
 #ifdef SYS_close_range
-    if (::syscall(SYS_close_range, 3U, ~0U, 0U) != 0)
+    closed = report < 0
+                 ? ::syscall(SYS_close_range, 3U, ~0U, 0U) == 0
+                 : (report == 3 ||
+                    ::syscall(SYS_close_range, 3U, static_cast<unsigned>(report - 1), 0U) == 0) &&
+                       ::syscall(SYS_close_range, static_cast<unsigned>(report + 1), ~0U, 0U) == 0;
 #endif
-      for (int fd = 3; fd < max_fd; ++fd) ::close(fd);
+    if (!closed)
+      for (int fd = 3; fd < max_fd; ++fd)
+        if (fd != report) ::close(fd);
     struct sigaction dfl {};
     dfl.sa_handler = SIG_DFL;
     for (int sig = 1; sig < NSIG; ++sig) ::sigaction(sig, &dfl, nullptr);
     sigset_t none;
     sigemptyset(&none);
     ::sigprocmask(SIG_SETMASK, &none, nullptr);
-    if (::chdir(cwd.c_str()) != 0) ::_exit(126);
-    ::execve(program.c_str(), args.data(), envp.data());
-    const ssize_t w = ::write(2, failure.data(), failure.size());
-    (void)w;
+    int e = 0;
+    if (::chdir(cwd.c_str()) == 0) {
+      ::execve(program.c_str(), args.data(), envp.data());
+    }
+    e = errno;
+    if (report >= 0) {
+      const ssize_t w = ::write(report, &e, sizeof e);
+      (void)w;
+    }
     ::_exit(127);
   }
   const int fork_errno = errno;
   ::close(in_fd);
   ::close(out_fd);
   ::close(err_fd);
-  if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(fork_errno));
+  ::close(exec_pipe[1]);
+  if (pid < 0) {
+    ::close(exec_pipe[0]);
+    throw std::runtime_error(std::string("fork: ") + std::strerror(fork_errno));
+  }
+  int child_errno = 0;
+  ssize_t got = 0;
+  do {
+    got = ::read(exec_pipe[0], &child_errno, sizeof child_errno);
+  } while (got < 0 && errno == EINTR);
+  ::close(exec_pipe[0]);
+  if (got == static_cast<ssize_t>(sizeof child_errno)) {
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    throw std::runtime_error("cannot execute " + program + ": " + std::strerror(child_errno));
+  }
   return pid;
 }
 
@@ -717,11 +755,15 @@ bool BackendJob::groups_alive() {
   bool alive = false;
   for (const auto& g : groups_) {
     reap_group(g.pgid);
+    const std::uint64_t leader = process_start_time(g.pgid);
+    if (leader != 0 && leader == g.start_time) {
+      alive = true;  // the submit command itself
+      continue;
+    }
     if (::kill(-g.pgid, 0) != 0 && errno == ESRCH) continue;
     // The number is someone's group: ours, unless its leader is a newer process (the group
     // ended and the id was given again; a group id is not reused while the group exists).
-    const std::uint64_t leader = process_start_time(g.pgid);
-    if (leader != 0 && leader != g.start_time) continue;
+    if (leader != 0) continue;
     alive = true;
   }
   return alive;
