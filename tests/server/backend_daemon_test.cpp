@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 
 #include <cstdlib>
+#include <optional>
 
 #include "tests/server/daemon_support.h"
 
@@ -426,6 +427,76 @@ TEST_F(FakeSlurm, AJobTheQueueLostFailsTheJob) {
   EXPECT_NE(message.find("shard 0 of 3 stopped without recording its end"), std::string::npos)
       << message;
   EXPECT_NE(message.find("queue"), std::string::npos) << message;
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+// The slurm preset for real: a private single-node Slurm (deploy/cluster/slurm-local.sh) when one
+// can start here (root, slurm-wlm and munge installed), else skipped.
+class RealSlurm : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fresh_dir("fragsimd_backend_realslurm_");
+    script_ = source_path("deploy/cluster/slurm-local.sh");
+    if (!fs::exists(script_)) GTEST_SKIP() << "no deploy/cluster/slurm-local.sh";
+    // A short path: munged's socket lives there (at most 108 bytes).
+    slurm_ = fs::temp_directory_path() / ("fsd-slurm-" + std::to_string(::getpid()));
+    const std::string start = script_.string() + " start " + slurm_.string() + " >" +
+                              (dir_ / "slurm.env").string() + " 2>" + (dir_ / "slurm.err").string();
+    if (std::system(start.c_str()) != 0)
+      GTEST_SKIP() << "no private Slurm here: " << read_text(dir_ / "slurm.err");
+    started_ = true;
+    const char* conf = std::getenv("SLURM_CONF");
+    old_conf_ = conf ? std::optional<std::string>(conf) : std::nullopt;
+    ::setenv("SLURM_CONF", (slurm_ / "etc" / "slurm.conf").c_str(), 1);
+  }
+  void TearDown() override {
+    if (!started_) return;
+    if (old_conf_)
+      ::setenv("SLURM_CONF", old_conf_->c_str(), 1);
+    else
+      ::unsetenv("SLURM_CONF");
+    const std::string stop =
+        script_.string() + " stop " + (dir_ / "slurm").string() + " >/dev/null 2>&1";
+    EXPECT_EQ(std::system(stop.c_str()), 0);
+  }
+  fs::path dir_, script_, slurm_;
+  bool started_ = false;
+  std::optional<std::string> old_conf_;
+};
+
+TEST_F(RealSlurm, SlurmPresetJobIsBitIdenticalSurvivesKillNineAndCancels) {
+  const Json backend = {{"kind", "slurm"},        {"shards", 2},
+                        {"threads", 1},           {"fragsim", FRAGSIM_CLI},
+                        {"poll_interval_s", 0.1}, {"status_interval_s", 0.5}};
+  auto d = backend_daemon(dir_, backend);
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  const Json scenario = scaled_samples(demo_scenario(), 4.0);
+  const std::string id = submit(*c, scenario);
+  ASSERT_EQ(wait_progress(*c, id).value("state", ""), "running") << d->log();
+  d->kill(SIGKILL);
+  ASSERT_NO_THROW(d->start()) << d->log();
+  c = d->client();
+  const Json s = wait_final(*c, id);
+  ASSERT_EQ(s.value("state", ""), "done") << s.dump() << "\n" << d->log();
+  EXPECT_EQ(s["attempts"], 1);
+  expect_same_as_cli(*c, dir_, id, scenario);
+
+  const std::string long_job = submit(*c, scaled_samples(demo_scenario(), 20.0));
+  ASSERT_EQ(wait_progress(*c, long_job).value("state", ""), "running") << d->log();
+  const std::string queue_id = manifest(*d, long_job)["ids"][0];
+  auto r = c->Delete("/v1/jobs/" + long_job);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  // scancel: the array leaves the queue.
+  EXPECT_TRUE(wait_for(
+      [&] {
+        const std::string q = "squeue --noheader --jobs=" + queue_id + " >" +
+                              (dir_ / "squeue.out").string() + " 2>/dev/null";
+        return std::system(q.c_str()) != 0 || read_text(dir_ / "squeue.out").empty();
+      },
+      60));
+  EXPECT_EQ(job_status(*c, long_job)["state"], "cancelled");
   EXPECT_EQ(d->kill(SIGTERM), 0);
 }
 

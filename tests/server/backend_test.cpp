@@ -123,7 +123,10 @@ class BackendJobFiles : public ::testing::Test {
                                          "while [ $i -lt $n ]; do \"$1\" $i & i=$((i + 1)); done\n"
                                          "wait\n";
   }
-  void TearDown() override { fs::remove_all(dir_); }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
 
   ResolvedBackend backend(int shards) const {
     BackendConfig c;
