@@ -178,18 +178,12 @@ std::map<tally::StratumKey, tally::OpenStratum> get_open(Reader& r, std::size_t 
 }
 
 void put_stats(Writer& w, const run::RunStats& s) {
-  for (const std::int64_t v : {s.rhs_evaluations, s.integrator_steps, s.chords, s.scene_queries,
-                               s.chords_skipped, s.ptn_triangle_tests, s.bounces, s.ground_steps,
-                               s.ground_impacts, s.takeoffs, s.ground_step_caps})
-    w.put(v);
+  for (const auto m : run::RunStats::counters()) w.put(s.*m);
 }
 
 run::RunStats get_stats(Reader& r) {
   run::RunStats s;
-  for (std::int64_t* v : {&s.rhs_evaluations, &s.integrator_steps, &s.chords, &s.scene_queries,
-                          &s.chords_skipped, &s.ptn_triangle_tests, &s.bounces, &s.ground_steps,
-                          &s.ground_impacts, &s.takeoffs, &s.ground_step_caps})
-    *v = r.get<std::int64_t>();
+  for (const auto m : run::RunStats::counters()) s.*m = r.get<std::int64_t>();
   return s;
 }
 

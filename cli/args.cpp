@@ -64,6 +64,25 @@ ShardArg parse_shard(const std::string& v) {
   return s;
 }
 
+// The options run and merge share; true when args[k] was one (k advanced past its value).
+bool take_run_output(const std::vector<std::string>& args, std::size_t& k, Options& o) {
+  std::string value;
+  if (take_value(args, k, "--out", value)) {
+    if (value.empty()) throw UsageError("--out: empty directory name");
+    o.out = value;
+    return true;
+  }
+  if (take_value(args, k, "--samples-scale", value)) {
+    o.samples_scale = parse_scale(value);
+    return true;
+  }
+  if (args[k] == "--quiet" || args[k] == "-q") {
+    o.quiet = true;
+    return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 Options parse_args(const std::vector<std::string>& args) {
@@ -107,22 +126,12 @@ Options parse_args(const std::vector<std::string>& args) {
       o.command = Command::kHelp;
       return o;
     }
+    // run and merge: --out DIR, --samples-scale X, --quiet.
+    if ((o.command == Command::kRun || o.command == Command::kMerge) && take_run_output(args, k, o))
+      continue;
     if (o.command == Command::kRun) {
-      if (take_value(args, k, "--out", value)) {
-        if (value.empty()) throw UsageError("--out: empty directory name");
-        o.out = value;
-        continue;
-      }
       if (take_value(args, k, "--threads", value)) {
         o.threads = parse_threads(value);
-        continue;
-      }
-      if (take_value(args, k, "--samples-scale", value)) {
-        o.samples_scale = parse_scale(value);
-        continue;
-      }
-      if (a == "--quiet" || a == "-q") {
-        o.quiet = true;
         continue;
       }
       if (take_value(args, k, "--shard", value)) {
@@ -135,24 +144,9 @@ Options parse_args(const std::vector<std::string>& args) {
         continue;
       }
     }
-    if (o.command == Command::kMerge) {
-      if (take_value(args, k, "--out", value)) {
-        if (value.empty()) throw UsageError("--out: empty directory name");
-        o.out = value;
-        continue;
-      }
-      if (take_value(args, k, "--samples-scale", value)) {
-        o.samples_scale = parse_scale(value);
-        continue;
-      }
-      if (a == "--quiet" || a == "-q") {
-        o.quiet = true;
-        continue;
-      }
-      if (!(a.size() > 1 && a[0] == '-') && !o.scenario.empty()) {
-        o.parts.push_back(a);
-        continue;
-      }
+    if (o.command == Command::kMerge && !(a.size() > 1 && a[0] == '-') && !o.scenario.empty()) {
+      o.parts.push_back(a);
+      continue;
     }
     if (o.command == Command::kSubmit) {
       if (take_value(args, k, "--out", value)) {

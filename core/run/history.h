@@ -31,7 +31,7 @@ struct ChunkOutput {
   std::uint32_t group = 0;
   std::int64_t first_history = 0;
   std::int64_t count = 0;
-  bool last_of_batch = false;  // the run's (shard's) last chunk of its batch
+  bool last_of_batch = false;          // the run's (shard's) last chunk of its batch
   double weight = 0.0;                 // count / samples of the group
   std::vector<double> weights;         // per history: weight x likelihood ratio (== weight without
                                        // importance sampling)

@@ -132,6 +132,19 @@ struct RunStats {
   std::int64_t ground_impacts = 0;    // impulses at terrain edges on the ground
   std::int64_t takeoffs = 0;          // ground -> flight
   std::int64_t ground_step_caps = 0;  // histories stopped by max_ground_steps (expected 0)
+
+  // Every counter, in this order (sums, the partial file).
+  static constexpr auto counters() {
+    return std::array{
+        &RunStats::rhs_evaluations, &RunStats::integrator_steps, &RunStats::chords,
+        &RunStats::scene_queries,   &RunStats::chords_skipped,   &RunStats::ptn_triangle_tests,
+        &RunStats::bounces,         &RunStats::ground_steps,     &RunStats::ground_impacts,
+        &RunStats::takeoffs,        &RunStats::ground_step_caps};
+  }
+  RunStats& operator+=(const RunStats& o) {
+    for (const auto m : counters()) this->*m += o.*m;
+    return *this;
+  }
 };
 
 struct RunResult {

@@ -178,18 +178,7 @@ class Reducer {
   void add_records_and_stats(ChunkOutput& c) {
     for (auto& r : c.records) out_.records.push_back(r);
     for (auto& tr : c.trajectories) out_.trajectories.push_back(std::move(tr));
-    RunStats& s = out_.stats;
-    s.rhs_evaluations += c.stats.rhs_evaluations;
-    s.integrator_steps += c.stats.integrator_steps;
-    s.chords += c.stats.chords;
-    s.scene_queries += c.stats.scene_queries;
-    s.chords_skipped += c.stats.chords_skipped;
-    s.ptn_triangle_tests += c.stats.ptn_triangle_tests;
-    s.bounces += c.stats.bounces;
-    s.ground_steps += c.stats.ground_steps;
-    s.ground_impacts += c.stats.ground_impacts;
-    s.takeoffs += c.stats.takeoffs;
-    s.ground_step_caps += c.stats.ground_step_caps;
+    out_.stats += c.stats;
     out_.integration_s += c.integration_s;
     out_.geometry_s += c.geometry_s;
     out_.tally_s += c.tally_s;
@@ -737,19 +726,7 @@ void merge(PartialRun& into, PartialRun&& other) {
   std::move(other.records.begin(), other.records.end(), std::back_inserter(into.records));
   std::move(other.trajectories.begin(), other.trajectories.end(),
             std::back_inserter(into.trajectories));
-  RunStats& s = into.stats;
-  const RunStats& o = other.stats;
-  s.rhs_evaluations += o.rhs_evaluations;
-  s.integrator_steps += o.integrator_steps;
-  s.chords += o.chords;
-  s.scene_queries += o.scene_queries;
-  s.chords_skipped += o.chords_skipped;
-  s.ptn_triangle_tests += o.ptn_triangle_tests;
-  s.bounces += o.bounces;
-  s.ground_steps += o.ground_steps;
-  s.ground_impacts += o.ground_impacts;
-  s.takeoffs += o.takeoffs;
-  s.ground_step_caps += o.ground_step_caps;
+  into.stats += other.stats;
   into.integration_s += other.integration_s;
   into.geometry_s += other.geometry_s;
   into.tally_s += other.tally_s;
