@@ -51,7 +51,7 @@ ShardArg parse_shard(const std::string& v) {
     char* end = nullptr;
     errno = 0;
     const long long x = std::strtoll(t.c_str(), &end, 10);
-    if (t.empty() || *end != '\0' || errno != 0 || t[0] == '+' || t[0] == '-') return false;
+    if (t.empty() || *end != '\0' || errno != 0 || t[0] < '0' || t[0] > '9') return false;
     out = x;
     return true;
   };
