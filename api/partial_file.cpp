@@ -4,10 +4,12 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <type_traits>
 
 #include "api/sha256.h"
 #include "core/common/error.h"
+#include "core/run/precision.h"
 
 namespace fragsim::api {
 
@@ -109,6 +111,7 @@ tally::ExactBins get_bins(Reader& r, std::size_t size) {
   for (std::uint64_t k = 0; k < n; ++k) {
     const auto bin = r.get<std::uint32_t>();
     if (bin >= size) r.fail("a bin beyond the tally");
+    if (bins.touched(bin)) r.fail("a bin listed twice");
     bins.add(bin, r.get_sum());
   }
   return bins;
@@ -185,6 +188,52 @@ run::RunStats get_stats(Reader& r) {
   run::RunStats s;
   for (const auto m : run::RunStats::counters()) s.*m = r.get<std::int64_t>();
   return s;
+}
+
+// The last check of a settings.precision run's targets (a run of one shard: --shard 0/1).
+void put_precision(Writer& w, const run::PrecisionReport* p) {
+  w.put(static_cast<std::uint8_t>(p != nullptr));
+  if (p == nullptr) return;
+  w.put(p->batches);
+  w.put(p->histories);
+  w.put<std::uint64_t>(p->targets.size());
+  for (const run::TargetStatus& t : p->targets) {
+    w.put_string(t.figure);
+    w.put_string(t.building);
+    w.put_string(t.basis);
+    w.put(t.value);
+    w.put(t.allowed);
+    w.put(static_cast<std::uint8_t>(t.met));
+    w.put(t.histories_needed);
+  }
+  w.put(static_cast<std::uint8_t>(p->all_met));
+  w.put(p->histories_needed);
+  w.put(p->eta_s);
+  w.put(p->decay_exponent);
+}
+
+std::shared_ptr<const run::PrecisionReport> get_precision(Reader& r) {
+  if (r.get<std::uint8_t>() == 0) return nullptr;
+  auto p = std::make_shared<run::PrecisionReport>();
+  p->batches = r.get<std::int64_t>();
+  p->histories = r.get<std::int64_t>();
+  const std::uint64_t n = r.count(3 * 8 + 3 * 8 + 1);
+  for (std::uint64_t k = 0; k < n; ++k) {
+    run::TargetStatus t;
+    t.figure = r.get_string();
+    t.building = r.get_string();
+    t.basis = r.get_string();
+    t.value = r.get<double>();
+    t.allowed = r.get<double>();
+    t.met = r.get<std::uint8_t>() != 0;
+    t.histories_needed = r.get<double>();
+    p->targets.push_back(std::move(t));
+  }
+  p->all_met = r.get<std::uint8_t>() != 0;
+  p->histories_needed = r.get<double>();
+  p->eta_s = r.get<double>();
+  p->decay_exponent = r.get<double>();
+  return p;
 }
 
 void put_record(Writer& w, const run::FragmentRecord& f) {
@@ -280,7 +329,6 @@ run::TrajectoryRecord get_trajectory(Reader& r) {
 }  // namespace
 
 std::string encode_partial(const run::PartialRun& p, const PartialIdentity& id) {
-  if (p.precision) throw std::logic_error("a partial with a precision report cannot be encoded");
   Writer w;
   for (const char c : kMagic) w.put(c);
   w.put(kVersion);
@@ -299,6 +347,7 @@ std::string encode_partial(const run::PartialRun& p, const PartialIdentity& id) 
   put_stats(w, p.stats);
   for (const double s : {p.integration_s, p.geometry_s, p.tally_s, p.wall_s}) w.put(s);
   w.put(static_cast<std::int32_t>(p.threads));
+  put_precision(w, p.precision.get());
   put_tally(w, p.tally);
   w.put<std::uint64_t>(p.records.size());
   for (const auto& f : p.records) put_record(w, f);
@@ -334,14 +383,30 @@ run::PartialRun decode_partial(std::string_view bytes, std::size_t tally_bins, P
   p.pilot_histories = r.get<std::int64_t>();
   p.batches = r.get<std::int64_t>();
   p.tallied_batches = r.get<std::int64_t>();
+  // Counts a run can have: every later sum of them (merge, finish) stays far from overflow.
+  constexpr std::int64_t kMaxCount = std::int64_t{1} << 48;
+  auto count_ok = [&](std::int64_t n) { return n >= 0 && n <= kMaxCount; };
+  if (!count_ok(p.histories_done) || !count_ok(p.pilot_histories) || !count_ok(p.batches) ||
+      p.tallied_batches < 0 || p.tallied_batches > p.batches || p.batches > 1'000'000)
+    r.fail("impossible history or batch counts");
   p.cancelled = r.get<std::uint8_t>() != 0;
   const auto reason = r.get<std::uint8_t>();
   if (reason > static_cast<std::uint8_t>(run::StopReason::kCancelled)) r.fail("a bad stop reason");
   p.stop_reason = static_cast<run::StopReason>(reason);
-  for (std::int64_t& n : p.outcome_histories) n = r.get<std::int64_t>();
+  std::int64_t outcomes = 0;
+  for (std::int64_t& n : p.outcome_histories) {
+    n = r.get<std::int64_t>();
+    if (!count_ok(n)) r.fail("impossible outcome counts");
+    outcomes += n;
+  }
+  if (outcomes != p.histories_done) r.fail("outcome counts that do not add up to the histories");
   p.stats = get_stats(r);
+  for (const auto m : run::RunStats::counters())
+    if (p.stats.*m < 0 || p.stats.*m > (std::int64_t{1} << 56)) r.fail("impossible statistics");
   for (double* s : {&p.integration_s, &p.geometry_s, &p.tally_s, &p.wall_s}) *s = r.get<double>();
   p.threads = r.get<std::int32_t>();
+  if (p.threads < 1 || p.threads > 1'000'000) r.fail("an impossible thread count");
+  p.precision = get_precision(r);
   p.tally = get_tally(r, tally_bins);
   tally::ExactBins mean = get_bins(r, p.tally.size());
   std::vector<tally::ExactBins> var;

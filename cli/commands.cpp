@@ -172,10 +172,11 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
   ProgressFile progress_file(o.progress_file);
   try {
     const PreparedRun p = prepare(o);
-    if (o.shard && p.doc.scenario.settings.precision)
+    if (o.shard && o.shard->count > 1 && p.doc.scenario.settings.precision)
       throw InputError("settings.precision",
-                       "cannot run as a shard (--shard): its checks at batch boundaries need "
-                       "every history of a batch in one process");
+                       "cannot be split into shards (--shard I/N with N > 1): its checks at batch "
+                       "boundaries need every history of a batch in one process (--shard 0/1 "
+                       "runs it whole as one partial)");
     if (!o.quiet) std::cerr << illustrative_note(p.doc);
     ProgressLine progress(!o.quiet && ::isatty(STDERR_FILENO) == 1, !o.quiet);
     run::RunControl control;

@@ -21,7 +21,7 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 seconds="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(fuzz_scenario fuzz_site fuzz_job fuzz_service)
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_scenario fuzz_site fuzz_job fuzz_service fuzz_partial)
 build="$root/build-fuzz"
 
 "$root/deploy/install-deps.sh"

@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <tuple>
@@ -526,6 +527,26 @@ TallyBins tally_bins(const scene::Site& site) {
 
 namespace {
 
+// "shard 1 of 3 missing", "shards 0, 2, 5, ... (7 of 9) missing".
+std::string missing_shards(const PartialRun& p) {
+  std::vector<std::int64_t> missing;
+  for (std::int64_t k = 0, i = 0; k < p.shard_count && missing.size() < 8; ++k) {
+    while (i < static_cast<std::int64_t>(p.shards.size()) &&
+           p.shards[static_cast<std::size_t>(i)] < k)
+      ++i;
+    if (i == static_cast<std::int64_t>(p.shards.size()) ||
+        p.shards[static_cast<std::size_t>(i)] != k)
+      missing.push_back(k);
+  }
+  const std::int64_t count = p.shard_count - static_cast<std::int64_t>(p.shards.size());
+  const std::string total = std::to_string(p.shard_count);
+  if (count == 1) return "shard " + std::to_string(missing[0]) + " of " + total + " missing";
+  std::string list;
+  for (const std::int64_t k : missing) list += (list.empty() ? "" : ", ") + std::to_string(k);
+  if (count > static_cast<std::int64_t>(missing.size())) list += ", ...";
+  return "shards " + list + " (" + std::to_string(count) + " of " + total + ") missing";
+}
+
 void check_shard(const Scenario& sc, const Shard& shard) {
   if (shard.count < 1 || shard.index < 0 || shard.index >= shard.count)
     throw InputError("shard", "must be I/N with 0 <= I < N (got " + std::to_string(shard.index) +
@@ -702,6 +723,16 @@ PartialRun run_partial(const Scenario& sc, std::shared_ptr<const scene::Site> si
   return part;
 }
 
+namespace {
+
+// a += b for counts from partial files: a sum out of range is a damaged or forged partial.
+void add_count(std::int64_t& a, std::int64_t b) {
+  if (__builtin_add_overflow(a, b, &a))
+    throw InputError("shards", "counts out of range (a damaged or forged partial)");
+}
+
+}  // namespace
+
 void merge(PartialRun& into, PartialRun&& other) {
   if (into.shard_count != other.shard_count)
     throw InputError("shards", "partials of different splits (" + std::to_string(into.shard_count) +
@@ -712,33 +743,38 @@ void merge(PartialRun& into, PartialRun&& other) {
   for (const std::int64_t k : other.shards)
     if (std::find(into.shards.begin(), into.shards.end(), k) != into.shards.end())
       throw InputError("shards", "shard " + std::to_string(k) + " is there twice");
-  into.shards.insert(into.shards.end(), other.shards.begin(), other.shards.end());
-  std::sort(into.shards.begin(), into.shards.end());
-  into.tally.merge(other.tally);
+  PartialRun sum = std::move(into);  // `into` is left as it was when this throws
+  try {
+    sum.tally.merge(other.tally);
+  } catch (const std::overflow_error&) {
+    into = std::move(sum);
+    throw InputError("shards", "exact sums out of range (a damaged or forged partial)");
+  }
+  sum.shards.insert(sum.shards.end(), other.shards.begin(), other.shards.end());
+  std::sort(sum.shards.begin(), sum.shards.end());
   for (std::size_t o = 0; o < kOutcomeCount; ++o)
-    into.outcome_histories[o] += other.outcome_histories[o];
-  into.histories_done += other.histories_done;
-  into.pilot_histories += other.pilot_histories;
-  into.batches = std::max(into.batches, other.batches);
-  into.tallied_batches = std::max(into.tallied_batches, other.tallied_batches);
-  into.cancelled = into.cancelled || other.cancelled;
-  if (into.cancelled) into.stop_reason = StopReason::kCancelled;
-  std::move(other.records.begin(), other.records.end(), std::back_inserter(into.records));
+    add_count(sum.outcome_histories[o], other.outcome_histories[o]);
+  add_count(sum.histories_done, other.histories_done);
+  add_count(sum.pilot_histories, other.pilot_histories);
+  for (const auto m : RunStats::counters()) add_count(sum.stats.*m, other.stats.*m);
+  sum.batches = std::max(sum.batches, other.batches);
+  sum.tallied_batches = std::max(sum.tallied_batches, other.tallied_batches);
+  sum.cancelled = sum.cancelled || other.cancelled;
+  if (sum.cancelled) sum.stop_reason = StopReason::kCancelled;
+  std::move(other.records.begin(), other.records.end(), std::back_inserter(sum.records));
   std::move(other.trajectories.begin(), other.trajectories.end(),
-            std::back_inserter(into.trajectories));
-  into.stats += other.stats;
-  into.integration_s += other.integration_s;
-  into.geometry_s += other.geometry_s;
-  into.tally_s += other.tally_s;
-  into.wall_s = std::max(into.wall_s, other.wall_s);
-  into.threads += other.threads;
+            std::back_inserter(sum.trajectories));
+  sum.integration_s += other.integration_s;
+  sum.geometry_s += other.geometry_s;
+  sum.tally_s += other.tally_s;
+  sum.wall_s = std::max(sum.wall_s, other.wall_s);
+  sum.threads += other.threads;
+  into = std::move(sum);
 }
 
 RunResult finish(const Scenario& sc, const scene::Site& site, PartialRun p) {
   if (!p.cancelled && static_cast<std::int64_t>(p.shards.size()) != p.shard_count)
-    throw InputError("shards",
-                     std::to_string(p.shard_count - static_cast<std::int64_t>(p.shards.size())) +
-                         " of " + std::to_string(p.shard_count) + " shards missing");
+    throw InputError("shards", missing_shards(p));
   if (p.cancelled) p.tally.close_open_strata();  // the strata a cancellation cut short
   if (!p.tally.open_strata().empty())
     throw InputError("shards", "partials do not cover the run's histories");

@@ -37,6 +37,7 @@ class ExactBins {
   std::size_t size() const { return slot_.size(); }
   void add(std::size_t bin, double x) { at(bin).add(x); }
   void add(std::size_t bin, const ExactSum& s) { at(bin).add(s); }
+  bool touched(std::size_t bin) const { return slot_[bin] != kNone; }
   double value(std::size_t bin) const {
     const std::uint32_t k = slot_[bin];
     return k == kNone ? 0.0 : sums_[k].value();

@@ -609,8 +609,15 @@ Decoded merge_pipeline(const Case& c, const std::map<std::size_t, std::string>& 
           decode_partial(f != forged.end() ? f->second : encode_partial(c.shards[i], kIdentity),
                          c.bins, id, kWhat));
     }
+    // As `fragsim merge` does: a refused merge names the file being merged in.
     PartialRun all = std::move(parts[0]);
-    for (std::size_t i = 1; i < parts.size(); ++i) run::merge(all, std::move(parts[i]));
+    for (std::size_t i = 1; i < parts.size(); ++i) {
+      try {
+        run::merge(all, std::move(parts[i]));
+      } catch (const InputError& e) {
+        throw InputError(kWhat, e.message());
+      }
+    }
     const run::RunResult result = run::finish(c.sc, *c.site, std::move(all));
     r.message = "<finished: histories_done " + std::to_string(result.histories_done) + ">";
   } catch (const InputError& e) {

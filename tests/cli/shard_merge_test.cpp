@@ -224,8 +224,8 @@ TEST_F(ShardMerge, MoreShardsThanSamplesSomeEmptyStillMergeToOneRun) {
 
 TEST_F(ShardMerge, AMissingShardIsRefused) {
   const auto& p = three_shards();
-  expect_merge_refused(kDemo, {p[2], p[0]}, {"1 of 3 shards missing"});
-  expect_merge_refused(kDemo, {p[1]}, {"2 of 3 shards missing"});
+  expect_merge_refused(kDemo, {p[2], p[0]}, {"shard 1 of 3 missing"});
+  expect_merge_refused(kDemo, {p[1]}, {"shards 0, 2 (2 of 3) missing"});
 }
 
 TEST_F(ShardMerge, AShardGivenTwiceIsRefusedNamingTheFile) {
@@ -384,14 +384,16 @@ TEST_F(ShardMerge, BadShardArgumentsAreUsageErrors) {
   EXPECT_FALSE(fs::exists(out));
 }
 
-TEST_F(ShardMerge, AShardOfAPrecisionRunIsRefused) {
+// A settings.precision run cannot be split (its batch-boundary decisions need every history of a
+// batch), but runs whole as the one shard of 0/1, its precision report carried in the partial.
+TEST_F(ShardMerge, APrecisionRunIsRefusedAsShardsButRunsWholeAsOne) {
   Json j = Json::parse(read_text(kMinimal));
   j["settings"]["record_fragments"] = false;
   j["settings"]["precision"] = {{"building_abs_error", 1e3}};
   const fs::path scenario = dir_ / "precision.json";
   write_text(scenario, j.dump());
   const fs::path out = dir_ / "out", progress = dir_ / "progress.json";
-  for (const char* shard : {"0/2", "1/2", "0/1"}) {
+  for (const char* shard : {"0/2", "1/2"}) {
     SCOPED_TRACE(shard);
     const CliResult r = run({"run", scenario.string(), "--out", out.string(), "--shard", shard,
                              "--progress-file", progress.string()});
@@ -403,6 +405,22 @@ TEST_F(ShardMerge, AShardOfAPrecisionRunIsRefused) {
     EXPECT_EQ(Json::parse(read_text(progress))["state"], "failed");
     fs::remove(progress);
   }
+  const fs::path whole = dir_ / "whole", part = dir_ / "part", merged = dir_ / "merged";
+  const CliResult one = run({"run", scenario.string(), "--out", whole.string()});
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  const CliResult shard = run({"run", scenario.string(), "--out", part.string(), "--shard", "0/1"});
+  ASSERT_EQ(shard.exit_code, 0) << shard.err;
+  const CliResult m =
+      run({"merge", scenario.string(), (part / "partial.fsp").string(), "--out", merged.string()});
+  ASSERT_EQ(m.exit_code, 0) << m.err;
+  Json a = Json::parse(read_text(whole / "summary.json"));
+  Json b = Json::parse(read_text(merged / "summary.json"));
+  ASSERT_TRUE(a.contains("precision")) << a.dump().substr(0, 400);
+  for (Json* x : {&a, &b}) {
+    x->erase("timing");
+    x->erase("provenance");
+  }
+  EXPECT_EQ(a, b);
 }
 
 TEST_F(ShardMerge, MergeWithoutPartsOrOutIsAUsageError) {

@@ -138,6 +138,23 @@ TEST(BackendDaemon, CommandBackendJobIsBitIdenticalToTheCli) {
   EXPECT_EQ(d->kill(SIGTERM), 0);
 }
 
+// A settings.precision job cannot be split: the backend runs it as its one shard (--shard 0/1,
+// the partial carrying the precision report) and it ends as the CLI's run does.
+TEST(BackendDaemon, APrecisionJobRunsWholeAsOneShard) {
+  const fs::path dir = fresh_dir("fragsimd_backend_precision_");
+  auto d = backend_daemon(dir, command_backend(dir, 3));
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  Json demo = small_demo();
+  demo["settings"]["precision"] = {{"max_batches", 3}, {"building_rel_error", 1e-9}};
+  const std::string id = submit(*c, demo);
+  const Json s = wait_final(*c, id);
+  ASSERT_EQ(s.value("state", ""), "done") << s.dump() << "\n" << d->log();
+  EXPECT_NE(d->log().find("backend=command shards=1 "), std::string::npos) << d->log();
+  expect_same_as_cli(*c, dir, id, demo);
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
 // kill -9 of the daemon while the shards run: they go on; the restarted daemon re-attaches (the
 // job stays running, attempts 1: not rerun) and finishes it with the same figures.
 void restart_recovery(const fs::path& dir, const Json& backend) {

@@ -151,7 +151,7 @@ TEST(Shards, MissingDuplicateAndForeignShardsAreErrors) {
     finish(sc, *site, std::move(a));
     ADD_FAILURE() << "a run with a shard missing finished";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("1 of 3 shards missing"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("shard 1 of 3 missing"), std::string::npos) << e.what();
   }
 }
 
