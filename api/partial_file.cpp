@@ -1,6 +1,9 @@
 #include "api/partial_file.h"
 
+#include <zlib.h>
+
 #include <bit>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -17,7 +20,7 @@ namespace {
 
 constexpr std::string_view kMagic = "FSPART01";
 constexpr std::uint32_t kVersion = 1;
-constexpr std::size_t kTrailer = 64;  // hex SHA-256
+constexpr std::size_t kTrailer = kPartialTrailerBytes;
 
 static_assert(std::endian::native == std::endian::little, "partial files are little-endian");
 
@@ -328,6 +331,13 @@ run::TrajectoryRecord get_trajectory(Reader& r) {
 
 }  // namespace
 
+std::string partial_trailer(std::string_view body) {
+  const uLong crc = crc32_z(0L, reinterpret_cast<const Bytef*>(body.data()), body.size());
+  char hex[9];
+  std::snprintf(hex, sizeof hex, "%08lx", static_cast<unsigned long>(crc & 0xffffffffUL));
+  return std::string(hex, 8);
+}
+
 std::string encode_partial(const run::PartialRun& p, const PartialIdentity& id) {
   Writer w;
   for (const char c : kMagic) w.put(c);
@@ -354,7 +364,7 @@ std::string encode_partial(const run::PartialRun& p, const PartialIdentity& id) 
   w.put<std::uint64_t>(p.trajectories.size());
   for (const auto& t : p.trajectories) put_trajectory(w, t);
   std::string bytes = w.take();
-  bytes += sha256_hex(bytes);
+  bytes += partial_trailer(bytes);
   return bytes;
 }
 
@@ -363,7 +373,7 @@ run::PartialRun decode_partial(std::string_view bytes, std::size_t tally_bins, P
   if (bytes.size() < kMagic.size() + kTrailer || bytes.substr(0, kMagic.size()) != kMagic)
     throw InputError(what, "not a partial file (no FSPART01 header)");
   const std::string_view body = bytes.substr(0, bytes.size() - kTrailer);
-  if (sha256_hex(body) != bytes.substr(bytes.size() - kTrailer))
+  if (partial_trailer(body) != bytes.substr(bytes.size() - kTrailer))
     throw InputError(what, "not an intact partial file: its checksum does not match");
   Reader r(body.substr(kMagic.size()), what);
   if (r.get<std::uint32_t>() != kVersion) r.fail("an unknown version");

@@ -5,9 +5,11 @@
 // can check that every piece belongs to the same run.
 //
 // Layout, little-endian: "FSPART01", u32 version, the identity (scenario SHA-256, samples scale),
-// the partial, and a trailer of the SHA-256 (hex) of everything before it. The reader checks the
-// trailer and every count against the bytes left, so a truncated or altered file is an error
-// naming the file, never a wrong result.
+// the partial, and a trailer: the CRC-32 (zlib's, 8 hex digits) of everything before it, against
+// accidental damage in transfer or storage (3.5 GB/s here; a SHA-256 took 75 % of the codec's
+// time at 219 MB/s, and guards no better against a forger, who can recompute either). The
+// reader checks the trailer, every count against the bytes left, every code and range, so a
+// truncated, damaged or forged file is an error naming the file, never a wrong result.
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -23,6 +25,10 @@ struct PartialIdentity {
   double samples_scale = 1.0;   // --samples-scale (1 without)
   friend bool operator==(const PartialIdentity&, const PartialIdentity&) = default;
 };
+
+// The trailer of a body (what encode_partial appends): tests and fuzzers forge with it.
+inline constexpr std::size_t kPartialTrailerBytes = 8;
+std::string partial_trailer(std::string_view body);
 
 std::string encode_partial(const run::PartialRun& partial, const PartialIdentity& identity);
 // Throws InputError(`what`, ...) for bytes that are not a whole, intact partial, or a partial

@@ -2,7 +2,7 @@
 // for a tiny site as `fragsim merge` and fragsim-mpi decode the pieces they are given; what
 // decodes is merged with copies of itself and finished (core/run/partial.h).
 //
-// The file ends with the SHA-256 of its body, which random mutation would almost never keep
+// The file ends with the CRC-32 of its body, which random mutation would almost never keep
 // right: the target recomputes it, so that the fuzzer explores the structure behind it (what a
 // deliberately forged file, or a bug in the writer, could present). Passing: the bytes decode, or
 // are refused with InputError; a decoded partial encodes to bytes that decode and encode back to
@@ -19,7 +19,6 @@
 #include <string>
 
 #include "api/partial_file.h"
-#include "api/sha256.h"
 #include "core/run/partial.h"
 #include "fuzz/fuzz_support.h"
 
@@ -99,11 +98,11 @@ void finish_checked(run::PartialRun&& p) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  constexpr std::size_t kTrailer = 64;
+  constexpr std::size_t kTrailer = api::kPartialTrailerBytes;
   std::string bytes(fuzz::as_text(data, size));
   if (bytes.size() >= 8 + kTrailer)
     bytes.replace(bytes.size() - kTrailer, kTrailer,
-                  api::sha256_hex(std::string_view(bytes).substr(0, bytes.size() - kTrailer)));
+                  api::partial_trailer(std::string_view(bytes).substr(0, bytes.size() - kTrailer)));
   const Tiny& t = tiny();
   api::PartialIdentity id;
   run::PartialRun p;

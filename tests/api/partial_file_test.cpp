@@ -55,7 +55,7 @@ namespace {
 namespace fs = std::filesystem;
 using run::PartialRun;
 
-constexpr std::size_t kTrailer = 64;  // hex SHA-256 of the body
+constexpr std::size_t kTrailer = kPartialTrailerBytes;  // CRC-32 of the body, hex
 const std::string kWhat = "shards/part-1.fsp";
 
 // ---- The scenarios: a flat plane with a building, a few hundred histories in two groups ----
@@ -128,7 +128,7 @@ std::string body_of(std::string_view bytes) {
   return std::string(bytes.substr(0, bytes.size() - kTrailer));
 }
 std::string with_trailer(const std::string& body) {
-  return body + sha256_hex(body);
+  return body + partial_trailer(body);
 }
 template <class T>
 T read_at(const std::string& s, std::size_t offset) {

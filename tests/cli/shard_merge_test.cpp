@@ -279,11 +279,12 @@ TEST_F(ShardMerge, ATruncatedOrDamagedPartialIsRefusedNamingTheFile) {
   ASSERT_GT(bytes.size(), 1000u);
   const fs::path cut = dir_ / "cut.fsp";
   for (const std::size_t n :
-       {std::size_t{0}, std::size_t{40}, bytes.size() / 2, bytes.size() - 1}) {
+       {std::size_t{0}, std::size_t{12}, std::size_t{40}, bytes.size() / 2, bytes.size() - 1}) {
     SCOPED_TRACE(n);
     write_text(cut, bytes.substr(0, n));
-    expect_merge_refused(kDemo, {p[0], cut, p[2]},
-                         {cut.string() + ": ", n < 72 ? "not a partial file" : "checksum"});
+    expect_merge_refused(
+        kDemo, {p[0], cut, p[2]},
+        {cut.string() + ": ", n < 16 ? "not a partial file" : "checksum"});  // magic + CRC-32
   }
   std::string flipped = bytes;
   flipped[bytes.size() / 3] = static_cast<char>(flipped[bytes.size() / 3] ^ 0x10);
