@@ -46,6 +46,18 @@ class Writer {
   }
   std::string take() { return std::move(out_); }
 
+  // The shared field list of records (record_fields): written here, read by Reader.
+  template <class T>
+  void field(const T& v) {
+    put(v);
+  }
+  void field(const Vec3& v) { put_vec3(v); }
+  void field(const bool& b) { put(static_cast<std::uint8_t>(b)); }
+  template <class E>
+  void code(const E& e, int, const char*) {
+    put(static_cast<std::uint8_t>(e));
+  }
+
  private:
   std::string out_;
 };
@@ -82,6 +94,19 @@ class Reader {
   Vec3 get_vec3() {
     const double x = get<double>(), y = get<double>(), z = get<double>();
     return {x, y, z};
+  }
+  template <class T>
+  void field(T& v) {
+    v = get<T>();
+  }
+  void field(Vec3& v) { v = get_vec3(); }
+  void field(bool& b) { b = get<std::uint8_t>() != 0; }
+  // An enumeration of `count` values, stored as one byte.
+  template <class E>
+  void code(E& e, int count, const char* what) {
+    const auto c = get<std::uint8_t>();
+    if (c >= count) fail(std::string("an unknown ") + what);
+    e = static_cast<E>(c);
   }
   bool at_end() const { return pos_ == b_.size(); }
   const std::string& what() const { return what_; }
@@ -239,74 +264,50 @@ std::shared_ptr<const run::PrecisionReport> get_precision(Reader& r) {
   return p;
 }
 
-void put_record(Writer& w, const run::FragmentRecord& f) {
-  w.put(f.group);
-  w.put(f.history);
-  w.put(f.weight);
-  w.put(f.mass_kg);
-  w.put(f.area_m2);
-  w.put_vec3(f.launch_position_m);
-  w.put_vec3(f.launch_velocity_mps);
-  w.put(static_cast<std::uint8_t>(f.outcome));
-  w.put(f.end_time_s);
-  w.put_vec3(f.end_position_m);
-  w.put_vec3(f.end_velocity_mps);
-  w.put(f.first_impact_time_s);
-  w.put_vec3(f.first_impact_position_m);
-  w.put_vec3(f.first_impact_velocity_mps);
-  w.put(f.impact_angle_deg);
-  w.put(f.impact_ke_j);
-  w.put(f.building);
-  w.put(f.surface);
-  w.put(static_cast<std::uint8_t>(f.penetrated));
-  w.put(f.residual_ke_j);
-  w.put(f.bounces);
-  w.put(f.ground_impacts);
-  w.put(f.takeoffs);
-  w.put(f.ground_path_m);
+// A fragment record's fields, in file order; `io` is a Writer (const record) or a Reader.
+constexpr std::size_t kRecordBytes = 250;  // their encoded size (tested: a record round trip)
+template <class IO, class Record>
+void record_fields(IO& io, Record& f) {
+  io.field(f.group);
+  io.field(f.history);
+  io.field(f.weight);
+  io.field(f.mass_kg);
+  io.field(f.area_m2);
+  io.field(f.launch_position_m);
+  io.field(f.launch_velocity_mps);
+  io.code(f.outcome, run::kOutcomeCount, "outcome");
+  io.field(f.end_time_s);
+  io.field(f.end_position_m);
+  io.field(f.end_velocity_mps);
+  io.field(f.first_impact_time_s);
+  io.field(f.first_impact_position_m);
+  io.field(f.first_impact_velocity_mps);
+  io.field(f.impact_angle_deg);
+  io.field(f.impact_ke_j);
+  io.field(f.building);
+  io.field(f.surface);
+  io.field(f.penetrated);
+  io.field(f.residual_ke_j);
+  io.field(f.bounces);
+  io.field(f.ground_impacts);
+  io.field(f.takeoffs);
+  io.field(f.ground_path_m);
 }
 
-run::FragmentRecord get_record(Reader& r) {
-  run::FragmentRecord f;
-  f.group = r.get<std::uint32_t>();
-  f.history = r.get<std::uint64_t>();
-  f.weight = r.get<double>();
-  f.mass_kg = r.get<double>();
-  f.area_m2 = r.get<double>();
-  f.launch_position_m = r.get_vec3();
-  f.launch_velocity_mps = r.get_vec3();
-  const auto outcome = r.get<std::uint8_t>();
-  if (outcome >= run::kOutcomeCount) r.fail("an unknown outcome");
-  f.outcome = static_cast<run::Outcome>(outcome);
-  f.end_time_s = r.get<double>();
-  f.end_position_m = r.get_vec3();
-  f.end_velocity_mps = r.get_vec3();
-  f.first_impact_time_s = r.get<double>();
-  f.first_impact_position_m = r.get_vec3();
-  f.first_impact_velocity_mps = r.get_vec3();
-  f.impact_angle_deg = r.get<double>();
-  f.impact_ke_j = r.get<double>();
-  f.building = r.get<std::int32_t>();
-  f.surface = r.get<std::int32_t>();
-  f.penetrated = r.get<std::uint8_t>() != 0;
-  f.residual_ke_j = r.get<double>();
-  f.bounces = r.get<std::uint32_t>();
-  f.ground_impacts = r.get<std::uint32_t>();
-  f.takeoffs = r.get<std::uint32_t>();
-  f.ground_path_m = r.get<double>();
-  return f;
+// Point i of a trajectory, in file order.
+template <class IO, class Trajectory>
+void point_fields(IO& io, Trajectory& t, std::size_t i) {
+  io.field(t.t_s[i]);
+  io.field(t.position_m[i]);
+  io.field(t.velocity_mps[i]);
+  io.code(t.event[i], run::kTrajectoryEventCount, "trajectory event");
 }
 
 void put_trajectory(Writer& w, const run::TrajectoryRecord& t) {
   w.put(t.group);
   w.put(t.history);
   w.put<std::uint64_t>(t.t_s.size());
-  for (std::size_t i = 0; i < t.t_s.size(); ++i) {
-    w.put(t.t_s[i]);
-    w.put_vec3(t.position_m[i]);
-    w.put_vec3(t.velocity_mps[i]);
-    w.put(static_cast<std::uint8_t>(t.event[i]));
-  }
+  for (std::size_t i = 0; i < t.t_s.size(); ++i) point_fields(w, t, i);
 }
 
 run::TrajectoryRecord get_trajectory(Reader& r) {
@@ -318,14 +319,7 @@ run::TrajectoryRecord get_trajectory(Reader& r) {
   t.position_m.resize(n);
   t.velocity_mps.resize(n);
   t.event.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    t.t_s[i] = r.get<double>();
-    t.position_m[i] = r.get_vec3();
-    t.velocity_mps[i] = r.get_vec3();
-    const auto e = r.get<std::uint8_t>();
-    if (e >= run::kTrajectoryEventCount) r.fail("an unknown trajectory event");
-    t.event[i] = static_cast<run::TrajectoryEvent>(e);
-  }
+  for (std::size_t i = 0; i < n; ++i) point_fields(r, t, i);
   return t;
 }
 
@@ -360,7 +354,7 @@ std::string encode_partial(const run::PartialRun& p, const PartialIdentity& id) 
   put_precision(w, p.precision.get());
   put_tally(w, p.tally);
   w.put<std::uint64_t>(p.records.size());
-  for (const auto& f : p.records) put_record(w, f);
+  for (const auto& f : p.records) record_fields(w, f);
   w.put<std::uint64_t>(p.trajectories.size());
   for (const auto& t : p.trajectories) put_trajectory(w, t);
   std::string bytes = w.take();
@@ -423,8 +417,9 @@ run::PartialRun decode_partial(std::string_view bytes, std::size_t tally_bins, P
   for (std::size_t k = 0; k < p.tally.partitions(); ++k) var.push_back(get_bins(r, p.tally.size()));
   auto open = get_open(r, p.tally.size(), static_cast<std::uint32_t>(p.tally.partitions()));
   p.tally.restore(std::move(mean), std::move(var), std::move(open));
-  const std::uint64_t records = r.count(1);
-  for (std::uint64_t k = 0; k < records; ++k) p.records.push_back(get_record(r));
+  const std::uint64_t records = r.count(kRecordBytes);  // bounds the allocation by the file
+  p.records.resize(records);
+  for (run::FragmentRecord& f : p.records) record_fields(r, f);
   const std::uint64_t trajectories = r.count(1);
   for (std::uint64_t k = 0; k < trajectories; ++k) p.trajectories.push_back(get_trajectory(r));
   if (!r.at_end()) r.fail("bytes after its end");
