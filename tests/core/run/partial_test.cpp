@@ -9,31 +9,16 @@
 #include <random>
 
 #include "core/common/error.h"
-#include "validation/scenario_fixtures.h"
+#include "core/run/run_fixtures.h"
 
 namespace fragsim::run {
 namespace {
 
+// The mixed case with a third of its histories (1,201 and 517: shard boundaries fall anywhere),
+// the second group of other weight, and trajectories recorded too.
 Scenario shard_scenario() {
-  Scenario sc = validation::flat_site_scenario(300.0, 5.0);
-  scene::MaterialSpec wall;
-  wall.penetration_ke_per_area_j_per_m2 = 2.0e6;
-  sc.site.materials["wall"] = wall;
-  sc.site.materials["roof"] = wall;
-  sc.site.buildings = {validation::box_building("a", 40, -10, 60, 10, 8.0),
-                       validation::box_building("b", -80, 20, -60, 50, 12.0)};
-  auto g = validation::sphere_group(Vec3(0, 0, 1.0), 0.05, 300.0, 500.0, 1201);
-  g.mass_kg.kind = fragments::Distribution::Kind::kUniform;
-  g.mass_kg.min = 0.01;
-  g.mass_kg.max = 0.5;
-  g.cd.constant = 0.47;
-  g.direction.elevation_min_deg = -5.0;
-  g.direction.elevation_max_deg = 40.0;
-  auto g2 = g;
-  g2.samples = 517;
-  g2.count = 333.0;
-  sc.groups = {g, g2};
-  sc.settings.record_fragments = true;
+  Scenario sc = testing::mixed_scenario(1201, 517);
+  sc.groups[1].count = 333.0;
   sc.settings.record_trajectories = true;
   sc.settings.max_recorded_trajectories = 50;
   return sc;
