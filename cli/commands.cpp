@@ -129,11 +129,16 @@ PreparedRun prepare_text(const Options& o, std::string text) {
 
 int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result,
                   const std::atomic<bool>& cancel) {
+  api::OutputDir out(o.out);  // removed again (if created here) unless commit() is reached
+  return write_outputs(o, p, result, cancel, out);
+}
+
+int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result,
+                  const std::atomic<bool>& cancel, api::OutputDir& out) {
   result.timing.parse_s = p.parse_s;
   result.timing.build_s = p.build_s;
   api::Provenance provenance = api::build_provenance();
   provenance.scenario_sha256 = api::sha256_hex(p.text);
-  api::OutputDir out(o.out);  // removed again (if created here) unless commit() is reached
   const nlohmann::ordered_json summary =
       api::stage_run_outputs(out, result, *p.site, p.doc, provenance);
   if (cancel.load()) {
@@ -152,8 +157,8 @@ int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result
 namespace {
 
 // --shard I/N: DIR/partial.fsp.
-int write_partial(const Options& o, const PreparedRun& p, const run::PartialRun& part) {
-  api::OutputDir out(o.out);
+int write_partial(const Options& o, const PreparedRun& p, const run::PartialRun& part,
+                  api::OutputDir& out) {
   out.stage("partial.fsp", [&](const std::filesystem::path& tmp) {
     api::write_partial_file(tmp, part, identity_of(o, p));
   });
@@ -178,6 +183,9 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
                        "boundaries need every history of a batch in one process (--shard 0/1 "
                        "runs it whole as one partial)");
     if (!o.quiet) std::cerr << illustrative_note(p.doc);
+    // Created before the run, so that an --out that cannot be made fails now, not after it; it
+    // is removed again (if created here) unless the outputs are committed.
+    api::OutputDir out(o.out);
     ProgressLine progress(!o.quiet && ::isatty(STDERR_FILENO) == 1, !o.quiet);
     run::RunControl control;
     control.cancel = &cancel;
@@ -195,10 +203,10 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
     }
     int code = kExitOk;
     if (o.shard) {
-      code = write_partial(o, p, part);
+      code = write_partial(o, p, part, out);
     } else {
       run::RunResult result = run::finish(p.doc.scenario, *p.site, std::move(part));
-      code = write_outputs(o, p, result, cancel);
+      code = write_outputs(o, p, result, cancel, out);
     }
     progress_file.finish(code == kExitOk ? "done" : "cancelled");
     return code;

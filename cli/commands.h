@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include "api/output_dir.h"
 #include "api/partial_file.h"
 #include "api/scenario_json.h"
 #include "cli/args.h"
@@ -38,6 +39,8 @@ api::PartialIdentity identity_of(const Options& options, const PreparedRun& prep
 // summary.json, results.h5, ... into --out, all at once; the report on stdout unless --quiet.
 int write_outputs(const Options& options, const PreparedRun& prepared, run::RunResult& result,
                   const std::atomic<bool>& cancel);
+int write_outputs(const Options& options, const PreparedRun& prepared, run::RunResult& result,
+                  const std::atomic<bool>& cancel, api::OutputDir& out);
 // `fragsim site import`: GIS files to a site document (gis/site_import.h).
 int site_import_command(const Options& options);
 // `fragsim site export-gis`: a site document to GIS files (gis/site_to_gis.h).

@@ -48,6 +48,14 @@ std::atomic<std::size_t> g_largest_allocation{0};
 [[gnu::noinline]] void operator delete(void* p, std::size_t) noexcept {
   std::free(p);
 }
+// The nothrow forms too (std::stable_sort's buffer): otherwise the library's nothrow new pairs
+// with the free above, an alloc-dealloc mismatch under ASan.
+[[gnu::noinline]] void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
+  return std::malloc(n == 0 ? 1 : n);
+}
+[[gnu::noinline]] void operator delete(void* p, const std::nothrow_t&) noexcept {
+  std::free(p);
+}
 
 namespace fragsim::api {
 namespace {

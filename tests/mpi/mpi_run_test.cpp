@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -37,6 +38,12 @@ Result run(const fs::path& dir, std::vector<std::string> args) {
     ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
     ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
     ::setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 1);
+    // Under ASan (deploy/sanitize.sh): Open MPI's plugins, dlclose()d by MPI_Finalize, leave
+    // allocations LeakSanitizer can only attribute to "<unknown module>", so no suppression
+    // matches them. Leaks are not checked in these MPI processes; their code but mpi_run.cpp is
+    // the CLI's, leak-checked under ASan by test_cli.
+    if (const char* asan = std::getenv("ASAN_OPTIONS"))
+      ::setenv("ASAN_OPTIONS", (std::string(asan) + ":detect_leaks=0").c_str(), 1);
     const int fo = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     const int fe = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     ::dup2(fo, STDOUT_FILENO);
@@ -124,12 +131,13 @@ TEST_F(MpiRun, PrecisionRunsAreRefusedOnSeveralRanks) {
   sc["settings"]["precision"] = {{"max_batches", 2}};
   const fs::path file = dir_ / "precision.json";
   std::ofstream(file) << sc.dump();
+  const fs::path out = dir_ / "out";
   auto args = mpirun(2);
-  for (const char* a : {"run", file.c_str(), "--out", (dir_ / "out").c_str()}) args.emplace_back(a);
+  for (const char* a : {"run", file.c_str(), "--out", out.c_str()}) args.emplace_back(a);
   const Result r = run(dir_, args);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("settings.precision"), std::string::npos) << r.err;
-  EXPECT_FALSE(fs::exists(dir_ / "out" / "summary.json"));
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
 }
 
 }  // namespace
