@@ -222,53 +222,61 @@ Json with_run_wrapper(Json backend, const fs::path& wrapper) {
   return backend;
 }
 
+// The small demo on a command backend of `shards` shards, each run through `script` (its first
+// argument: the shard index); the job must end `failed` with code `backend`.
+struct FailedBackendJob {
+  std::unique_ptr<Daemon> daemon;
+  std::string id;
+  std::string message;  // error.message
+};
+FailedBackendJob failed_backend_job(const fs::path& dir, const std::string& script, int shards) {
+  const fs::path wrapper = dir / "wrapper.sh";
+  write_script(wrapper, script);
+  FailedBackendJob f;
+  f.daemon = backend_daemon(dir, with_run_wrapper(command_backend(dir, shards), wrapper));
+  EXPECT_NO_THROW(f.daemon->start()) << f.daemon->log();
+  auto c = f.daemon->client();
+  f.id = submit(*c, small_demo());
+  const Json s = wait_final(*c, f.id);
+  EXPECT_EQ(s.value("state", ""), "failed") << s.dump();
+  EXPECT_EQ(s["error"]["code"], "backend") << s.dump();
+  if (s["error"].is_object()) f.message = s["error"].value("message", "");
+  return f;
+}
+
 TEST(BackendDaemon, AShardThatFailsFailsTheJobNamingItsLog) {
   const fs::path dir = fresh_dir("fragsimd_backend_fail_");
-  const fs::path wrapper = dir / "flaky.sh";
-  write_script(wrapper,
-               "#!/bin/sh\n"
-               "if [ \"$1\" = 1 ]; then echo \"shard one refuses\" >&2; exit 3; fi\n"
-               "shift; exec \"$@\"\n");
-  auto d = backend_daemon(dir, with_run_wrapper(command_backend(dir, 3), wrapper));
-  ASSERT_NO_THROW(d->start()) << d->log();
-  auto c = d->client();
-  const std::string id = submit(*c, small_demo());
-  const Json s = wait_final(*c, id);
-  ASSERT_EQ(s.value("state", ""), "failed") << s.dump();
-  EXPECT_EQ(s["error"]["code"], "backend");
-  const std::string message = s["error"]["message"];
+  auto f = failed_backend_job(dir,
+                              "#!/bin/sh\n"
+                              "if [ \"$1\" = 1 ]; then echo \"shard one refuses\" >&2; exit 3; fi\n"
+                              "shift; exec \"$@\"\n",
+                              3);
+  const std::string& message = f.message;
   EXPECT_NE(message.find("shard 1 of 3 failed (exit status 3)"), std::string::npos) << message;
-  const fs::path log = d->data() / "jobs" / id / "backend-1" / "shard-1.log";
+  const fs::path log = f.daemon->data() / "jobs" / f.id / "backend-1" / "shard-1.log";
   EXPECT_NE(message.find(log.string()), std::string::npos) << message;
   EXPECT_NE(message.find("shard one refuses"), std::string::npos) << message;
   EXPECT_TRUE(fs::exists(log)) << "a failed job keeps its logs";
-  auto r = c->Get("/v1/jobs/" + id + "/summary");
+  auto r = f.daemon->client()->Get("/v1/jobs/" + f.id + "/summary");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 409);
-  EXPECT_EQ(d->kill(SIGTERM), 0);
+  EXPECT_EQ(f.daemon->kill(SIGTERM), 0);
 }
 
 TEST(BackendDaemon, AShardWhoseProcessVanishesFailsTheJob) {
   const fs::path dir = fresh_dir("fragsimd_backend_vanish_");
-  const fs::path wrapper = dir / "vanish.sh";
   // Shard 1 kills its shard.sh (its parent) with SIGKILL: no exit status is ever recorded.
-  write_script(wrapper,
-               "#!/bin/sh\n"
-               "if [ \"$1\" = 1 ]; then kill -9 $PPID; exit 0; fi\n"
-               "shift; exec \"$@\"\n");
-  auto d = backend_daemon(dir, with_run_wrapper(command_backend(dir, 2), wrapper));
-  ASSERT_NO_THROW(d->start()) << d->log();
-  auto c = d->client();
-  const std::string id = submit(*c, small_demo());
-  const Json s = wait_final(*c, id);
-  ASSERT_EQ(s.value("state", ""), "failed") << s.dump();
-  EXPECT_EQ(s["error"]["code"], "backend");
-  const std::string message = s["error"]["message"];
+  auto f = failed_backend_job(dir,
+                              "#!/bin/sh\n"
+                              "if [ \"$1\" = 1 ]; then kill -9 $PPID; exit 0; fi\n"
+                              "shift; exec \"$@\"\n",
+                              2);
+  const std::string& message = f.message;
   EXPECT_NE(message.find("shard 1 of 2 stopped without recording its end"), std::string::npos)
       << message;
   EXPECT_NE(message.find("process group"), std::string::npos) << message;
   EXPECT_NE(message.find("shard-1.log"), std::string::npos) << message;
-  EXPECT_EQ(d->kill(SIGTERM), 0);
+  EXPECT_EQ(f.daemon->kill(SIGTERM), 0);
 }
 
 TEST(BackendDaemon, CancelStopsTheShards) {
