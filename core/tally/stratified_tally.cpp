@@ -19,7 +19,7 @@ double variance_term(const ExactSum& s, const ExactSum& q, std::int64_t n) {
 }  // namespace
 
 StratifiedTally::StratifiedTally(std::size_t bins, int partitions)
-    : bins_(bins), mean_(bins), var_(partitions > 1 ? 2 : 1, ExactBins(bins)) {
+    : mean_(bins), var_(partitions > 1 ? 2 : 1, ExactBins(bins)) {
   parts_.resize(var_.size());
   for (Scratch& p : parts_) {
     p.s = ExactBins(bins);

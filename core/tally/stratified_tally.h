@@ -141,7 +141,6 @@ class StratifiedTally {
   };
   void close(const OpenStratum& st, std::size_t partition);
   void merge_open(const StratumKey& key, OpenStratum&& piece);
-  std::size_t bins_;
   std::vector<Scratch> parts_;
   ExactBins mean_;
   std::vector<ExactBins> var_;  // per partition
