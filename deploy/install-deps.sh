@@ -21,7 +21,7 @@ PACKAGES=(
   python3-vtk9             # tests: VTK's own reader checks the ParaView (VTKHDF) export
   hdf5-tools               # h5dump: bench/time_to_precision.py reads the PTN grid of results.h5
   chromium                 # tests: the web viewer in headless Chromium (viewer/test/, docs/viewer.md)
-  slurm-wlm munge          # tests: sharded runs on a private single-node Slurm (deploy/cluster/)
+  slurm-wlm munge iproute2 # tests: sharded runs on a private single-node Slurm (deploy/cluster/; ss finds free ports)
   python3-yaml             # tests: the Kubernetes Job manifests of deploy/cluster/k8s/ are read
 )
 # Node.js and npm run the viewer's browser tests (playwright-core from the npm registry, pinned in

@@ -118,15 +118,27 @@ is_up() {  # the controller answers and our node is usable
   esac
 }
 
-free_port() {  # a loopback TCP port nobody listens on, other than $1
-  local p
+# A loopback TCP port nobody uses, other than $1. Taken below the kernel's ephemeral range
+# (net.ipv4.ip_local_port_range): a port there may be the local end of a client connection or of
+# a TIME_WAIT socket -- many of them while the daemon tests run -- and slurmctld's bind() would
+# then fail with "Address already in use" although nothing listens on it. ss (iproute2) sees
+# sockets in every state; without it, a connection attempt sees the listening ones.
+free_port() {
+  local p lo=10000 hi=32768 e_lo e_hi
+  if read -r e_lo e_hi < /proc/sys/net/ipv4/ip_local_port_range 2>/dev/null; then
+    if [ "$e_lo" -gt 11024 ]; then hi="$e_lo"; else lo=$((e_hi + 1)) hi=65536; fi
+  fi
+  [ $((hi - lo)) -ge 1000 ] || { lo=10000; hi=32768; }  # no room outside it: ss must do
   for _ in $(seq 1 200); do
-    p=$((20000 + RANDOM % 40000))
+    p=$((lo + RANDOM % (hi - lo)))
     [ "$p" != "${1:-}" ] || continue
-    if ! (exec 3<> "/dev/tcp/127.0.0.1/$p") 2>/dev/null; then
-      echo "$p"
-      return 0
+    if command -v ss > /dev/null 2>&1; then
+      [ -z "$(ss -Htan "( sport = :$p )" 2>/dev/null)" ] || continue
+    elif (exec 3<> "/dev/tcp/127.0.0.1/$p") 2>/dev/null; then
+      continue
     fi
+    echo "$p"
+    return 0
   done
   log "no free port found"
   return 1

@@ -480,8 +480,7 @@ class RealSlurm : public ::testing::Test {
       ::setenv("SLURM_CONF", old_conf_->c_str(), 1);
     else
       ::unsetenv("SLURM_CONF");
-    const std::string stop =
-        script_.string() + " stop " + (dir_ / "slurm").string() + " >/dev/null 2>&1";
+    const std::string stop = script_.string() + " stop " + slurm_.string() + " >/dev/null 2>&1";
     EXPECT_EQ(std::system(stop.c_str()), 0);
   }
   fs::path dir_, script_, slurm_;
