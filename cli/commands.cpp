@@ -11,9 +11,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 
 #include "api/output_dir.h"
 #include "api/partial_file.h"
@@ -127,10 +129,12 @@ PreparedRun prepare_text(const Options& o, std::string text) {
   return p;
 }
 
-int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result,
-                  const std::atomic<bool>& cancel) {
-  api::OutputDir out(o.out);  // removed again (if created here) unless commit() is reached
-  return write_outputs(o, p, result, cancel, out);
+std::unique_ptr<api::OutputDir> open_out(const Options& o) {
+  try {
+    return std::make_unique<api::OutputDir>(o.out);
+  } catch (const std::runtime_error& e) {
+    throw InputError("--out", e.what());
+  }
 }
 
 int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result,
@@ -185,7 +189,7 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
     if (!o.quiet) std::cerr << illustrative_note(p.doc);
     // Created before the run, so that an --out that cannot be made fails now, not after it; it
     // is removed again (if created here) unless the outputs are committed.
-    api::OutputDir out(o.out);
+    const std::unique_ptr<api::OutputDir> out = open_out(o);
     ProgressLine progress(!o.quiet && ::isatty(STDERR_FILENO) == 1, !o.quiet);
     run::RunControl control;
     control.cancel = &cancel;
@@ -203,10 +207,10 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
     }
     int code = kExitOk;
     if (o.shard) {
-      code = write_partial(o, p, part, out);
+      code = write_partial(o, p, part, *out);
     } else {
       run::RunResult result = run::finish(p.doc.scenario, *p.site, std::move(part));
-      code = write_outputs(o, p, result, cancel, out);
+      code = write_outputs(o, p, result, cancel, *out);
     }
     progress_file.finish(code == kExitOk ? "done" : "cancelled");
     return code;
@@ -241,7 +245,7 @@ int merge_command(const Options& o, const std::atomic<bool>& cancel) {
     }
   }
   run::RunResult result = run::finish(p.doc.scenario, *p.site, std::move(*merged));
-  return write_outputs(o, p, result, cancel);
+  return write_outputs(o, p, result, cancel, *open_out(o));
 }
 
 }  // namespace fragsim::cli

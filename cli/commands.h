@@ -36,9 +36,10 @@ PreparedRun prepare(const Options& options);
 PreparedRun prepare_text(const Options& options, std::string text);
 // What a partial of this run must share with the others it is merged with.
 api::PartialIdentity identity_of(const Options& options, const PreparedRun& prepared);
+// --out, created if missing (and removed again unless committed). A directory that cannot be
+// made is invalid input: InputError("--out", "cannot create directory ...: reason").
+std::unique_ptr<api::OutputDir> open_out(const Options& options);
 // summary.json, results.h5, ... into --out, all at once; the report on stdout unless --quiet.
-int write_outputs(const Options& options, const PreparedRun& prepared, run::RunResult& result,
-                  const std::atomic<bool>& cancel);
 int write_outputs(const Options& options, const PreparedRun& prepared, run::RunResult& result,
                   const std::atomic<bool>& cancel, api::OutputDir& out);
 // `fragsim site import`: GIS files to a site document (gis/site_import.h).

@@ -8,7 +8,9 @@
 #include "mpi/mpi_run.h"
 
 int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
+  // Only the main thread calls MPI; the run's threads (and the shard's) never do.
+  int provided = 0;
+  MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
   // mpirun forwards SIGINT/SIGTERM to the ranks: the run stops at the next history, every rank
   // agrees on it and nothing is written.
   fragsim::cli::install_cancel_handlers();

@@ -1,12 +1,17 @@
 #include "mpi/mpi_run.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <exception>
+#include <future>
 #include <iostream>
+#include <memory>
 #include <new>
 #include <optional>
+#include <thread>
 
+#include "api/output_dir.h"
 #include "api/partial_file.h"
 #include "cli/args.h"
 #include "cli/commands.h"
@@ -68,39 +73,115 @@ std::optional<run::PartialRun> reduce_partials(run::PartialRun mine, const cli::
   return mine;
 }
 
-std::string rank_progress_file(const cli::Options& o, int rank, int size) {
-  if (o.progress_file.empty() || size == 1) return o.progress_file;
-  return o.progress_file + "." + std::to_string(rank);
+// What the ranks tell each other at each tick: histories done and to do, how many ranks still
+// run their shard, and how many were told to stop (a signal, or a failure of theirs).
+struct Tick {
+  std::int64_t done = 0, total = 0, running = 0, stopping = 0;
+};
+constexpr auto kTickInterval = std::chrono::milliseconds(250);
+
+Tick exchange(Tick mine, MPI_Comm comm) {
+  std::int64_t v[4] = {mine.done, mine.total, mine.running, mine.stopping};
+  MPI_Allreduce(MPI_IN_PLACE, v, 4, MPI_INT64_T, MPI_SUM, comm);
+  return {v[0], v[1], v[2], v[3]};
+}
+
+// Histories of the whole run when it is not a settings.precision run (which runs on one rank and
+// reports its own total): the shards partition each group's samples.
+std::int64_t whole_samples(const cli::PreparedRun& p) {
+  std::int64_t n = 0;
+  for (const auto& g : p.doc.scenario.groups) n += g.samples;
+  return n;
+}
+
+// This rank's shard runs on a thread of its own while the main thread, the only one that calls
+// MPI, exchanges a Tick with the other ranks every kTickInterval: rank 0 keeps --progress-file
+// up to date for the whole run, and a signal or a failure on any rank stops every rank's shard
+// within a tick. The ticks are collective, so every rank makes the same number of them: they
+// end together when no rank runs any more. The exception of a failed shard is rethrown.
+run::PartialRun run_shard(const cli::PreparedRun& p, int rank, int size, MPI_Comm comm,
+                          const std::atomic<bool>& cancel, cli::ProgressFile& progress,
+                          bool& stopped) {
+  std::atomic<bool> stop{false};
+  std::atomic<std::int64_t> done{0}, total{0};
+  run::RunControl control;
+  control.cancel = &stop;
+  control.on_progress = [&](const run::Progress& pr) {
+    done.store(pr.histories_done);
+    total.store(pr.histories_total);
+  };
+  std::exception_ptr error;
+  std::atomic<bool> failed{false};
+  const auto t0 = std::chrono::steady_clock::now();
+  std::future<std::optional<run::PartialRun>> shard = std::async(std::launch::async, [&] {
+    try {
+      return std::optional(run::run_partial(p.doc.scenario, p.site, {rank, size}, control));
+    } catch (...) {
+      error = std::current_exception();
+      failed.store(true);
+      return std::optional<run::PartialRun>();
+    }
+  });
+  const std::int64_t fallback_total = whole_samples(p);
+  for (;;) {
+    // After an exchange every rank waits one interval: they reach the next one together, so
+    // little time is spent spinning in MPI_Allreduce on a shared node.
+    const auto next = std::chrono::steady_clock::now() + kTickInterval;
+    const bool running = shard.wait_until(next) != std::future_status::ready;
+    if (!running) std::this_thread::sleep_until(next);
+    const Tick mine{done.load(), total.load(), running ? 1 : 0,
+                    cancel.load() || failed.load() ? 1 : 0};
+    const Tick all = exchange(mine, comm);
+    if (all.stopping > 0) {
+      stop.store(true);
+      stopped = true;
+    }
+    if (rank == 0) {
+      run::Progress pr;
+      pr.histories_done = all.done;
+      pr.histories_total = size == 1 && all.total > 0 ? all.total : fallback_total;
+      pr.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      progress.update(pr);
+    }
+    if (all.running == 0) break;
+  }
+  std::optional<run::PartialRun> part = shard.get();
+  if (error) std::rethrow_exception(error);
+  return std::move(*part);
 }
 
 int run_ranks(const cli::Options& o, const cli::PreparedRun& p, int rank, int size, MPI_Comm comm,
-              const std::atomic<bool>& cancel) {
-  cli::ProgressFile progress(rank_progress_file(o, rank, size));
-  run::RunControl control;
-  control.cancel = &cancel;
-  control.on_progress = [&](const run::Progress& pr) { progress.update(pr); };
-  run::PartialRun part = run::run_partial(p.doc.scenario, p.site, {rank, size}, control);
-  int cancelled = part.cancelled || cancel.load() ? 1 : 0;
-  MPI_Allreduce(MPI_IN_PLACE, &cancelled, 1, MPI_INT, MPI_MAX, comm);
-  if (cancelled != 0) {
+              const std::atomic<bool>& cancel, api::OutputDir* out) {
+  cli::ProgressFile progress(rank == 0 ? o.progress_file : std::string());
+  bool stopped = false;
+  run::PartialRun part = run_shard(p, rank, size, comm, cancel, progress, stopped);
+  if (stopped || part.cancelled) {
     progress.finish("cancelled");
     if (rank == 0) std::cerr << "cancelled: no output written\n";
     return cli::kExitCancelled;
   }
-  progress.finish("done");
   std::optional<run::PartialRun> whole = reduce_partials(std::move(part), o, p, rank, size, comm);
   if (!whole) return cli::kExitOk;
   run::RunResult result = run::finish(p.doc.scenario, *p.site, std::move(*whole));
-  const int code = cli::write_outputs(o, p, result, cancel);
-  if (size > 1 && !o.progress_file.empty()) {
-    cli::ProgressFile all(o.progress_file);  // the whole run's, once, at the end
-    run::Progress pr;
-    pr.histories_done = pr.histories_total = result.histories_done;
-    pr.elapsed_s = result.timing.wall_s;
-    all.update(pr);
-    all.finish(code == cli::kExitOk ? "done" : "failed");
-  }
+  const int code = cli::write_outputs(o, p, result, cancel, *out);
+  progress.finish(code == cli::kExitOk ? "done" : "cancelled");
   return code;
+}
+
+// Rank 0 makes --out before the run, so that one that cannot be made fails now, not after it
+// (removed again unless the outputs are committed). Every rank returns the same status.
+int open_out(const cli::Options& o, int rank, MPI_Comm comm, std::unique_ptr<api::OutputDir>& out) {
+  int status = 0;
+  if (rank == 0) {
+    try {
+      out = cli::open_out(o);
+    } catch (const InputError& e) {
+      std::cerr << "error: " << e.what() << "\n";
+      status = cli::kExitInvalidInput;
+    }
+  }
+  MPI_Bcast(&status, 1, MPI_INT, 0, comm);
+  return status;
 }
 
 }  // namespace
@@ -155,8 +236,10 @@ int run_mpi(const std::vector<std::string>& args, MPI_Comm comm, const std::atom
     if (rank == 0) std::cerr << "error: " << e.what() << "\n";
     return cli::kExitInvalidInput;
   }
+  std::unique_ptr<api::OutputDir> out;
+  if (const int status = open_out(o, rank, comm, out); status != 0) return status;
   try {
-    return run_ranks(o, *p, rank, size, comm, cancel);
+    return run_ranks(o, *p, rank, size, comm, cancel, out.get());
   } catch (const std::exception& e) {
     std::cerr << "error (rank " << rank << "): " << e.what() << "\n";
   } catch (...) {

@@ -182,6 +182,18 @@ TEST_F(Cli, BadInputLeavesAnExistingDirectoryUntouched) {
   EXPECT_EQ(names, std::vector<std::string>{"keep.txt"});
 }
 
+// An --out that cannot be made is the user's input too: exit 2 naming --out, before the run.
+TEST_F(Cli, OutThatCannotBeMadeIsInvalidInput) {
+  write_text(dir_ / "a-file", "kept");
+  const std::string out = (dir_ / "a-file" / "out").string();
+  const CliResult r =
+      run({"run", FRAGSIM_SOURCE_DIR "/examples/minimal/scenario.json", "--out", out, "--quiet"});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_EQ(r.err.rfind("error: --out: cannot create directory ", 0), 0u) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_EQ(read_text(dir_ / "a-file"), "kept");
+}
+
 // ---- Runs ----
 
 TEST_F(Cli, RunWritesSummaryAndResults) {

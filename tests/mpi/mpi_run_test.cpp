@@ -5,6 +5,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <csignal>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -26,9 +28,9 @@ std::string read_text(const fs::path& p) {
   return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
 }
 
-// Runs argv (argv[0] a path) with stdout/stderr to files in `dir`; Open MPI is allowed to run as
-// root (CI containers) and to place more ranks than cores (2-core machines).
-Result run(const fs::path& dir, std::vector<std::string> args) {
+// Starts argv (argv[0] a path) with stdout/stderr to files in `dir`; Open MPI is allowed to run
+// as root (CI containers) and to place more ranks than cores (2-core machines).
+pid_t start(const fs::path& dir, std::vector<std::string> args) {
   const std::string err = (dir / "stderr.txt").string(), out = (dir / "stdout.txt").string();
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
@@ -51,12 +53,20 @@ Result run(const fs::path& dir, std::vector<std::string> args) {
     ::execv(argv[0], argv.data());
     ::_exit(127);
   }
+  return pid;
+}
+
+Result finish(const fs::path& dir, pid_t pid) {
   int status = 0;
   ::waitpid(pid, &status, 0);
   Result r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.err = read_text(err);
+  r.err = read_text(dir / "stderr.txt");
   return r;
+}
+
+Result run(const fs::path& dir, std::vector<std::string> args) {
+  return finish(dir, start(dir, std::move(args)));
 }
 
 nlohmann::json figures(const fs::path& summary) {
@@ -100,10 +110,60 @@ TEST_F(MpiRun, AnyNumberOfRanksWritesTheFiguresOfOneProcess) {
     const Result r = run(dir_, args);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_EQ(figures(out / "summary.json"), expected);
+    // The whole run's progress, in the one file rank 0 writes.
     const auto progress = nlohmann::json::parse(read_text(dir_ / "progress.json"));
     EXPECT_EQ(progress["state"], "done");
     EXPECT_EQ(progress["histories_done"], expected["histories_done"]);
+    EXPECT_EQ(progress["histories_total"], expected["histories_done"]);
+    EXPECT_FALSE(fs::exists(dir_ / "progress.json.0"));
+    EXPECT_FALSE(fs::exists(dir_ / "progress.json.1"));
   }
+}
+
+// While the ranks run, --progress-file counts every rank's histories against the whole run's;
+// SIGINT to mpirun (forwarded to the ranks) stops them all: no output, --out removed again.
+TEST_F(MpiRun, ProgressIsTheWholeRunsAndAnInterruptLeavesNoOutput) {
+  const fs::path out = dir_ / "out", progress_file = dir_ / "progress.json";
+  auto args = mpirun(2);
+  for (const char* a : {"run", scenario_.c_str(), "--out", out.c_str(), "--samples-scale", "40",
+                        "--threads", "1", "--quiet", "--progress-file", progress_file.c_str()})
+    args.emplace_back(a);
+  const pid_t pid = start(dir_, args);
+  nlohmann::json seen;
+  for (int i = 0; i < 1200; ++i) {  // up to 120 s (ASan, a loaded machine)
+    ::usleep(100000);
+    const std::string text = read_text(progress_file);
+    if (text.empty()) continue;
+    seen = nlohmann::json::parse(text);
+    if (seen["histories_done"].get<std::int64_t>() > 0) break;
+  }
+  ASSERT_EQ(seen.value("state", ""), "running") << seen.dump();
+  EXPECT_TRUE(fs::is_directory(out)) << "--out is made before the run";
+  // The demo's groups hold 80,000 samples (examples/demo/scenario.json), times 40.
+  EXPECT_EQ(seen["histories_total"], 3200000) << seen.dump();
+  ::kill(pid, SIGINT);
+  const Result r = finish(dir_, pid);
+  EXPECT_NE(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("cancelled: no output written"), std::string::npos) << r.err;
+  const auto last = nlohmann::json::parse(read_text(progress_file));
+  EXPECT_EQ(last["state"], "cancelled") << last.dump();
+  EXPECT_LT(last["histories_done"].get<std::int64_t>(), 3200000);
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST_F(MpiRun, OutThatCannotBeMadeFailsBeforeTheRun) {
+  const fs::path file = dir_ / "a-file";
+  std::ofstream(file) << "kept";
+  auto args = mpirun(2);
+  const std::string out = (file / "out").string();
+  for (const char* a : {"run", scenario_.c_str(), "--out", out.c_str(), "--quiet"})
+    args.emplace_back(a);
+  const Result r = run(dir_, args);
+  EXPECT_EQ(r.exit_code, 2);
+  const auto first = r.err.find("error: --out: cannot create directory");
+  ASSERT_NE(first, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("error: --out", first + 1), std::string::npos) << "said twice:\n" << r.err;
+  EXPECT_EQ(read_text(file), "kept");
 }
 
 TEST_F(MpiRun, BadInputIsOneMessageAndExitTwo) {
