@@ -26,7 +26,7 @@ build="$root/build-fuzz"
 
 "$root/deploy/install-deps.sh"
 CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DFRAGSIM_FUZZ=ON -DFRAGSIM_BUILD_TESTS=OFF -DFRAGSIM_BUILD_BENCH=OFF >/dev/null
+  -DFRAGSIM_FUZZ=ON -DFRAGSIM_BUILD_TESTS=OFF -DFRAGSIM_BUILD_BENCH=OFF -DFRAGSIM_WERROR=ON >/dev/null
 nice -n 5 cmake --build "$build" -j "$(nproc 2>/dev/null || echo 2)" --target "${targets[@]}"
 
 scratch="$(mktemp -d "${TMPDIR:-/tmp}/fragsim-fuzz.XXXXXX")"

@@ -18,9 +18,12 @@ supp="$root/deploy/sanitizers"
 # Test executables whose code runs on several threads (labels from tests/CMakeLists.txt).
 TSAN_LABELS='^(test_core_run|test_server)$'
 
+# Warnings are errors here as in CI, also when run by hand: clang warns where GCC's Release build
+# does not (-Wunused-private-field failed a CI run whose local sanitizer builds had passed).
 configure() {  # build dir, sanitizers
   CC=clang CXX=clang++ cmake -S "$root" -B "$1" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DFRAGSIM_SANITIZE="$2" -DFRAGSIM_BUILD_TESTS=ON -DFRAGSIM_BUILD_BENCH=OFF >/dev/null
+    -DFRAGSIM_SANITIZE="$2" -DFRAGSIM_BUILD_TESTS=ON -DFRAGSIM_BUILD_BENCH=OFF \
+    -DFRAGSIM_WERROR=ON >/dev/null
 }
 
 elapsed() { echo "$(($(date +%s) - $1)) s"; }
