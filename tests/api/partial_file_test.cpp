@@ -209,14 +209,12 @@ struct Decoded {
   std::size_t largest_allocation = 0;
 };
 
-Decoded decode_damaged(std::string_view bytes, std::size_t bins) {
+// Runs `step`, which returns what it reached ("<decoded>", ...) or throws: how it ended.
+template <class Step>
+Decoded ending_of(Step step) {
   Decoded r;
-  PartialIdentity id;
-  g_largest_allocation = 0;
-  g_track_allocations = true;
   try {
-    (void)decode_partial(bytes, bins, id, kWhat);
-    r.message = "<decoded>";
+    r.message = step();
   } catch (const InputError& e) {
     r.input_error = true;
     r.field = e.field();
@@ -224,6 +222,17 @@ Decoded decode_damaged(std::string_view bytes, std::size_t bins) {
   } catch (const std::exception& e) {
     r.message = std::string("<not an InputError> ") + e.what();
   }
+  return r;
+}
+
+Decoded decode_damaged(std::string_view bytes, std::size_t bins) {
+  g_largest_allocation = 0;
+  g_track_allocations = true;
+  Decoded r = ending_of([&] {
+    PartialIdentity id;
+    (void)decode_partial(bytes, bins, id, kWhat);
+    return std::string("<decoded>");
+  });
   g_track_allocations = false;
   r.largest_allocation = g_largest_allocation;
   return r;
@@ -607,8 +616,7 @@ TEST_P(PartialFile, UnknownCodesAndBadFieldsAreRefused) {
 // finish. Forged values that decode must still end in an InputError, never in another exception,
 // an overflow (undefined behaviour; wrapped figures in a release build) or a result.
 Decoded merge_pipeline(const Case& c, const std::map<std::size_t, std::string>& forged) {
-  Decoded r;
-  try {
+  return ending_of([&] {
     std::vector<PartialRun> parts;
     for (std::size_t i = 0; i < c.shards.size(); ++i) {
       PartialIdentity id;
@@ -627,15 +635,8 @@ Decoded merge_pipeline(const Case& c, const std::map<std::size_t, std::string>& 
       }
     }
     const run::RunResult result = run::finish(c.sc, *c.site, std::move(all));
-    r.message = "<finished: histories_done " + std::to_string(result.histories_done) + ">";
-  } catch (const InputError& e) {
-    r.input_error = true;
-    r.field = e.field();
-    r.message = e.message();
-  } catch (const std::exception& e) {
-    r.message = std::string("<not an InputError> ") + e.what();
-  }
-  return r;
+    return "<finished: histories_done " + std::to_string(result.histories_done) + ">";
+  });
 }
 
 // A sum is a 320-bit number kept within +-2^158 (core/tally/exact_sum.h): a file whose sum is out

@@ -2,11 +2,13 @@
 // The `fragsim` executable (FRAGSIM_CLI) as a subprocess for the cli tests: stdout and stderr go
 // to files in the test's directory and are read back with the exit code.
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "api/test_support.h"
@@ -49,5 +51,23 @@ inline CliResult wait_cli(const std::filesystem::path& dir, pid_t pid) {
   r.err = api::testing::read_text(dir / "stderr.txt");
   return r;
 }
+
+// A test with a fresh directory of its own (named by `prefix`, removed afterwards) in which the
+// CLI runs as a subprocess.
+class CliDirTest : public ::testing::Test {
+ protected:
+  explicit CliDirTest(std::string prefix) : prefix_(std::move(prefix)) {}
+  void SetUp() override { dir_ = api::testing::fresh_test_dir(prefix_); }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  pid_t spawn(const std::vector<std::string>& args) { return spawn_cli(dir_, args); }
+  CliResult wait(pid_t pid) { return wait_cli(dir_, pid); }
+  CliResult run(const std::vector<std::string>& args) { return wait(spawn(args)); }
+
+  std::filesystem::path dir_;
+
+ private:
+  std::string prefix_;
+};
 
 }  // namespace fragsim::cli::testing

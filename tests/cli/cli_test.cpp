@@ -40,17 +40,10 @@ Json minimal_example() {
 
 using fragsim::cli::testing::CliResult;
 
-class Cli : public ::testing::Test {
+// The CLI as a subprocess, its output in the test directory (cli_process.h).
+class Cli : public fragsim::cli::testing::CliDirTest {
  protected:
-  void SetUp() override { dir_ = fragsim::api::testing::fresh_test_dir("fragsim_cli_test_"); }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  // The CLI as a subprocess, its output in the test directory (cli_process.h).
-  pid_t spawn(const std::vector<std::string>& args) {
-    return fragsim::cli::testing::spawn_cli(dir_, args);
-  }
-  CliResult wait(pid_t pid) { return fragsim::cli::testing::wait_cli(dir_, pid); }
-  CliResult run(const std::vector<std::string>& args) { return wait(spawn(args)); }
+  Cli() : CliDirTest("fragsim_cli_test_") {}
 
   fs::path scenario_file(const std::string& name, const std::string& text) {
     const fs::path p = dir_ / name;
@@ -72,8 +65,6 @@ class Cli : public ::testing::Test {
     EXPECT_EQ(v.exit_code, 2);
     EXPECT_EQ(v.err, r.err);
   }
-
-  fs::path dir_;
 };
 
 // A square mesh terrain (4 vertices) for the geometry cases.

@@ -51,16 +51,9 @@ bool contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
 }
 
-class ShardMerge : public ::testing::Test {
+class ShardMerge : public fragsim::cli::testing::CliDirTest {
  protected:
-  void SetUp() override { dir_ = fragsim::api::testing::fresh_test_dir("fragsim_shard_test_"); }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  pid_t spawn(const std::vector<std::string>& args) {
-    return fragsim::cli::testing::spawn_cli(dir_, args);
-  }
-  CliResult wait(pid_t pid) { return fragsim::cli::testing::wait_cli(dir_, pid); }
-  CliResult run(const std::vector<std::string>& args) { return wait(spawn(args)); }
+  ShardMerge() : CliDirTest("fragsim_shard_test_") {}
 
   // One `fragsim run` of the scenario into dir/`name`.
   fs::path run_whole(const std::string& scenario, const std::string& scale,
@@ -131,7 +124,6 @@ class ShardMerge : public ::testing::Test {
     EXPECT_EQ(names, std::vector<std::string>{"keep.txt"});
   }
 
-  fs::path dir_;
   std::vector<fs::path> three_;
   int refusals_ = 0;
 };
