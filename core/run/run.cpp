@@ -746,9 +746,9 @@ void merge(PartialRun& into, PartialRun&& other) {
   PartialRun sum = std::move(into);  // `into` is left as it was when this throws
   try {
     sum.tally.merge(other.tally);
-  } catch (const std::overflow_error&) {
+  } catch (const std::overflow_error& e) {
     into = std::move(sum);
-    throw InputError("shards", "exact sums out of range (a damaged or forged partial)");
+    throw InputError("shards", std::string(e.what()) + " (a damaged or forged partial)");
   }
   sum.shards.insert(sum.shards.end(), other.shards.begin(), other.shards.end());
   std::sort(sum.shards.begin(), sum.shards.end());
@@ -768,7 +768,8 @@ void merge(PartialRun& into, PartialRun&& other) {
   sum.geometry_s += other.geometry_s;
   sum.tally_s += other.tally_s;
   sum.wall_s = std::max(sum.wall_s, other.wall_s);
-  sum.threads += other.threads;
+  if (__builtin_add_overflow(sum.threads, other.threads, &sum.threads))
+    throw InputError("shards", "thread counts out of range (a damaged or forged partial)");
   into = std::move(sum);
 }
 

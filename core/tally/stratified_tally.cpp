@@ -74,6 +74,10 @@ void StratifiedTally::merge_open(const StratumKey& key, OpenStratum&& piece) {
   auto [it, inserted] = open_.try_emplace(key, std::move(piece));
   if (!inserted) {
     OpenStratum& st = it->second;
+    // Pieces of one stratum agree on its size and together hold at most its histories; pieces
+    // that do not (a damaged or forged partial file) are refused before anything changes.
+    if (piece.size != st.size || piece.n < 0 || piece.n > st.size - st.n)
+      throw std::overflow_error("open strata whose pieces do not add up to the stratum");
     std::vector<OpenStratum::Entry> merged;
     merged.reserve(st.entries.size() + piece.entries.size());
     auto a = st.entries.begin(), b = piece.entries.begin();

@@ -11,6 +11,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <random>
@@ -655,6 +656,47 @@ TEST(StratifiedTally, ARestoredTallyGivesTheSameBitsAndMergesOn) {
   r.merge(parts[1]);
   EXPECT_TRUE(r.open_strata().empty());
   expect_same_bits(figures(r), want, "restored and merged");
+}
+
+// Pieces of a stratum read from files may be forged: they must agree on its size and hold no
+// more than its histories together (a count near 2^63 once overflowed in the sum, found by
+// fuzz_partial). Such a merge throws and leaves the stratum as it was.
+TEST(StratifiedTally, PiecesThatDoNotAddUpToTheirStratumAreRefused) {
+  const std::int64_t big = std::numeric_limits<std::int64_t>::max() - 1;
+  auto one_open = [](std::int64_t size, std::int64_t n) {
+    OpenStratum st;
+    st.size = size;
+    st.n = n;
+    OpenStratum::Entry e;
+    e.bin = 3;
+    e.s.add(1.0);
+    e.q.add(1.0);
+    st.entries.push_back(e);
+    StratifiedTally t(8, 1);
+    t.restore(ExactBins(8), {ExactBins(8)}, {{StratumKey{0, 0, 0, 0}, st}});
+    return t;
+  };
+  struct Case {
+    std::int64_t size_a, n_a, size_b, n_b;
+    const char* what;
+  };
+  for (const Case& c : {Case{big + 1, big, big + 1, big, "two pieces near 2^63"},
+                        Case{10, 6, 10, 5, "more histories than the stratum"},
+                        Case{10, 4, 12, 4, "different sizes"}}) {
+    StratifiedTally a = one_open(c.size_a, c.n_a);
+    const StratifiedTally b = one_open(c.size_b, c.n_b);
+    EXPECT_THROW(a.merge(b), std::overflow_error) << c.what;
+    ASSERT_EQ(a.open_strata().size(), 1u) << c.what;
+    const OpenStratum& st = a.open_strata().begin()->second;
+    EXPECT_EQ(st.size, c.size_a) << c.what;
+    EXPECT_EQ(st.n, c.n_a) << c.what;
+    EXPECT_EQ(st.entries.size(), 1u) << c.what;
+  }
+  // Pieces that do add up close the stratum.
+  StratifiedTally a = one_open(10, 6);
+  a.merge(one_open(10, 4));
+  EXPECT_TRUE(a.open_strata().empty());
+  EXPECT_EQ(a.means(3, 1)[0], 2.0);
 }
 
 TEST(StratifiedTally, MeansAndStdErrorsOfARangeAreThePerBinFigures) {
