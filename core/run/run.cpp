@@ -776,7 +776,11 @@ void merge(PartialRun& into, PartialRun&& other) {
 RunResult finish(const Scenario& sc, const scene::Site& site, PartialRun p) {
   if (!p.cancelled && static_cast<std::int64_t>(p.shards.size()) != p.shard_count)
     throw InputError("shards", missing_shards(p));
-  if (p.cancelled) p.tally.close_open_strata();  // the strata a cancellation cut short
+  try {
+    if (p.cancelled) p.tally.close_open_strata();  // the strata a cancellation cut short
+  } catch (const std::overflow_error& e) {
+    throw InputError("shards", std::string(e.what()) + " (a damaged or forged partial)");
+  }
   if (!p.tally.open_strata().empty())
     throw InputError("shards", "partials do not cover the run's histories");
   RunResult r;

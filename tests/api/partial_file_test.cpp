@@ -688,6 +688,30 @@ TEST_P(PartialFile, ASumOutOfRangeIsAnInputError) {
     EXPECT_TRUE(r.input_error) << r.message;
     EXPECT_EQ(r.field, kWhat) << r.message;
   }
+  {
+    // A cancelled partial's open strata are closed by finish(): a forged one whose variance term
+    // leaves the range threw std::overflow_error out of finish() (found by fuzz_partial).
+    SCOPED_TRACE("a cancelled partial's open stratum whose variance leaves the range");
+    PartialRun p = c().middle();
+    std::vector<tally::ExactBins> var;
+    for (std::size_t k = 0; k < p.tally.partitions(); ++k) var.push_back(p.tally.variance_sums(k));
+    auto open = p.tally.open_strata();
+    tally::OpenStratum& forged = open.at(key);
+    ASSERT_GT(forged.size, 2);
+    forged.n = 2;  // variance term 2 Q = 3 * 2^158
+    forged.entries = {{bin, tally::ExactSum{}, tally::ExactSum::from_limbs({0, 0, 0, 0, kLarge})}};
+    p = with_tally(p, p.tally.mean_sums(), var, open);
+    p.cancelled = true;
+    p.stop_reason = run::StopReason::kCancelled;
+    const Decoded r = ending_of([&] {
+      PartialIdentity id;
+      PartialRun d = decode_partial(encode_partial(p, kIdentity), c().bins, id, kWhat);
+      (void)run::finish(c().sc, *c().site, std::move(d));
+      return std::string("<finished>");
+    });
+    EXPECT_TRUE(r.input_error) << r.message;
+    EXPECT_EQ(r.field, "shards") << r.message;
+  }
 }
 
 // Counts no shard can have (negative, or so large that adding the shards' overflows) are refused
