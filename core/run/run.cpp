@@ -557,170 +557,263 @@ void check_shard(const Scenario& sc, const Shard& shard) {
                      "history of a batch in one process");
 }
 
-}  // namespace
+// A chunk's output, its fields set and its per-history arrays reserved.
+ChunkOutput chunk_output(const ChunkSpec& cs, std::int64_t first,
+                         const fragments::FragmentGroupSpec& group) {
+  ChunkOutput out;
+  out.group = cs.group;
+  out.first_history = first;
+  out.count = cs.count;
+  out.last_of_batch = cs.last_of_batch;
+  out.weight = group.count / static_cast<double>(group.samples);
+  const auto n = static_cast<std::size_t>(cs.count);
+  out.ptn_end.reserve(n);
+  out.outcomes.reserve(n);
+  out.building_index.reserve(n);
+  out.weights.reserve(n);
+  out.cells.reserve(n);
+  return out;
+}
 
-PartialRun run_partial(const Scenario& sc, std::shared_ptr<const scene::Site> site_ptr,
-                       const Shard& shard, const RunControl& control) {
-  check_shard(sc, shard);
-  const auto t_start = Clock::now();
-  const scene::Site& site = *site_ptr;
-  const Settings& st = sc.settings;
-  const RunContext ctx(sc, site);
-  const BatchPlan plan = plan_batches(sc, shard);
-  const auto per_batch = static_cast<std::int64_t>(plan.chunks.size());
-  const std::int64_t total = plan.histories * plan.max_batches;
-  // Trajectories are recorded for the first max_recorded_trajectories histories in global order.
-  std::vector<std::int64_t> group_offset(sc.groups.size(), 0);
-  for (std::size_t g = 1; g < sc.groups.size(); ++g)
-    group_offset[g] = group_offset[g - 1] + sc.groups[g - 1].samples;
-  const int threads = thread_count(st, plan.total_chunks());
+// One shard's run (docs/architecture.md, "Data flow"). Worker threads take the chunks of
+// histories by index, batch after batch, simulate them and submit them to an ordered
+// sequencer. Its fold, under its lock and in chunk order, tallies each chunk (or, in the
+// importance-sampling pilot, only learns from it) and at each batch boundary checks the
+// precision targets: the run ends there, or the next batch's sampling plan is published.
+class ShardRunner {
+ public:
+  ShardRunner(const Scenario& sc, std::shared_ptr<const scene::Site> site, const Shard& shard,
+              const RunControl& control);
+  PartialRun run();
 
-  const LaunchStrata strata(sc);
-  PartialRun part;
-  part.shard_count = shard.count;
-  part.shards = {shard.index};
-  Reducer reducer(sc, site, strata, part);
-  PrecisionControl precision(sc, site, part, t_start);
-  std::unique_ptr<DirectionLearner> learner;
-  SamplingPlans plans;
-  if (st.precision && st.precision->direction_importance) {
-    learner = std::make_unique<DirectionLearner>(sc, site, precision.distances());
-    plans.publish(0, drawable(learner->pilot(), strata));
+ private:
+  struct Fold {
+    ShardRunner* runner;
+    void operator()(ChunkOutput& c) const { runner->fold(c); }
+  };
+
+  void work();
+  void work_guarded();
+  bool cells_for(std::int64_t batch, const SamplingPlans::Cells*& cells);
+  bool simulate_chunk(std::int64_t k, const SamplingPlans::Cells* cells, HistoryScratch& scratch,
+                      ChunkOutput& out);
+  void fold(ChunkOutput& c);
+  void end_batch(bool pilot);
+  void count_done(std::int64_t histories);
+  bool cancelled() const {
+    return control_.cancel != nullptr && control_.cancel->load(std::memory_order_relaxed);
   }
-  // Stratified without importance sampling: fixed equal cells, about one per stratum.
-  SamplingPlans::Cells strata_cells;
-  if (strata.on() && !learner)
-    for (std::uint32_t g = 0; g < sc.groups.size(); ++g)
-      strata_cells.push_back(fragments::DirectionCells::for_strata(
-          strata.strata(g), sc.groups[g].direction, st.stratified_launch->speed));
-  std::atomic<bool> finished{false};  // the last batch is folded: later chunks are not needed
+  void progress(std::int64_t done, double elapsed_s) const;
+  PartialRun finish();
+
+  const Scenario& sc_;
+  const std::shared_ptr<const scene::Site> site_;
+  const RunControl& control_;
+  const Clock::time_point t_start_ = Clock::now();
+  const RunContext ctx_;
+  const BatchPlan plan_;
+  const std::int64_t per_batch_;            // chunks
+  const std::int64_t total_;                // histories, all batches
+  std::vector<std::int64_t> group_offset_;  // histories of the groups before, in global order
+  const int threads_;
+  const LaunchStrata strata_;
+  PartialRun part_;
+  Reducer reducer_;
+  PrecisionControl precision_;
+  std::unique_ptr<DirectionLearner> learner_;
+  SamplingPlans plans_;
+  SamplingPlans::Cells strata_cells_;  // stratified without importance sampling: fixed cells
+  const std::int64_t report_every_ns_;
+
   // Under the sequencer's lock: batches folded; of them, the importance-sampling pilot (batch 0,
   // learnt from, not tallied: docs/precision.md) and its histories.
-  std::int64_t batches = 0, pilot_batches = 0, pilot_histories = 0;
-  auto fold = [&](ChunkOutput& c) {
-    if (finished.load(std::memory_order_relaxed)) return;
-    const bool pilot = learner && batches == 0;
-    if (learner) learn(*learner, c);
-    if (pilot)
-      pilot_histories += c.count;
-    else
-      reducer.fold(c);
-    if (!c.last_of_batch) return;
-    ++batches;
-    pilot_batches += pilot ? 1 : 0;
-    if (precision.batch_done(batches, batches - pilot_batches,
-                             part.histories_done + pilot_histories)) {
-      finished.store(true);
-      plans.abort();
-    } else if (learner) {
-      plans.publish(batches, drawable(learner->plan(precision.hfd_m()), strata));
-    }
-  };
-  OrderedSequencer<ChunkOutput, decltype(fold)> sequencer(fold);
+  std::int64_t batches_ = 0, pilot_batches_ = 0, pilot_histories_ = 0;
+  OrderedSequencer<ChunkOutput, Fold> sequencer_{Fold{this}};
+  std::atomic<bool> finished_{false};  // the last batch is folded: later chunks are not needed
+  std::atomic<bool> stop_{false};      // cancelled, or a worker failed
+  std::atomic<std::int64_t> next_chunk_{0};
+  std::atomic<std::int64_t> histories_done_{0};
+  std::atomic<std::int64_t> last_report_ns_{0};
+  std::mutex error_mutex_;
+  std::exception_ptr error_;  // a worker's first exception, rethrown by run()
+};
 
-  std::atomic<std::int64_t> next_chunk{0};
-  std::atomic<std::int64_t> histories_done{0};
-  std::atomic<bool> stop{false};
-  std::atomic<std::int64_t> last_report_ns{0};
-  const auto report_every_ns =
-      static_cast<std::int64_t>(std::max(0.0, control.progress_interval_s) * 1e9);
+ShardRunner::ShardRunner(const Scenario& sc, std::shared_ptr<const scene::Site> site,
+                         const Shard& shard, const RunControl& control)
+    : sc_(sc),
+      site_(std::move(site)),
+      control_(control),
+      ctx_(sc, *site_),
+      plan_(plan_batches(sc, shard)),
+      per_batch_(static_cast<std::int64_t>(plan_.chunks.size())),
+      total_(plan_.histories * plan_.max_batches),
+      group_offset_(sc.groups.size(), 0),
+      threads_(thread_count(sc.settings, plan_.total_chunks())),
+      strata_(sc),
+      reducer_(sc, *site_, strata_, part_),
+      precision_(sc, *site_, part_, t_start_),
+      report_every_ns_(
+          static_cast<std::int64_t>(std::max(0.0, control.progress_interval_s) * 1e9)) {
+  // Trajectories are recorded for the first max_recorded_trajectories histories in global order.
+  for (std::size_t g = 1; g < sc.groups.size(); ++g)
+    group_offset_[g] = group_offset_[g - 1] + sc.groups[g - 1].samples;
+  part_.shard_count = shard.count;
+  part_.shards = {shard.index};
+  const Settings& st = sc.settings;
+  if (st.precision && st.precision->direction_importance) {
+    learner_ = std::make_unique<DirectionLearner>(sc, *site_, precision_.distances());
+    plans_.publish(0, drawable(learner_->pilot(), strata_));
+  }
+  if (strata_.on() && !learner_)  // about one equal cell per stratum
+    for (std::uint32_t g = 0; g < sc.groups.size(); ++g)
+      strata_cells_.push_back(fragments::DirectionCells::for_strata(
+          strata_.strata(g), sc.groups[g].direction, st.stratified_launch->speed));
+}
 
-  auto cancelled = [&]() {
-    return control.cancel != nullptr && control.cancel->load(std::memory_order_relaxed);
-  };
-  auto progress = [&](std::int64_t done, double elapsed_s) {
-    Progress p;
-    p.histories_done = done;
-    p.histories_total = total;
-    p.elapsed_s = elapsed_s;
-    p.precision = precision.report();
-    control.on_progress(p);
-  };
-
-  auto worker = [&]() {
-    HistoryScratch scratch;
-    while (!stop.load(std::memory_order_relaxed) && !finished.load(std::memory_order_relaxed)) {
-      const std::int64_t k = next_chunk.fetch_add(1);
-      if (k >= plan.total_chunks()) break;
-      const std::int64_t batch = k / per_batch;
-      const ChunkSpec& cs = plan.chunks[static_cast<std::size_t>(k % per_batch)];
-      const std::int64_t first = batch * sc.groups[cs.group].samples + cs.first;
-      const SamplingPlans::Cells* cells = strata_cells.empty() ? nullptr : &strata_cells;
-      if (learner) {
-        cells = plans.get(batch, cancelled);
-        if (cells == nullptr) {
-          if (cancelled()) stop.store(true);
-          return;  // the run has ended (or is cancelled)
-        }
-      }
-      ChunkOutput out;
-      out.group = cs.group;
-      out.first_history = first;
-      out.count = cs.count;
-      out.last_of_batch = cs.last_of_batch;
-      const auto& grp = sc.groups[cs.group];
-      out.weight = grp.count / static_cast<double>(grp.samples);
-      out.ptn_end.reserve(static_cast<std::size_t>(cs.count));
-      out.outcomes.reserve(static_cast<std::size_t>(cs.count));
-      out.building_index.reserve(static_cast<std::size_t>(cs.count));
-      out.weights.reserve(static_cast<std::size_t>(cs.count));
-      out.cells.reserve(static_cast<std::size_t>(cs.count));
-      for (std::int64_t h = first; h < first + cs.count; ++h) {
-        if (cancelled()) {
-          stop.store(true);
-          return;  // the unfinished chunk is dropped; folded chunks form a clean prefix
-        }
-        const bool rec = st.record_trajectories && batch == (learner ? 1 : 0) &&
-                         group_offset[cs.group] + h < st.max_recorded_trajectories;
-        const fragments::LaunchStratum ls =
-            strata.on() ? strata.of(cs.group, h - batch * sc.groups[cs.group].samples)
-                        : fragments::LaunchStratum{};
-        simulate_history(ctx, cs.group, h, rec, scratch, out, cells ? &(*cells)[cs.group] : nullptr,
-                         strata.on() ? &ls : nullptr);
-      }
-      sequencer.submit(k, std::move(out));
-      const std::int64_t done = histories_done.fetch_add(cs.count) + cs.count;
-      if (control.on_progress) {
-        const std::int64_t now =
-            std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t_start).count();
-        std::int64_t last = last_report_ns.load();
-        if (now - last >= report_every_ns && last_report_ns.compare_exchange_strong(last, now))
-          progress(done, static_cast<double>(now) * 1e-9);
-      }
-    }
-  };
-
-  // A worker's exception (an exact sum out of range, memory) stops the others and is rethrown.
-  std::mutex error_mutex;
-  std::exception_ptr error;
-  auto guarded = [&]() {
-    try {
-      worker();
-    } catch (...) {
-      const std::lock_guard<std::mutex> lock(error_mutex);
-      if (!error) error = std::current_exception();
-      stop.store(true);
-      plans.abort();
-    }
-  };
+PartialRun ShardRunner::run() {
   std::vector<std::thread> pool;
-  for (int i = 1; i < threads; ++i) pool.emplace_back(guarded);
-  guarded();
+  for (int i = 1; i < threads_; ++i) pool.emplace_back([this] { work_guarded(); });
+  work_guarded();
   for (auto& th : pool) th.join();
-  if (error) std::rethrow_exception(error);
+  if (error_) std::rethrow_exception(error_);
+  return finish();
+}
 
-  part.cancelled = !finished.load() && (cancelled() || stop.load());
-  part.tallied_batches = batches - pilot_batches;
+// A worker's exception (an exact sum out of range, memory) stops the others and is rethrown.
+void ShardRunner::work_guarded() {
+  try {
+    work();
+  } catch (...) {
+    const std::lock_guard<std::mutex> lock(error_mutex_);
+    if (!error_) error_ = std::current_exception();
+    stop_.store(true);
+    plans_.abort();
+  }
+}
+
+void ShardRunner::work() {
+  HistoryScratch scratch;
+  while (!stop_.load(std::memory_order_relaxed) && !finished_.load(std::memory_order_relaxed)) {
+    const std::int64_t k = next_chunk_.fetch_add(1);
+    if (k >= plan_.total_chunks()) break;
+    const SamplingPlans::Cells* cells = nullptr;
+    if (!cells_for(k / per_batch_, cells)) return;
+    ChunkOutput out;
+    if (!simulate_chunk(k, cells, scratch, out)) return;
+    const std::int64_t histories = out.count;
+    sequencer_.submit(k, std::move(out));
+    count_done(histories);
+  }
+}
+
+// The launch cells of a batch's draws: the fixed strata cells, or the importance-sampling plan
+// published for the batch (waited for). False when the run ends or is cancelled meanwhile.
+bool ShardRunner::cells_for(std::int64_t batch, const SamplingPlans::Cells*& cells) {
+  cells = strata_cells_.empty() ? nullptr : &strata_cells_;
+  if (!learner_) return true;
+  cells = plans_.get(batch, [this] { return cancelled(); });
+  if (cells != nullptr) return true;
+  if (cancelled()) stop_.store(true);
+  return false;
+}
+
+// Simulates chunk k of the run (chunk k % per_batch of batch k / per_batch) into `out`. False
+// when cancelled midway: the unfinished chunk is dropped, so the folded chunks form a clean
+// prefix.
+bool ShardRunner::simulate_chunk(std::int64_t k, const SamplingPlans::Cells* cells,
+                                 HistoryScratch& scratch, ChunkOutput& out) {
+  const std::int64_t batch = k / per_batch_;
+  const ChunkSpec& cs = plan_.chunks[static_cast<std::size_t>(k % per_batch_)];
+  const fragments::FragmentGroupSpec& group = sc_.groups[cs.group];
+  const std::int64_t batch_first = batch * group.samples;
+  const std::int64_t first = batch_first + cs.first;
+  const Settings& st = sc_.settings;
+  out = chunk_output(cs, first, group);
+  for (std::int64_t h = first; h < first + cs.count; ++h) {
+    if (cancelled()) {
+      stop_.store(true);
+      return false;
+    }
+    const bool record = st.record_trajectories && batch == (learner_ ? 1 : 0) &&
+                        group_offset_[cs.group] + h < st.max_recorded_trajectories;
+    const fragments::LaunchStratum ls =
+        strata_.on() ? strata_.of(cs.group, h - batch_first) : fragments::LaunchStratum{};
+    simulate_history(ctx_, cs.group, h, record, scratch, out, cells ? &(*cells)[cs.group] : nullptr,
+                     strata_.on() ? &ls : nullptr);
+  }
+  return true;
+}
+
+// Under the sequencer's lock, in chunk order.
+void ShardRunner::fold(ChunkOutput& c) {
+  if (finished_.load(std::memory_order_relaxed)) return;
+  const bool pilot = learner_ && batches_ == 0;
+  if (learner_) learn(*learner_, c);
+  if (pilot)
+    pilot_histories_ += c.count;
+  else
+    reducer_.fold(c);
+  if (c.last_of_batch) end_batch(pilot);
+}
+
+// At a batch boundary: the precision targets decide whether the run ends here; if not, the
+// importance learner's plan for the next batch is published.
+void ShardRunner::end_batch(bool pilot) {
+  ++batches_;
+  pilot_batches_ += pilot ? 1 : 0;
+  if (precision_.batch_done(batches_, batches_ - pilot_batches_,
+                            part_.histories_done + pilot_histories_)) {
+    finished_.store(true);
+    plans_.abort();
+  } else if (learner_) {
+    plans_.publish(batches_, drawable(learner_->plan(precision_.hfd_m()), strata_));
+  }
+}
+
+// Counts a simulated chunk's histories and reports progress at most every progress_interval_s.
+void ShardRunner::count_done(std::int64_t histories) {
+  const std::int64_t done = histories_done_.fetch_add(histories) + histories;
+  if (!control_.on_progress) return;
+  const std::int64_t now =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t_start_).count();
+  std::int64_t last = last_report_ns_.load();
+  if (now - last >= report_every_ns_ && last_report_ns_.compare_exchange_strong(last, now))
+    progress(done, static_cast<double>(now) * 1e-9);
+}
+
+void ShardRunner::progress(std::int64_t done, double elapsed_s) const {
+  Progress p;
+  p.histories_done = done;
+  p.histories_total = total_;
+  p.elapsed_s = elapsed_s;
+  p.precision = precision_.report();
+  control_.on_progress(p);
+}
+
+// The shard's partial result, once the workers have stopped.
+PartialRun ShardRunner::finish() {
+  PartialRun& part = part_;
+  part.cancelled = !finished_.load() && (cancelled() || stop_.load());
+  part.tallied_batches = batches_ - pilot_batches_;
   // A shard without histories has no batch to fold (shards run without settings.precision).
-  part.batches = plan.chunks.empty() && !part.cancelled ? 1 : batches;
-  if (plan.chunks.empty()) part.tallied_batches = part.batches;
-  part.pilot_histories = pilot_histories;
-  part.stop_reason = part.cancelled ? StopReason::kCancelled : precision.reason();
-  part.precision = precision.report();
-  part.wall_s = std::chrono::duration<double>(Clock::now() - t_start).count();
-  part.threads = threads;
-  if (control.on_progress) progress(part.histories_done + pilot_histories, part.wall_s);
-  return part;
+  part.batches = plan_.chunks.empty() && !part.cancelled ? 1 : batches_;
+  if (plan_.chunks.empty()) part.tallied_batches = part.batches;
+  part.pilot_histories = pilot_histories_;
+  part.stop_reason = part.cancelled ? StopReason::kCancelled : precision_.reason();
+  part.precision = precision_.report();
+  part.wall_s = std::chrono::duration<double>(Clock::now() - t_start_).count();
+  part.threads = threads_;
+  if (control_.on_progress) progress(part.histories_done + pilot_histories_, part.wall_s);
+  return std::move(part);
+}
+
+}  // namespace
+
+PartialRun run_partial(const Scenario& sc, std::shared_ptr<const scene::Site> site,
+                       const Shard& shard, const RunControl& control) {
+  check_shard(sc, shard);
+  ShardRunner runner(sc, std::move(site), shard, control);
+  return runner.run();
 }
 
 namespace {
