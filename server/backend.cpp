@@ -216,16 +216,9 @@ int open_output(const fs::path& p) {
   return fd;
 }
 
-// Starts `argv` in a session of its own (its process group id = its pid), stdin from /dev/null,
-// stdout and stderr to the files given, in `cwd`, with every signal unblocked and at its default
-// (the daemon blocks SIGINT/SIGTERM in its threads and ignores SIGPIPE, which exec would pass on)
-// and no descriptor of the daemon's open (a listening socket held by a detached mpirun would keep
-// a restarted daemon from binding its port). Throws when the program cannot be found.
-pid_t spawn(const std::vector<std::string>& argv, const fs::path& out, const fs::path& err,
-            const fs::path& cwd, const std::vector<std::pair<std::string, std::string>>& env) {
-  if (argv.empty() || argv[0].empty()) throw std::runtime_error("empty command");
-  const std::string program = find_program(argv[0]);
-  if (program.empty()) throw std::runtime_error("cannot find program \"" + argv[0] + "\" in PATH");
+// The daemon's environment with `env`'s variables set (replacing any of the same name).
+std::vector<std::string> child_environment(
+    const std::vector<std::pair<std::string, std::string>>& env) {
   std::vector<std::string> envs;
   for (char** e = environ; e && *e; ++e) {
     const std::string s = *e;
@@ -234,85 +227,122 @@ pid_t spawn(const std::vector<std::string>& argv, const fs::path& out, const fs:
       envs.push_back(s);
   }
   for (const auto& [k, v] : env) envs.push_back(k + "=" + v);
-  std::vector<char*> args, envp;
-  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  for (auto& e : envs) envp.push_back(e.data());
-  envp.push_back(nullptr);
-  const int in_fd = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
-  const int out_fd = open_output(out);
-  const int err_fd = open_output(err);
-  // Closed by a successful exec (O_CLOEXEC), or carries exec's errno: the parent returns only
-  // once the child is in its own session, so the group is there to be watched at once.
-  int exec_pipe[2] = {-1, -1};
-  if (::pipe2(exec_pipe, O_CLOEXEC) != 0) {
-    const int e = errno;
-    ::close(in_fd);
-    ::close(out_fd);
-    ::close(err_fd);
-    throw std::runtime_error(std::string("pipe: ") + std::strerror(e));
-  }
-  rlimit lim{};
-  ::getrlimit(RLIMIT_NOFILE, &lim);
-  const int max_fd = static_cast<int>(std::min<rlim_t>(lim.rlim_cur, 1 << 16));
+  return envs;
+}
 
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    // Only async-signal-safe calls from here to exec.
-    ::setsid();
-    ::dup2(in_fd, 0);
-    ::dup2(out_fd, 1);
-    ::dup2(err_fd, 2);
-    const int report = exec_pipe[1] > 2 ? exec_pipe[1] : -1;
-    // Every descriptor but 0-2 and the report pipe (closed by exec) goes.
-    bool closed = false;
+// What the forked child needs, prepared before the fork (the child may only make
+// async-signal-safe calls).
+struct ChildSetup {
+  std::string program;
+  std::vector<char*> argv, envp;  // null-terminated, pointing into the parent's strings
+  const char* cwd = nullptr;
+  int in_fd = -1, out_fd = -1, err_fd = -1;
+  int report_fd = -1;  // exec's errno goes here when exec fails (closed by a successful exec)
+  int max_fd = 0;
+};
+
+// In the forked child: a session of its own, stdio from the setup, every other descriptor
+// closed, signals at their defaults and unblocked, then exec. Async-signal-safe calls only.
+[[noreturn]] void exec_child(const ChildSetup& c) {
+  ::setsid();
+  ::dup2(c.in_fd, 0);
+  ::dup2(c.out_fd, 1);
+  ::dup2(c.err_fd, 2);
+  const int report = c.report_fd > 2 ? c.report_fd : -1;
+  bool closed = false;  // every descriptor but 0-2 and the report pipe
 #ifdef SYS_close_range
-    closed = report < 0
-                 ? ::syscall(SYS_close_range, 3U, ~0U, 0U) == 0
-                 : (report == 3 ||
-                    ::syscall(SYS_close_range, 3U, static_cast<unsigned>(report - 1), 0U) == 0) &&
-                       ::syscall(SYS_close_range, static_cast<unsigned>(report + 1), ~0U, 0U) == 0;
+  closed = report < 0
+               ? ::syscall(SYS_close_range, 3U, ~0U, 0U) == 0
+               : (report == 3 ||
+                  ::syscall(SYS_close_range, 3U, static_cast<unsigned>(report - 1), 0U) == 0) &&
+                     ::syscall(SYS_close_range, static_cast<unsigned>(report + 1), ~0U, 0U) == 0;
 #endif
-    if (!closed)
-      for (int fd = 3; fd < max_fd; ++fd)
-        if (fd != report) ::close(fd);
-    struct sigaction dfl {};
-    dfl.sa_handler = SIG_DFL;
-    for (int sig = 1; sig < NSIG; ++sig) ::sigaction(sig, &dfl, nullptr);
-    sigset_t none;
-    sigemptyset(&none);
-    ::sigprocmask(SIG_SETMASK, &none, nullptr);
-    int e = 0;
-    if (::chdir(cwd.c_str()) == 0) {
-      ::execve(program.c_str(), args.data(), envp.data());
-    }
-    e = errno;
-    if (report >= 0) {
-      const ssize_t w = ::write(report, &e, sizeof e);
-      (void)w;
-    }
-    ::_exit(127);
+  if (!closed)
+    for (int fd = 3; fd < c.max_fd; ++fd)
+      if (fd != report) ::close(fd);
+  struct sigaction dfl {};
+  dfl.sa_handler = SIG_DFL;
+  for (int sig = 1; sig < NSIG; ++sig) ::sigaction(sig, &dfl, nullptr);
+  sigset_t none;
+  sigemptyset(&none);
+  ::sigprocmask(SIG_SETMASK, &none, nullptr);
+  if (::chdir(c.cwd) == 0) ::execve(c.program.c_str(), c.argv.data(), c.envp.data());
+  const int e = errno;
+  if (report >= 0) {
+    const ssize_t w = ::write(report, &e, sizeof e);
+    (void)w;
   }
-  const int fork_errno = errno;
-  ::close(in_fd);
-  ::close(out_fd);
-  ::close(err_fd);
-  ::close(exec_pipe[1]);
-  if (pid < 0) {
-    ::close(exec_pipe[0]);
-    throw std::runtime_error(std::string("fork: ") + std::strerror(fork_errno));
-  }
+  ::_exit(127);
+}
+
+// Waits until the child has exec'd (the pipe closes) or reports why it could not (then reaps
+// it and throws).
+void await_exec(int pipe_read, pid_t pid, const std::string& program) {
   int child_errno = 0;
   ssize_t got = 0;
   do {
-    got = ::read(exec_pipe[0], &child_errno, sizeof child_errno);
+    got = ::read(pipe_read, &child_errno, sizeof child_errno);
   } while (got < 0 && errno == EINTR);
-  ::close(exec_pipe[0]);
+  ::close(pipe_read);
   if (got == static_cast<ssize_t>(sizeof child_errno)) {
     int status = 0;
     ::waitpid(pid, &status, 0);
     throw std::runtime_error("cannot execute " + program + ": " + std::strerror(child_errno));
   }
+}
+
+// Starts `argv` in a session of its own (its process group id = its pid), stdin from /dev/null,
+// stdout and stderr to the files given, in `cwd`, with every signal unblocked and at its default
+// (the daemon blocks SIGINT/SIGTERM in its threads and ignores SIGPIPE, which exec would pass on)
+// and no descriptor of the daemon's open (a listening socket held by a detached mpirun would keep
+// a restarted daemon from binding its port). Returns once the child is in its own session, so
+// the group is there to be watched at once. Throws when the program cannot be found or run.
+pid_t spawn(const std::vector<std::string>& argv, const fs::path& out, const fs::path& err,
+            const fs::path& cwd, const std::vector<std::pair<std::string, std::string>>& env) {
+  if (argv.empty() || argv[0].empty()) throw std::runtime_error("empty command");
+  ChildSetup c;
+  c.program = find_program(argv[0]);
+  if (c.program.empty())
+    throw std::runtime_error("cannot find program \"" + argv[0] + "\" in PATH");
+  std::vector<std::string> envs = child_environment(env);
+  for (const auto& a : argv) c.argv.push_back(const_cast<char*>(a.c_str()));
+  c.argv.push_back(nullptr);
+  for (auto& e : envs) c.envp.push_back(e.data());
+  c.envp.push_back(nullptr);
+  c.cwd = cwd.c_str();
+  auto close_stdio = [&c] {
+    for (const int fd : {c.in_fd, c.out_fd, c.err_fd})
+      if (fd >= 0) ::close(fd);
+  };
+  c.in_fd = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+  try {
+    c.out_fd = open_output(out);
+    c.err_fd = open_output(err);
+  } catch (...) {
+    close_stdio();
+    throw;
+  }
+  int exec_pipe[2] = {-1, -1};  // closed by a successful exec (O_CLOEXEC), or carries its errno
+  if (::pipe2(exec_pipe, O_CLOEXEC) != 0) {
+    const int e = errno;
+    close_stdio();
+    throw std::runtime_error(std::string("pipe: ") + std::strerror(e));
+  }
+  c.report_fd = exec_pipe[1];
+  rlimit lim{};
+  ::getrlimit(RLIMIT_NOFILE, &lim);
+  c.max_fd = static_cast<int>(std::min<rlim_t>(lim.rlim_cur, 1 << 16));
+
+  const pid_t pid = ::fork();
+  if (pid == 0) exec_child(c);
+  const int fork_errno = errno;
+  close_stdio();
+  ::close(exec_pipe[1]);
+  if (pid < 0) {
+    ::close(exec_pipe[0]);
+    throw std::runtime_error(std::string("fork: ") + std::strerror(fork_errno));
+  }
+  await_exec(exec_pipe[0], pid, c.program);
   return pid;
 }
 

@@ -9,9 +9,12 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <vector>
 
 #include "api/json_fields.h"
 #include "api/scenario_json.h"
@@ -208,6 +211,98 @@ std::vector<std::string> read_tokens(const std::string& path) {
   return tokens;
 }
 
+namespace {
+
+// Each key of the config file and how it sets the Config (`k` names the key in errors).
+using ConfigSetter = std::function<void(const Json& v, const std::string& k, Config& c)>;
+
+const std::map<std::string, ConfigSetter>& config_setters() {
+  auto positive_seconds = [](const Json& v, const std::string& k) {
+    const double s = api::read_number(v, k);
+    api::check_gt(s, 0.0, k);
+    api::check_le(s, 86400.0, k);
+    return s;
+  };
+  static const std::map<std::string, ConfigSetter> setters = {
+      {"listen", [](const Json& v, const std::string& k,
+                    Config& c) { set_listen(api::read_string(v, k), k, c); }},
+      {"data_dir",
+       [](const Json& v, const std::string& k, Config& c) { c.data_dir = api::read_string(v, k); }},
+      {"threads",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.threads = static_cast<int>(api::read_integer(v, k, 0, api::kMaxThreads));
+       }},
+      {"http_threads",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.http_threads = static_cast<int>(api::read_integer(v, k, 1, 1024));
+       }},
+      {"token_file", [](const Json& v, const std::string& k,
+                        Config& c) { c.token_file = api::read_string(v, k); }},
+      {"auth",
+       [](const Json& v, const std::string& k, Config& c) { c.auth = api::read_bool(v, k); }},
+      {"max_body_bytes",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.max_body_bytes = api::read_integer(v, k, 1024, kInt64Max);
+       }},
+      {"max_samples_per_job",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.max_samples_per_job = api::read_integer(v, k, 1, kInt64Max);
+       }},
+      {"max_terrain_triangles",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.max_terrain_triangles = api::read_integer(v, k, 2, kInt64Max);
+       }},
+      {"max_sites", [](const Json& v, const std::string& k,
+                       Config& c) { c.max_sites = api::read_integer(v, k, 1, kInt64Max); }},
+      {"max_queued_jobs",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.max_queued_jobs = api::read_integer(v, k, 1, kInt64Max);
+       }},
+      {"request_timeout_s",
+       [positive_seconds](const Json& v, const std::string& k, Config& c) {
+         c.request_timeout_s = positive_seconds(v, k);
+       }},
+      {"job_nice",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.job_nice = static_cast<int>(api::read_integer(v, k, 0, 19));
+       }},
+      {"keep_alive_s", [positive_seconds](const Json& v, const std::string& k,
+                                          Config& c) { c.keep_alive_s = positive_seconds(v, k); }},
+      {"max_connections",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.max_connections = api::read_integer(v, k, 1, 1'000'000);
+       }},
+      {"log_level",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.log_level = api::read_string(v, k);
+         check_log_level(c.log_level, k);
+       }},
+      {"max_crashes",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.max_crashes = static_cast<int>(api::read_integer(v, k, 1, 1000));
+       }},
+      {"port_file", [](const Json& v, const std::string& k,
+                       Config& c) { c.port_file = api::read_string(v, k); }},
+      {"ui", [](const Json& v, const std::string& k, Config& c) { c.ui = api::read_bool(v, k); }},
+      {"ui_dir",
+       [](const Json& v, const std::string& k, Config& c) { c.ui_dir = api::read_string(v, k); }},
+      {"backend",
+       [](const Json& v, const std::string&, Config& c) { apply_backend(v, c.backend); }},
+      {"cors_origins",
+       [](const Json& v, const std::string& k, Config& c) {
+         if (!v.is_array()) throw InputError(k, "expected array of origins");
+         c.cors_origins.clear();
+         for (std::size_t i = 0; i < v.size(); ++i) {
+           const std::string at = k + "[" + std::to_string(i) + "]";
+           c.cors_origins.push_back(checked_origin(api::read_string(v[i], at), at));
+         }
+       }},
+  };
+  return setters;
+}
+
+}  // namespace
+
 void apply_config_file(const std::string& path, Config& c) {
   const std::string text = read_text_file(path, "--config");
   Json j;
@@ -217,91 +312,19 @@ void apply_config_file(const std::string& path, Config& c) {
     throw ConfigError(path + ": " + e.what());
   }
   if (!j.is_object()) throw ConfigError(path + ": expected a JSON object");
-  static const std::vector<std::string> kKeys = {"listen",
-                                                 "data_dir",
-                                                 "threads",
-                                                 "http_threads",
-                                                 "token_file",
-                                                 "auth",
-                                                 "max_body_bytes",
-                                                 "max_samples_per_job",
-                                                 "max_sites",
-                                                 "max_terrain_triangles",
-                                                 "max_queued_jobs",
-                                                 "request_timeout_s",
-                                                 "log_level",
-                                                 "max_crashes",
-                                                 "port_file",
-                                                 "keep_alive_s",
-                                                 "max_connections",
-                                                 "job_nice",
-                                                 "ui",
-                                                 "ui_dir",
-                                                 "cors_origins",
-                                                 "backend"};
+  const auto& setters = config_setters();
   try {
     for (const auto& item : j.items()) {
       const std::string& k = item.key();
-      const Json& v = item.value();
-      if (k == "listen") {
-        set_listen(api::read_string(v, k), k, c);
-      } else if (k == "data_dir") {
-        c.data_dir = api::read_string(v, k);
-      } else if (k == "threads") {
-        c.threads = static_cast<int>(api::read_integer(v, k, 0, api::kMaxThreads));
-      } else if (k == "http_threads") {
-        c.http_threads = static_cast<int>(api::read_integer(v, k, 1, 1024));
-      } else if (k == "token_file") {
-        c.token_file = api::read_string(v, k);
-      } else if (k == "auth") {
-        c.auth = api::read_bool(v, k);
-      } else if (k == "max_body_bytes") {
-        c.max_body_bytes = api::read_integer(v, k, 1024, kInt64Max);
-      } else if (k == "max_samples_per_job") {
-        c.max_samples_per_job = api::read_integer(v, k, 1, kInt64Max);
-      } else if (k == "max_terrain_triangles") {
-        c.max_terrain_triangles = api::read_integer(v, k, 2, kInt64Max);
-      } else if (k == "max_sites") {
-        c.max_sites = api::read_integer(v, k, 1, kInt64Max);
-      } else if (k == "max_queued_jobs") {
-        c.max_queued_jobs = api::read_integer(v, k, 1, kInt64Max);
-      } else if (k == "request_timeout_s") {
-        c.request_timeout_s = api::read_number(v, k);
-        api::check_gt(c.request_timeout_s, 0.0, k);
-        api::check_le(c.request_timeout_s, 86400.0, k);
-      } else if (k == "job_nice") {
-        c.job_nice = static_cast<int>(api::read_integer(v, k, 0, 19));
-      } else if (k == "keep_alive_s") {
-        c.keep_alive_s = api::read_number(v, k);
-        api::check_gt(c.keep_alive_s, 0.0, k);
-        api::check_le(c.keep_alive_s, 86400.0, k);
-      } else if (k == "max_connections") {
-        c.max_connections = api::read_integer(v, k, 1, 1'000'000);
-      } else if (k == "log_level") {
-        c.log_level = api::read_string(v, k);
-        check_log_level(c.log_level, k);
-      } else if (k == "max_crashes") {
-        c.max_crashes = static_cast<int>(api::read_integer(v, k, 1, 1000));
-      } else if (k == "port_file") {
-        c.port_file = api::read_string(v, k);
-      } else if (k == "ui") {
-        c.ui = api::read_bool(v, k);
-      } else if (k == "ui_dir") {
-        c.ui_dir = api::read_string(v, k);
-      } else if (k == "backend") {
-        apply_backend(v, c.backend);
-      } else if (k == "cors_origins") {
-        if (!v.is_array()) throw InputError(k, "expected array of origins");
-        c.cors_origins.clear();
-        for (std::size_t i = 0; i < v.size(); ++i) {
-          const std::string at = k + "[" + std::to_string(i) + "]";
-          c.cors_origins.push_back(checked_origin(api::read_string(v[i], at), at));
-        }
-      } else {
-        const std::string guess = api::suggest_key(k, kKeys);
+      const auto it = setters.find(k);
+      if (it == setters.end()) {
+        std::vector<std::string> keys;
+        for (const auto& [name, set] : setters) keys.push_back(name);
+        const std::string guess = api::suggest_key(k, keys);
         throw InputError(
             k, guess.empty() ? "unknown key" : "unknown key (did you mean \"" + guess + "\"?)");
       }
+      it->second(item.value(), k, c);
     }
   } catch (const InputError& e) {
     throw ConfigError(path + ": " + e.what());

@@ -260,42 +260,11 @@ void Scheduler::run_job(const JobRow& job) {
     run::RunControl control;
     control.cancel = &cancel_run_;
     control.progress_interval_s = 0.2;
-    control.on_progress = [&](const run::Progress& p) {
-      {
-        const std::lock_guard<std::mutex> lock(mutex_);
-        if (live_) {
-          live_->histories_done = p.histories_done;
-          live_->histories_total = p.histories_total;
-          live_->elapsed_s = p.elapsed_s;
-          live_->histories_per_s =
-              p.elapsed_s > 0 ? static_cast<double>(p.histories_done) / p.elapsed_s : 0.0;
-          live_->precision = p.precision;
-        }
-      }
-      const auto now = Clock::now();
-      if (now - last_flush >= std::chrono::seconds(1)) {
-        last_flush = now;
-        store_.update_progress(id, p.histories_done);
-      }
-    };
+    control.on_progress = [&](const run::Progress& p) { record_progress(id, p, last_flush); };
     run::RunResult result = run::run(doc.scenario, site, control);
     result.timing.parse_s = std::chrono::duration<double>(t_build - t_parse).count();
     result.timing.build_s = std::chrono::duration<double>(t_run - t_build).count();
-    if (result.cancelled || cancel_run_.load()) {
-      bool stopping = false;
-      {
-        const std::lock_guard<std::mutex> lock(mutex_);
-        stopping = stopping_;
-      }
-      if (stopping) {
-        store_.requeue(id);  // only if still running (not cancelled by a client)
-        log(LogLevel::kInfo, "job interrupted by shutdown; queued again", {{"job_id", id}});
-      } else {
-        log(LogLevel::kInfo, "job cancelled", {{"job_id", id}});
-      }
-      return;
-    }
-
+    if (result.cancelled || cancel_run_.load()) return end_interrupted(id);
     if (!persist(job, doc, *site, result, started)) return;
   } catch (const InputError& e) {
     store_.mark_failed(id, utc_now(), "invalid_input", e.what());
@@ -306,6 +275,42 @@ void Scheduler::run_job(const JobRow& job) {
   } catch (const std::exception& e) {
     store_.mark_failed(id, utc_now(), "internal", e.what());
     log(LogLevel::kError, "job failed", {{"job_id", id}, {"error", e.what()}});
+  }
+}
+
+void Scheduler::record_progress(const std::string& id, const run::Progress& p,
+                                Clock::time_point& last_flush) {
+  bool flush = false;
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (live_) {
+      live_->histories_done = p.histories_done;
+      live_->histories_total = p.histories_total;
+      live_->elapsed_s = p.elapsed_s;
+      live_->histories_per_s =
+          p.elapsed_s > 0 ? static_cast<double>(p.histories_done) / p.elapsed_s : 0.0;
+      live_->precision = p.precision;
+    }
+    const auto now = Clock::now();
+    if (now - last_flush >= std::chrono::seconds(1)) {
+      last_flush = now;
+      flush = true;
+    }
+  }
+  if (flush) store_.update_progress(id, p.histories_done);
+}
+
+void Scheduler::end_interrupted(const std::string& id) {
+  bool stopping = false;
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    stopping = stopping_;
+  }
+  if (stopping) {
+    store_.requeue(id);  // only if still running (not cancelled by a client)
+    log(LogLevel::kInfo, "job interrupted by shutdown; queued again", {{"job_id", id}});
+  } else {
+    log(LogLevel::kInfo, "job cancelled", {{"job_id", id}});
   }
 }
 

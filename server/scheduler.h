@@ -24,6 +24,7 @@
 #include "api/scenario_json.h"
 #include "core/run/precision.h"
 #include "core/run/result.h"
+#include "core/run/run.h"
 #include "server/backend.h"
 #include "server/site_registry.h"
 #include "server/store.h"
@@ -83,6 +84,12 @@ class Scheduler {
 
   void loop();
   void run_job(const JobRow& job);
+  // The run's progress (from its worker threads): the live figures GET /jobs/{id} shows, and
+  // the stored count at most once a second (`last_flush`, guarded by mutex_).
+  void record_progress(const std::string& id, const run::Progress& p,
+                       std::chrono::steady_clock::time_point& last_flush);
+  // A run that stopped early: queued again when the daemon is stopping, else a client's cancel.
+  void end_interrupted(const std::string& id);
   // Stages and commits the job's results, then marks it done. False: cancelled meanwhile.
   bool persist(const JobRow& job, const api::ScenarioDocument& doc, const scene::Site& site,
                const run::RunResult& result, std::chrono::steady_clock::time_point started);
