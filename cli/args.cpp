@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <map>
 
 #include "api/scenario_json.h"
 #include "core/run/partial.h"
@@ -83,146 +84,151 @@ bool take_run_output(const std::vector<std::string>& args, std::size_t& k, Optio
   return false;
 }
 
-}  // namespace
+// Options only run takes; true when args[k] was one (k advanced past its value).
+bool take_run_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
+  std::string value;
+  if (take_value(args, k, "--threads", value)) {
+    o.threads = parse_threads(value);
+    return true;
+  }
+  if (take_value(args, k, "--shard", value)) {
+    o.shard = parse_shard(value);
+    return true;
+  }
+  if (take_value(args, k, "--progress-file", value)) {
+    if (value.empty()) throw UsageError("--progress-file: empty file name");
+    o.progress_file = value;
+    return true;
+  }
+  return false;
+}
 
-Options parse_args(const std::vector<std::string>& args) {
-  Options o;
-  if (args.empty()) throw UsageError("missing command");
+int parse_priority(const std::string& v) {
+  char* end = nullptr;
+  const long p = std::strtol(v.c_str(), &end, 10);
+  if (v.empty() || *end != '\0' || p < -1000 || p > 1000)
+    throw UsageError("--priority: expected an integer in [-1000, 1000], got \"" + v + "\"");
+  return static_cast<int>(p);
+}
+
+// Options of submit; true when args[k] was one (k advanced past its value).
+bool take_submit_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
+  const std::string& a = args[k];
+  std::string value;
+  if (take_value(args, k, "--out", value)) {
+    if (value.empty()) throw UsageError("--out: empty directory name");
+    o.out = value;
+  } else if (take_value(args, k, "--server", value)) {
+    if (value.rfind("http://", 0) != 0 && value.rfind("https://", 0) != 0)
+      throw UsageError("--server: expected http://HOST:PORT, got \"" + value + "\"");
+    o.server = value;
+  } else if (take_value(args, k, "--token-file", value)) {
+    o.token_file = value;
+  } else if (take_value(args, k, "--priority", value)) {
+    o.priority = parse_priority(value);
+  } else if (take_value(args, k, "--idempotency-key", value)) {
+    o.idempotency_key = value;
+  } else if (a == "--no-wait") {
+    o.wait = false;
+  } else if (a == "--maps") {
+    o.maps = true;
+  } else if (a == "--quiet" || a == "-q") {
+    o.quiet = true;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// Options of export, site import and site export-gis; true when args[k] was one.
+bool take_file_command_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
+  std::string value;
+  if (o.command == Command::kExport && take_value(args, k, "--pixel-m", value)) {
+    char* end = nullptr;
+    const double x = std::strtod(value.c_str(), &end);
+    if (value.empty() || *end != '\0' || !std::isfinite(x) || !(x > 0))
+      throw UsageError("--pixel-m: expected a number > 0, got \"" + value + "\"");
+    o.pixel_m = x;
+    return true;
+  }
+  if (take_value(args, k, "--out", value)) {
+    if (value.empty()) throw UsageError("--out: empty file name");
+    o.out = value;
+    return true;
+  }
+  return false;
+}
+
+// An option of o.command at args[k], or an operand (the scenario or input file, or merge's
+// partial files); k is advanced past an option's value.
+void take_argument(const std::vector<std::string>& args, std::size_t& k, Options& o) {
+  const std::string& a = args[k];
+  const bool is_option = a.size() > 1 && a[0] == '-';
+  switch (o.command) {
+    case Command::kRun:
+      if (take_run_output(args, k, o) || take_run_option(args, k, o)) return;
+      break;
+    case Command::kMerge:
+      if (take_run_output(args, k, o)) return;
+      if (!is_option && !o.scenario.empty()) {
+        o.parts.push_back(a);
+        return;
+      }
+      break;
+    case Command::kSubmit:
+      if (take_submit_option(args, k, o)) return;
+      break;
+    case Command::kExport:
+    case Command::kSiteImport:
+    case Command::kSiteExportGis:
+      if (take_file_command_option(args, k, o)) return;
+      break;
+    default: break;
+  }
+  if (is_option) throw UsageError("unknown option \"" + a + "\"");
+  if (!o.scenario.empty()) throw UsageError("more than one scenario file (\"" + a + "\")");
+  o.scenario = a;
+}
+
+// The command named by args[0] (and args[1] for "site ..."); returns the number of words it took.
+std::size_t parse_command(const std::vector<std::string>& args, Options& o) {
+  static const std::map<std::string, Command> commands = {
+      {"run", Command::kRun},           {"validate", Command::kValidate},
+      {"submit", Command::kSubmit},     {"export", Command::kExport},
+      {"merge", Command::kMerge},       {"--help", Command::kHelp},
+      {"-h", Command::kHelp},           {"help", Command::kHelp},
+      {"--version", Command::kVersion}, {"version", Command::kVersion}};
   const std::string& first = args[0];
-  if (first == "--help" || first == "-h" || first == "help") {
-    o.command = Command::kHelp;
-    return o;
-  }
-  if (first == "--version" || first == "version") {
-    o.command = Command::kVersion;
-    return o;
-  }
-  if (first == "run") {
-    o.command = Command::kRun;
-  } else if (first == "validate") {
-    o.command = Command::kValidate;
-  } else if (first == "submit") {
-    o.command = Command::kSubmit;
-  } else if (first == "export") {
-    o.command = Command::kExport;
-  } else if (first == "merge") {
-    o.command = Command::kMerge;
-  } else if (first == "site") {
+  if (first == "site") {
     if (args.size() < 2 || (args[1] != "import" && args[1] != "export-gis"))
       throw UsageError(
           "site: expected \"site import IMPORT.json --out SITE.json\" or \"site export-gis "
           "SITE.json --out DIR\"");
     o.command = args[1] == "import" ? Command::kSiteImport : Command::kSiteExportGis;
-  } else {
-    throw UsageError("unknown command \"" + first + "\"");
+    return 2;
   }
+  const auto it = commands.find(first);
+  if (it == commands.end()) throw UsageError("unknown command \"" + first + "\"");
+  o.command = it->second;
+  return 1;
+}
 
-  for (std::size_t k =
-           o.command == Command::kSiteImport || o.command == Command::kSiteExportGis ? 2 : 1;
-       k < args.size(); ++k) {
-    const std::string& a = args[k];
-    std::string value;
-    if (a == "--help" || a == "-h") {
-      o.command = Command::kHelp;
-      return o;
-    }
-    // run and merge: --out DIR, --samples-scale X, --quiet.
-    if ((o.command == Command::kRun || o.command == Command::kMerge) && take_run_output(args, k, o))
-      continue;
-    if (o.command == Command::kRun) {
-      if (take_value(args, k, "--threads", value)) {
-        o.threads = parse_threads(value);
-        continue;
-      }
-      if (take_value(args, k, "--shard", value)) {
-        o.shard = parse_shard(value);
-        continue;
-      }
-      if (take_value(args, k, "--progress-file", value)) {
-        if (value.empty()) throw UsageError("--progress-file: empty file name");
-        o.progress_file = value;
-        continue;
-      }
-    }
-    if (o.command == Command::kMerge && !(a.size() > 1 && a[0] == '-') && !o.scenario.empty()) {
-      o.parts.push_back(a);
-      continue;
-    }
-    if (o.command == Command::kSubmit) {
-      if (take_value(args, k, "--out", value)) {
-        if (value.empty()) throw UsageError("--out: empty directory name");
-        o.out = value;
-        continue;
-      }
-      if (take_value(args, k, "--server", value)) {
-        if (value.rfind("http://", 0) != 0 && value.rfind("https://", 0) != 0)
-          throw UsageError("--server: expected http://HOST:PORT, got \"" + value + "\"");
-        o.server = value;
-        continue;
-      }
-      if (take_value(args, k, "--token-file", value)) {
-        o.token_file = value;
-        continue;
-      }
-      if (take_value(args, k, "--priority", value)) {
-        char* end = nullptr;
-        const long p = std::strtol(value.c_str(), &end, 10);
-        if (value.empty() || *end != '\0' || p < -1000 || p > 1000)
-          throw UsageError("--priority: expected an integer in [-1000, 1000], got \"" + value +
-                           "\"");
-        o.priority = static_cast<int>(p);
-        continue;
-      }
-      if (take_value(args, k, "--idempotency-key", value)) {
-        o.idempotency_key = value;
-        continue;
-      }
-      if (a == "--no-wait") {
-        o.wait = false;
-        continue;
-      }
-      if (a == "--maps") {
-        o.maps = true;
-        continue;
-      }
-      if (a == "--quiet" || a == "-q") {
-        o.quiet = true;
-        continue;
-      }
-    }
-    if (o.command == Command::kExport && take_value(args, k, "--pixel-m", value)) {
-      char* end = nullptr;
-      const double x = std::strtod(value.c_str(), &end);
-      if (value.empty() || *end != '\0' || !std::isfinite(x) || !(x > 0))
-        throw UsageError("--pixel-m: expected a number > 0, got \"" + value + "\"");
-      o.pixel_m = x;
-      continue;
-    }
-    if ((o.command == Command::kSiteImport || o.command == Command::kSiteExportGis ||
-         o.command == Command::kExport) &&
-        take_value(args, k, "--out", value)) {
-      if (value.empty()) throw UsageError("--out: empty file name");
-      o.out = value;
-      continue;
-    }
-    if (a.size() > 1 && a[0] == '-') throw UsageError("unknown option \"" + a + "\"");
-    if (!o.scenario.empty()) throw UsageError("more than one scenario file (\"" + a + "\")");
-    o.scenario = a;
-  }
-  if (o.command == Command::kExport) {
-    if (o.scenario.empty()) throw UsageError("export: missing RESULTS.h5");
-    if (o.out.empty()) throw UsageError("export needs --out DIR");
-    return o;
-  }
-  if (o.command == Command::kSiteExportGis) {
-    if (o.scenario.empty()) throw UsageError("site export-gis: missing SITE.json");
-    if (o.out.empty()) throw UsageError("site export-gis needs --out DIR");
-    return o;
-  }
-  if (o.command == Command::kSiteImport) {
-    if (o.scenario.empty()) throw UsageError("site import: missing IMPORT.json");
-    if (o.out.empty()) throw UsageError("site import needs --out SITE.json");
-    return o;
+// The operands and options each command needs.
+void check_complete(const Options& o) {
+  switch (o.command) {
+    case Command::kExport:
+      if (o.scenario.empty()) throw UsageError("export: missing RESULTS.h5");
+      if (o.out.empty()) throw UsageError("export needs --out DIR");
+      return;
+    case Command::kSiteExportGis:
+      if (o.scenario.empty()) throw UsageError("site export-gis: missing SITE.json");
+      if (o.out.empty()) throw UsageError("site export-gis needs --out DIR");
+      return;
+    case Command::kSiteImport:
+      if (o.scenario.empty()) throw UsageError("site import: missing IMPORT.json");
+      if (o.out.empty()) throw UsageError("site import needs --out SITE.json");
+      return;
+    default: break;
   }
   if (o.scenario.empty()) throw UsageError("missing SCENARIO.json");
   if (o.command == Command::kRun && o.out.empty()) throw UsageError("run needs --out DIR");
@@ -231,6 +237,23 @@ Options parse_args(const std::vector<std::string>& args) {
     if (o.parts.empty()) throw UsageError("merge: no partial files (PART.fsp ...)");
   }
   if (o.maps && o.out.empty()) throw UsageError("--maps needs --out DIR (the maps go to DIR/maps)");
+}
+
+}  // namespace
+
+Options parse_args(const std::vector<std::string>& args) {
+  Options o;
+  if (args.empty()) throw UsageError("missing command");
+  const std::size_t first_argument = parse_command(args, o);
+  if (o.command == Command::kHelp || o.command == Command::kVersion) return o;
+  for (std::size_t k = first_argument; k < args.size(); ++k) {
+    if (args[k] == "--help" || args[k] == "-h") {
+      o.command = Command::kHelp;
+      return o;
+    }
+    take_argument(args, k, o);
+  }
+  check_complete(o);
   return o;
 }
 

@@ -3,10 +3,12 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <fstream>
 #include <iostream>
 #include <sstream>
 #include <thread>
+#include <utility>
 
 #include "api/output_dir.h"
 #include "api/run_outputs.h"
@@ -114,6 +116,82 @@ std::string precision_line(const Json& p) {
          " of " + std::to_string(total) + " targets met";
 }
 
+// A line on the job's state: "  running  42.0%  420 / 1000 histories  eta 3 s  batch ...".
+std::string state_line(const Json& job, const std::string& state) {
+  std::string line = "  " + state;
+  if (state != "running") return line;
+  char buf[160];
+  std::snprintf(buf, sizeof buf, " %5.1f%%  %lld / %lld histories",
+                100.0 * job.value("progress", 0.0),
+                static_cast<long long>(job.value("histories_done", 0LL)),
+                static_cast<long long>(job.value("histories_total", 0LL)));
+  line += buf;
+  if (job["eta_s"].is_number())
+    line += "  eta " + std::to_string(static_cast<int>(job["eta_s"].get<double>() + 0.5)) + " s";
+  if (const auto p = job.find("precision"); p != job.end() && p->is_object())
+    line += precision_line(*p);
+  return line;
+}
+
+// Uploads an inline site (POST /v1/sites) and names it by site_id in the scenario, then submits
+// the job (POST /v1/jobs). Returns the job id and whether the server queued it anew (202).
+std::pair<std::string, bool> submit_job(Client& client, Json scenario, const Options& o) {
+  if (scenario.contains("site")) {
+    const auto [status, body] = client.request("POST", "/v1/sites", scenario["site"].dump());
+    const std::string site_id = Json::parse(body).at("site_id").get<std::string>();
+    if (!o.quiet)
+      std::cerr << (status == 201 ? "site uploaded: " : "site already on the server: ") << site_id
+                << "\n";
+    scenario.erase("site");
+    scenario["site_id"] = site_id;
+  }
+  if (o.priority) scenario["priority"] = *o.priority;
+  if (!o.idempotency_key.empty()) scenario["idempotency_key"] = o.idempotency_key;
+  const auto [status, body] = client.request("POST", "/v1/jobs", scenario.dump());
+  return {Json::parse(body).at("job_id").get<std::string>(), status == 202};
+}
+
+// Follows the job until it ends, with a line when its state changes and about every 2 s while
+// it runs. Returns its last JSON, or null when `cancel` stopped the following.
+Json follow_job(Client& client, const std::string& job_id, const Options& o,
+                const std::atomic<bool>& cancel) {
+  std::string state;
+  auto last_line = std::chrono::steady_clock::now() - std::chrono::hours(1);
+  while (true) {
+    Json job = Json::parse(client.request("GET", "/v1/jobs/" + job_id).second);
+    const std::string now_state = job.at("state").get<std::string>();
+    const auto now = std::chrono::steady_clock::now();
+    if (!o.quiet && (now_state != state || now - last_line > std::chrono::seconds(2))) {
+      std::cerr << state_line(job, now_state) << "\n";
+      last_line = now;
+    }
+    state = now_state;
+    if (state == "done" || state == "failed" || state == "cancelled") return job;
+    if (cancel.load()) return nullptr;
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  }
+}
+
+// A done job's summary (printed unless quiet) and, with --out, its results (and --maps).
+void fetch_results(Client& client, const std::string& job_id, const Options& o) {
+  const std::string summary_text = client.request("GET", "/v1/jobs/" + job_id + "/summary").second;
+  const std::filesystem::path dir(o.out);
+  if (!o.out.empty()) {
+    const std::string h5 = client.request("GET", "/v1/jobs/" + job_id + "/results.h5").second;
+    api::OutputDir out(o.out);
+    out.stage_text(api::kSummaryFileName, summary_text);
+    out.stage_text(api::kResultsFileName, h5);
+    out.commit();
+    if (o.maps) download_maps(client, job_id, dir / "maps");
+  }
+  if (o.quiet) return;
+  std::cout << api::render_summary_text(nlohmann::ordered_json::parse(summary_text));
+  if (!o.out.empty())
+    std::cout << "\nWrote " << (dir / api::kSummaryFileName).string() << " and "
+              << (dir / api::kResultsFileName).string()
+              << (o.maps ? ", maps in " + (dir / "maps").string() : std::string()) << "\n";
+}
+
 }  // namespace
 
 int submit_command(const Options& o, const std::atomic<bool>& cancel) {
@@ -125,60 +203,19 @@ int submit_command(const Options& o, const std::atomic<bool>& cancel) {
     (void)api::validate_scenario(api::parse_scenario_document(scenario).scenario);
   const std::string token = o.token_file.empty() ? "" : first_token(o.token_file);
   Client client(o.server, token);
-
   try {
-    if (scenario.contains("site")) {
-      const auto [status, body] = client.request("POST", "/v1/sites", scenario["site"].dump());
-      const std::string site_id = Json::parse(body).at("site_id").get<std::string>();
-      if (!o.quiet)
-        std::cerr << (status == 201 ? "site uploaded: " : "site already on the server: ") << site_id
-                  << "\n";
-      scenario.erase("site");
-      scenario["site_id"] = site_id;
-    }
-    if (o.priority) scenario["priority"] = *o.priority;
-    if (!o.idempotency_key.empty()) scenario["idempotency_key"] = o.idempotency_key;
-    const auto [status, body] = client.request("POST", "/v1/jobs", scenario.dump());
-    const std::string job_id = Json::parse(body).at("job_id").get<std::string>();
+    const auto [job_id, queued] = submit_job(client, std::move(scenario), o);
     if (!o.wait) {
       std::cout << job_id << "\n";
       return kExitOk;
     }
-    if (!o.quiet) std::cerr << "job " << (status == 202 ? "queued: " : "known: ") << job_id << "\n";
-
-    // Follow: a line when the state changes, and about every 2 s while it runs.
-    std::string state;
-    auto last_line = std::chrono::steady_clock::now() - std::chrono::hours(1);
-    Json job;
-    while (true) {
-      job = Json::parse(client.request("GET", "/v1/jobs/" + job_id).second);
-      const std::string now_state = job.at("state").get<std::string>();
-      const auto now = std::chrono::steady_clock::now();
-      if (!o.quiet && (now_state != state || now - last_line > std::chrono::seconds(2))) {
-        std::cerr << "  " << now_state;
-        if (now_state == "running") {
-          char buf[160];
-          std::snprintf(buf, sizeof buf, " %5.1f%%  %lld / %lld histories",
-                        100.0 * job.value("progress", 0.0),
-                        static_cast<long long>(job.value("histories_done", 0LL)),
-                        static_cast<long long>(job.value("histories_total", 0LL)));
-          std::cerr << buf;
-          if (job["eta_s"].is_number())
-            std::cerr << "  eta " << static_cast<int>(job["eta_s"].get<double>() + 0.5) << " s";
-          if (const auto p = job.find("precision"); p != job.end() && p->is_object())
-            std::cerr << precision_line(*p);
-        }
-        std::cerr << "\n";
-        last_line = now;
-      }
-      state = now_state;
-      if (state == "done" || state == "failed" || state == "cancelled") break;
-      if (cancel.load()) {
-        std::cerr << "stopped following; job " << job_id << " continues on the server\n";
-        return kExitCancelled;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    if (!o.quiet) std::cerr << "job " << (queued ? "queued: " : "known: ") << job_id << "\n";
+    const Json job = follow_job(client, job_id, o, cancel);
+    if (job.is_null()) {
+      std::cerr << "stopped following; job " << job_id << " continues on the server\n";
+      return kExitCancelled;
     }
+    const std::string state = job.at("state").get<std::string>();
     if (state == "failed") {
       const Json& e = job["error"];
       std::cerr << "error: job " << job_id << " failed: "
@@ -191,26 +228,7 @@ int submit_command(const Options& o, const std::atomic<bool>& cancel) {
       std::cerr << "job " << job_id << " was cancelled: no results\n";
       return kExitCancelled;
     }
-
-    const std::string summary_text =
-        client.request("GET", "/v1/jobs/" + job_id + "/summary").second;
-    if (!o.out.empty()) {
-      const std::string h5 = client.request("GET", "/v1/jobs/" + job_id + "/results.h5").second;
-      api::OutputDir out(o.out);
-      out.stage_text(api::kSummaryFileName, summary_text);
-      out.stage_text(api::kResultsFileName, h5);
-      out.commit();
-      if (o.maps) download_maps(client, job_id, std::filesystem::path(o.out) / "maps");
-    }
-    if (!o.quiet) {
-      std::cout << api::render_summary_text(nlohmann::ordered_json::parse(summary_text));
-      if (!o.out.empty())
-        std::cout << "\nWrote " << (std::filesystem::path(o.out) / api::kSummaryFileName).string()
-                  << " and " << (std::filesystem::path(o.out) / api::kResultsFileName).string()
-                  << (o.maps ? ", maps in " + (std::filesystem::path(o.out) / "maps").string()
-                             : std::string())
-                  << "\n";
-    }
+    fetch_results(client, job_id, o);
     return kExitOk;
   } catch (const ServerError& e) {
     std::cerr << "error: " << e.what() << "\n";

@@ -1,0 +1,126 @@
+// The command line of `fragsim` (cli/args.h): each command's operands and options, and the
+// usage errors that name what is wrong (exit code 2 in main).
+#include "cli/args.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace fragsim::cli {
+namespace {
+
+using Args = std::vector<std::string>;
+
+// The UsageError's message, or "" when the command line parses.
+std::string usage_error(const Args& args) {
+  try {
+    parse_args(args);
+  } catch (const UsageError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Args, RunTakesItsOptionsInBothSpellings) {
+  const Options o = parse_args({"run", "s.json", "--out", "d", "--threads=3", "--samples-scale",
+                                "0.5", "--shard", "2/5", "--progress-file=p.json", "-q"});
+  EXPECT_EQ(o.command, Command::kRun);
+  EXPECT_EQ(o.scenario, "s.json");
+  EXPECT_EQ(o.out, "d");
+  EXPECT_EQ(o.threads, 3);
+  EXPECT_EQ(o.samples_scale, 0.5);
+  ASSERT_TRUE(o.shard);
+  EXPECT_EQ(o.shard->index, 2);
+  EXPECT_EQ(o.shard->count, 5);
+  EXPECT_EQ(o.progress_file, "p.json");
+  EXPECT_TRUE(o.quiet);
+}
+
+TEST(Args, MergeTakesTheScenarioThenItsPartialFiles) {
+  const Options o = parse_args({"merge", "s.json", "a.fsp", "--out", "d", "b.fsp", "c.fsp"});
+  EXPECT_EQ(o.command, Command::kMerge);
+  EXPECT_EQ(o.scenario, "s.json");
+  EXPECT_EQ(o.parts, (Args{"a.fsp", "b.fsp", "c.fsp"}));
+  EXPECT_EQ(o.out, "d");
+  EXPECT_EQ(usage_error({"merge", "s.json", "a.fsp", "--out", "d", "--threads", "2"}),
+            "unknown option \"--threads\"");
+  EXPECT_EQ(usage_error({"merge", "s.json", "--out", "d"}),
+            "merge: no partial files (PART.fsp ...)");
+  EXPECT_EQ(usage_error({"merge", "s.json", "a.fsp"}), "merge needs --out DIR");
+}
+
+TEST(Args, SubmitTakesItsOptions) {
+  const Options o =
+      parse_args({"submit", "s.json", "--server", "https://h:1", "--token-file", "t",
+                  "--priority=-5", "--idempotency-key", "k", "--no-wait", "--maps", "--out", "d"});
+  EXPECT_EQ(o.command, Command::kSubmit);
+  EXPECT_EQ(o.server, "https://h:1");
+  EXPECT_EQ(o.token_file, "t");
+  EXPECT_EQ(o.priority, -5);
+  EXPECT_EQ(o.idempotency_key, "k");
+  EXPECT_FALSE(o.wait);
+  EXPECT_TRUE(o.maps);
+  EXPECT_EQ(o.out, "d");
+  EXPECT_EQ(parse_args({"submit", "s.json"}).server, "http://127.0.0.1:8080");
+  EXPECT_EQ(usage_error({"submit", "s.json", "--maps"}),
+            "--maps needs --out DIR (the maps go to DIR/maps)");
+  EXPECT_EQ(usage_error({"submit", "s.json", "--server", "h:1"}),
+            "--server: expected http://HOST:PORT, got \"h:1\"");
+  EXPECT_EQ(usage_error({"submit", "s.json", "--priority", "1001"}),
+            "--priority: expected an integer in [-1000, 1000], got \"1001\"");
+  EXPECT_EQ(usage_error({"submit", "s.json", "--threads", "2"}), "unknown option \"--threads\"");
+}
+
+TEST(Args, FileCommandsNeedTheirInputAndOut) {
+  Options o = parse_args({"export", "r.h5", "--out", "d", "--pixel-m", "2.5"});
+  EXPECT_EQ(o.command, Command::kExport);
+  EXPECT_EQ(o.scenario, "r.h5");
+  EXPECT_EQ(o.pixel_m, 2.5);
+  o = parse_args({"site", "import", "i.json", "--out", "s.json"});
+  EXPECT_EQ(o.command, Command::kSiteImport);
+  EXPECT_EQ(o.scenario, "i.json");
+  o = parse_args({"site", "export-gis", "s.json", "--out=d"});
+  EXPECT_EQ(o.command, Command::kSiteExportGis);
+  EXPECT_EQ(o.out, "d");
+  EXPECT_EQ(usage_error({"export", "--out", "d"}), "export: missing RESULTS.h5");
+  EXPECT_EQ(usage_error({"export", "r.h5"}), "export needs --out DIR");
+  EXPECT_EQ(usage_error({"export", "r.h5", "--out", "d", "--pixel-m", "0"}),
+            "--pixel-m: expected a number > 0, got \"0\"");
+  EXPECT_EQ(usage_error({"site", "import", "i.json", "--pixel-m", "1"}),
+            "unknown option \"--pixel-m\"");
+  EXPECT_EQ(usage_error({"site", "import", "i.json"}), "site import needs --out SITE.json");
+  EXPECT_EQ(usage_error({"site", "export-gis"}), "site export-gis: missing SITE.json");
+  EXPECT_NE(usage_error({"site", "frobnicate"}).find("site: expected"), std::string::npos);
+  EXPECT_EQ(usage_error({"site", "import", "i.json", "--out", ""}), "--out: empty file name");
+}
+
+TEST(Args, HelpAndVersionWinAndEveryMistakeIsNamed) {
+  for (const Args& a : {Args{"help"}, Args{"-h"}, Args{"--help"}, Args{"run", "s.json", "-h"}})
+    EXPECT_EQ(parse_args(a).command, Command::kHelp);
+  EXPECT_EQ(parse_args({"version"}).command, Command::kVersion);
+  EXPECT_EQ(parse_args({"validate", "s.json"}).command, Command::kValidate);
+  EXPECT_EQ(usage_error({}), "missing command");
+  EXPECT_EQ(usage_error({"fly"}), "unknown command \"fly\"");
+  EXPECT_EQ(usage_error({"run", "s.json"}), "run needs --out DIR");
+  EXPECT_EQ(usage_error({"run", "--out", "d"}), "missing SCENARIO.json");
+  EXPECT_EQ(usage_error({"run", "a.json", "b.json", "--out", "d"}),
+            "more than one scenario file (\"b.json\")");
+  EXPECT_EQ(usage_error({"run", "s.json", "--out"}), "--out needs a value");
+  EXPECT_EQ(usage_error({"run", "s.json", "--out", ""}), "--out: empty directory name");
+  EXPECT_EQ(usage_error({"validate", "s.json", "--out", "d"}), "unknown option \"--out\"");
+  EXPECT_NE(usage_error({"run", "s.json", "--out", "d", "--threads", "x"}).find("--threads:"),
+            std::string::npos);
+  EXPECT_NE(usage_error({"run", "s.json", "--out", "d", "--shard", "3/3"}).find("--shard:"),
+            std::string::npos);
+  EXPECT_NE(usage_error({"run", "s.json", "--out", "d", "--samples-scale", "-1"})
+                .find("--samples-scale:"),
+            std::string::npos);
+  EXPECT_EQ(usage_error({"run", "s.json", "--out", "d", "--progress-file="}),
+            "--progress-file: empty file name");
+  // A lone "-" is an operand, not an option.
+  EXPECT_EQ(parse_args({"run", "-", "--out", "d"}).scenario, "-");
+}
+
+}  // namespace
+}  // namespace fragsim::cli
