@@ -24,6 +24,19 @@ class SiteBuilder {
   static MaterialIds build_materials(Site& site, const SiteSpec& spec);
   // Validates and meshes the terrain, sets the local origin, normals, areas and the 2-D index.
   static void build_terrain(Site& site, const SiteSpec& spec, const MaterialIds& ids);
+  // The plane and grid forms are lattices: cell counts, origin and cell size for the cell index.
+  struct Lattice {
+    int ncx = 0, ncy = 0;
+    Vec2 origin{0, 0};  // local
+    Vec2 cell{0, 0};
+  };
+  // Each form of site.terrain.geometry (field `f`): validated, meshed in the local frame.
+  static Lattice build_plane_terrain(Site& site, const PlaneTerrainSpec& plane,
+                                     const std::string& f);
+  static Lattice build_grid_terrain(Site& site, const GridTerrainSpec& grid, const std::string& f);
+  static void build_mesh_terrain(Site& site, const MeshSpec& mesh, const std::string& f);
+  // Per-triangle areas, upward unit normals and planes, and the terrain's bounds.
+  static void build_terrain_facets(Site& site);
   // Validates and meshes the buildings (needs the terrain for default base elevations).
   static void build_buildings(Site& site, const SiteSpec& spec, const MaterialIds& ids);
   // Creates the Embree device and scene.

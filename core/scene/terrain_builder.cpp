@@ -59,112 +59,130 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
   const std::string f = detail::terrain_form_field(terrain);
   site.terrain_material_ = material_id(ids, terrain.material, "site.terrain.material");
   site.terrain_is_plane_ = false;
-  site.terrain_is_lattice_ = false;
-  int ncx = 0, ncy = 0;  // plane and grid: cell counts
-  Vec2 cell_size{0, 0};
-  Vec2 grid_origin{0, 0};  // local
+  Lattice lattice;  // stays empty for a mesh
+  if (const auto* plane = std::get_if<PlaneTerrainSpec>(&terrain.geometry))
+    lattice = build_plane_terrain(site, *plane, f);
+  else if (const auto* grid = std::get_if<GridTerrainSpec>(&terrain.geometry))
+    lattice = build_grid_terrain(site, *grid, f);
+  else
+    build_mesh_terrain(site, std::get<MeshSpec>(terrain.geometry), f);
+  build_terrain_facets(site);
+  site.terrain_is_lattice_ = lattice.ncx > 0;
+  site.index_ =
+      site.terrain_is_lattice_
+          ? detail::make_cell_index(lattice.origin, lattice.cell, lattice.ncx, lattice.ncy,
+                                    site.terrain_vertices_, site.terrain_triangles_)
+          : detail::make_mesh_index(site.terrain_vertices_, site.terrain_triangles_);
+}
 
-  if (const auto* plane = std::get_if<PlaneTerrainSpec>(&terrain.geometry)) {
-    detail::require_finite(plane->elevation_m, f + ".elevation_m");
-    for (std::size_t k = 0; k < 4; ++k)
-      detail::require_finite(plane->extent_m[k], indexed(f + ".extent_m", k));
-    const auto& e = plane->extent_m;
-    if (!(e[2] > e[0]))
-      fail(f + ".extent_m", "xmax must be greater than xmin (got xmin " +
-                                detail::format_number(e[0]) + ", xmax " +
-                                detail::format_number(e[2]) + ")");
-    if (!(e[3] > e[1]))
-      fail(f + ".extent_m", "ymax must be greater than ymin (got ymin " +
-                                detail::format_number(e[1]) + ", ymax " +
-                                detail::format_number(e[3]) + ")");
-    detail::require_positive(plane->cell_m, f + ".cell_m");
-    const double ex = e[2] - e[0], ey = e[3] - e[1];
-    if (std::ceil(ex / plane->cell_m) * std::ceil(ey / plane->cell_m) > kMaxTerrainCells)
-      fail(f + ".cell_m", "too small for the extent (more than 2^25 cells)");
-    ncx = cells_for(ex, plane->cell_m);
-    ncy = cells_for(ey, plane->cell_m);
-    site.local_origin_ =
-        round_origin(Vec3(0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]), plane->elevation_m));
-    const Vec3& o = site.local_origin_;
-    std::vector<double> xs(static_cast<std::size_t>(ncx) + 1),
-        ys(static_cast<std::size_t>(ncy) + 1);
-    // Subtract the origin first, then subdivide: local coordinates carry no UTM-sized rounding.
-    const double x0 = e[0] - o.x(), x1 = e[2] - o.x(), y0 = e[1] - o.y(), y1 = e[3] - o.y();
-    for (int i = 0; i <= ncx; ++i) xs[i] = i == ncx ? x1 : x0 + (x1 - x0) * i / ncx;
-    for (int j = 0; j <= ncy; ++j) ys[j] = j == ncy ? y1 : y0 + (y1 - y0) * j / ncy;
-    site.terrain_is_plane_ = true;
-    site.plane_elevation_ = plane->elevation_m - o.z();
-    const double zl = site.plane_elevation_;
-    mesh_lattice(
-        xs, ys, [zl](std::size_t, std::size_t) { return zl; }, site.terrain_vertices_,
-        site.terrain_triangles_);
-    grid_origin = Vec2(x0, y0);
-    cell_size = Vec2((x1 - x0) / ncx, (y1 - y0) / ncy);
-  } else if (const auto* grid = std::get_if<GridTerrainSpec>(&terrain.geometry)) {
-    detail::require_finite(grid->origin_m[0], f + ".origin_m[0]");
-    detail::require_finite(grid->origin_m[1], f + ".origin_m[1]");
-    detail::require_positive(grid->spacing_m, f + ".spacing_m");
-    if (grid->nx < 2) fail(f + ".nx", "must be at least 2 (got " + std::to_string(grid->nx) + ")");
-    if (grid->ny < 2) fail(f + ".ny", "must be at least 2 (got " + std::to_string(grid->ny) + ")");
-    if (static_cast<double>(grid->nx - 1) * static_cast<double>(grid->ny - 1) > kMaxTerrainCells)
-      fail(f, "too many cells (more than 2^25)");
-    const std::size_t nvx = static_cast<std::size_t>(grid->nx),
-                      nvy = static_cast<std::size_t>(grid->ny);
-    if (grid->elevation_m.size() != nvx * nvy)
-      fail(f + ".elevation_m", "has " + std::to_string(grid->elevation_m.size()) +
-                                   " values; nx * ny = " + std::to_string(nvx * nvy));
-    double zmin = std::numeric_limits<double>::infinity();
-    for (std::size_t k = 0; k < grid->elevation_m.size(); ++k) {
-      detail::require_finite(grid->elevation_m[k], indexed(f + ".elevation_m", k));
-      zmin = std::min(zmin, grid->elevation_m[k]);
-    }
-    const double s = grid->spacing_m;
-    site.local_origin_ =
-        round_origin(Vec3(grid->origin_m[0] + 0.5 * s * static_cast<double>(nvx - 1),
-                          grid->origin_m[1] + 0.5 * s * static_cast<double>(nvy - 1), zmin));
-    const Vec3& o = site.local_origin_;
-    const double x0 = grid->origin_m[0] - o.x(), y0 = grid->origin_m[1] - o.y();
-    std::vector<double> xs(nvx), ys(nvy);
-    for (std::size_t i = 0; i < nvx; ++i) xs[i] = x0 + s * static_cast<double>(i);
-    for (std::size_t j = 0; j < nvy; ++j) ys[j] = y0 + s * static_cast<double>(j);
-    mesh_lattice(
-        xs, ys,
-        [&](std::size_t i, std::size_t j) { return grid->elevation_m[j * nvx + i] - o.z(); },
-        site.terrain_vertices_, site.terrain_triangles_);
-    ncx = grid->nx - 1;
-    ncy = grid->ny - 1;
-    grid_origin = Vec2(x0, y0);
-    cell_size = Vec2(s, s);
-  } else {
-    const auto& mesh = std::get<MeshSpec>(terrain.geometry);
-    if (!mesh.surface.empty())
-      fail(f + ".surface", "per-triangle surface types are for building meshes only");
-    detail::validate_mesh(mesh, f, "site.terrain", "empty terrain");
-    Box3 box;
-    for (const auto& t : mesh.triangles)
-      for (const auto v : t) box.extend(mesh.vertices_m[v]);
-    site.local_origin_ = round_origin(
-        Vec3(0.5 * (box.lo.x() + box.hi.x()), 0.5 * (box.lo.y() + box.hi.y()), box.lo.z()));
-    site.terrain_vertices_.resize(mesh.vertices_m.size());
-    for (std::size_t v = 0; v < mesh.vertices_m.size(); ++v)
-      site.terrain_vertices_[v] = mesh.vertices_m[v] - site.local_origin_;
-    site.terrain_triangles_.resize(mesh.triangles.size());
-    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-      std::array<std::uint32_t, 3> tri{};
-      for (std::size_t k = 0; k < 3; ++k) tri[k] = static_cast<std::uint32_t>(mesh.triangles[t][k]);
-      const Vec3& a = site.terrain_vertices_[tri[0]];
-      const Vec3& b = site.terrain_vertices_[tri[1]];
-      const Vec3& c = site.terrain_vertices_[tri[2]];
-      // A terrain is a height surface: every triangle must have a proper xy-projection (same
-      // relative test as for zero area, applied to the projection).
-      if (detail::is_zero_area_2d(a.head<2>(), b.head<2>(), c.head<2>()))
-        fail(indexed(f + ".triangles", t), "vertical triangle (terrain must be a height surface)");
-      if ((b - a).cross(c - a).z() < 0) std::swap(tri[1], tri[2]);  // make the normal point up
-      site.terrain_triangles_[t] = tri;
-    }
+SiteBuilder::Lattice SiteBuilder::build_plane_terrain(Site& site, const PlaneTerrainSpec& plane,
+                                                      const std::string& f) {
+  detail::require_finite(plane.elevation_m, f + ".elevation_m");
+  for (std::size_t k = 0; k < 4; ++k)
+    detail::require_finite(plane.extent_m[k], indexed(f + ".extent_m", k));
+  const auto& e = plane.extent_m;
+  if (!(e[2] > e[0]))
+    fail(f + ".extent_m", "xmax must be greater than xmin (got xmin " +
+                              detail::format_number(e[0]) + ", xmax " +
+                              detail::format_number(e[2]) + ")");
+  if (!(e[3] > e[1]))
+    fail(f + ".extent_m", "ymax must be greater than ymin (got ymin " +
+                              detail::format_number(e[1]) + ", ymax " +
+                              detail::format_number(e[3]) + ")");
+  detail::require_positive(plane.cell_m, f + ".cell_m");
+  const double ex = e[2] - e[0], ey = e[3] - e[1];
+  if (std::ceil(ex / plane.cell_m) * std::ceil(ey / plane.cell_m) > kMaxTerrainCells)
+    fail(f + ".cell_m", "too small for the extent (more than 2^25 cells)");
+  Lattice l;
+  l.ncx = cells_for(ex, plane.cell_m);
+  l.ncy = cells_for(ey, plane.cell_m);
+  site.local_origin_ =
+      round_origin(Vec3(0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]), plane.elevation_m));
+  const Vec3& o = site.local_origin_;
+  std::vector<double> xs(static_cast<std::size_t>(l.ncx) + 1),
+      ys(static_cast<std::size_t>(l.ncy) + 1);
+  // Subtract the origin first, then subdivide: local coordinates carry no UTM-sized rounding.
+  const double x0 = e[0] - o.x(), x1 = e[2] - o.x(), y0 = e[1] - o.y(), y1 = e[3] - o.y();
+  for (int i = 0; i <= l.ncx; ++i) xs[i] = i == l.ncx ? x1 : x0 + (x1 - x0) * i / l.ncx;
+  for (int j = 0; j <= l.ncy; ++j) ys[j] = j == l.ncy ? y1 : y0 + (y1 - y0) * j / l.ncy;
+  site.terrain_is_plane_ = true;
+  site.plane_elevation_ = plane.elevation_m - o.z();
+  const double zl = site.plane_elevation_;
+  mesh_lattice(
+      xs, ys, [zl](std::size_t, std::size_t) { return zl; }, site.terrain_vertices_,
+      site.terrain_triangles_);
+  l.origin = Vec2(x0, y0);
+  l.cell = Vec2((x1 - x0) / l.ncx, (y1 - y0) / l.ncy);
+  return l;
+}
+
+SiteBuilder::Lattice SiteBuilder::build_grid_terrain(Site& site, const GridTerrainSpec& grid,
+                                                     const std::string& f) {
+  detail::require_finite(grid.origin_m[0], f + ".origin_m[0]");
+  detail::require_finite(grid.origin_m[1], f + ".origin_m[1]");
+  detail::require_positive(grid.spacing_m, f + ".spacing_m");
+  if (grid.nx < 2) fail(f + ".nx", "must be at least 2 (got " + std::to_string(grid.nx) + ")");
+  if (grid.ny < 2) fail(f + ".ny", "must be at least 2 (got " + std::to_string(grid.ny) + ")");
+  if (static_cast<double>(grid.nx - 1) * static_cast<double>(grid.ny - 1) > kMaxTerrainCells)
+    fail(f, "too many cells (more than 2^25)");
+  const auto nvx = static_cast<std::size_t>(grid.nx), nvy = static_cast<std::size_t>(grid.ny);
+  if (grid.elevation_m.size() != nvx * nvy)
+    fail(f + ".elevation_m", "has " + std::to_string(grid.elevation_m.size()) +
+                                 " values; nx * ny = " + std::to_string(nvx * nvy));
+  double zmin = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < grid.elevation_m.size(); ++k) {
+    detail::require_finite(grid.elevation_m[k], indexed(f + ".elevation_m", k));
+    zmin = std::min(zmin, grid.elevation_m[k]);
   }
+  const double s = grid.spacing_m;
+  site.local_origin_ =
+      round_origin(Vec3(grid.origin_m[0] + 0.5 * s * static_cast<double>(nvx - 1),
+                        grid.origin_m[1] + 0.5 * s * static_cast<double>(nvy - 1), zmin));
+  const Vec3& o = site.local_origin_;
+  const double x0 = grid.origin_m[0] - o.x(), y0 = grid.origin_m[1] - o.y();
+  std::vector<double> xs(nvx), ys(nvy);
+  for (std::size_t i = 0; i < nvx; ++i) xs[i] = x0 + s * static_cast<double>(i);
+  for (std::size_t j = 0; j < nvy; ++j) ys[j] = y0 + s * static_cast<double>(j);
+  mesh_lattice(
+      xs, ys, [&](std::size_t i, std::size_t j) { return grid.elevation_m[j * nvx + i] - o.z(); },
+      site.terrain_vertices_, site.terrain_triangles_);
+  Lattice l;
+  l.ncx = grid.nx - 1;
+  l.ncy = grid.ny - 1;
+  l.origin = Vec2(x0, y0);
+  l.cell = Vec2(s, s);
+  return l;
+}
 
-  // Per-triangle area and unit normal (upward by construction), and the bounds.
+void SiteBuilder::build_mesh_terrain(Site& site, const MeshSpec& mesh, const std::string& f) {
+  if (!mesh.surface.empty())
+    fail(f + ".surface", "per-triangle surface types are for building meshes only");
+  detail::validate_mesh(mesh, f, "site.terrain", "empty terrain");
+  Box3 box;
+  for (const auto& t : mesh.triangles)
+    for (const auto v : t) box.extend(mesh.vertices_m[v]);
+  site.local_origin_ = round_origin(
+      Vec3(0.5 * (box.lo.x() + box.hi.x()), 0.5 * (box.lo.y() + box.hi.y()), box.lo.z()));
+  site.terrain_vertices_.resize(mesh.vertices_m.size());
+  for (std::size_t v = 0; v < mesh.vertices_m.size(); ++v)
+    site.terrain_vertices_[v] = mesh.vertices_m[v] - site.local_origin_;
+  site.terrain_triangles_.resize(mesh.triangles.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    std::array<std::uint32_t, 3> tri{};
+    for (std::size_t k = 0; k < 3; ++k) tri[k] = static_cast<std::uint32_t>(mesh.triangles[t][k]);
+    const Vec3& a = site.terrain_vertices_[tri[0]];
+    const Vec3& b = site.terrain_vertices_[tri[1]];
+    const Vec3& c = site.terrain_vertices_[tri[2]];
+    // A terrain is a height surface: every triangle must have a proper xy-projection (same
+    // relative test as for zero area, applied to the projection).
+    if (detail::is_zero_area_2d(a.head<2>(), b.head<2>(), c.head<2>()))
+      fail(indexed(f + ".triangles", t), "vertical triangle (terrain must be a height surface)");
+    if ((b - a).cross(c - a).z() < 0) std::swap(tri[1], tri[2]);  // make the normal point up
+    site.terrain_triangles_[t] = tri;
+  }
+}
+
+void SiteBuilder::build_terrain_facets(Site& site) {
   const std::size_t nt = site.terrain_triangles_.size();
   site.terrain_area_.resize(nt);
   site.terrain_facet_.resize(nt);
@@ -185,11 +203,6 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
     site.terrain_bounds_.extend(b);
     site.terrain_bounds_.extend(c);
   }
-  site.terrain_is_lattice_ = ncx > 0;
-  site.index_ = site.terrain_is_lattice_
-                    ? detail::make_cell_index(grid_origin, cell_size, ncx, ncy,
-                                              site.terrain_vertices_, site.terrain_triangles_)
-                    : detail::make_mesh_index(site.terrain_vertices_, site.terrain_triangles_);
 }
 
 }  // namespace fragsim::scene
