@@ -3,6 +3,8 @@
 #include "api/scenario_json.h"
 
 #include <algorithm>
+#include <string>
+#include <string_view>
 #include <set>
 #include <vector>
 
@@ -197,6 +199,46 @@ Json vec3_json(const Vec3& v) {
   return Json::array({v.x(), v.y(), v.z()});
 }
 
+// `text` with what a terminal or a JSON error body should not receive raw written as \xNN:
+// bytes that are not well-formed UTF-8, and control characters. nlohmann's parse errors quote
+// the last bytes read ("last read: '\"\xff'"), which may be anything the input held.
+std::string printable_utf8(std::string_view text) {
+  std::string out;
+  auto escape = [&out](unsigned char b) {
+    static const char* const kHex = "0123456789abcdef";
+    out += "\\x";
+    out += kHex[b >> 4];
+    out += kHex[b & 15];
+  };
+  for (std::size_t k = 0; k < text.size();) {
+    const auto b = static_cast<unsigned char>(text[k]);
+    // Length of the sequence a lead byte starts (0: not a lead byte; C0, C1, F5-FF never are).
+    const std::size_t n = b < 0x80                ? 1
+                          : b >= 0xc2 && b < 0xe0 ? 2
+                          : b >= 0xe0 && b < 0xf0 ? 3
+                          : b >= 0xf0 && b < 0xf5 ? 4
+                                                  : 0;
+    bool ok = n > 0 && k + n <= text.size();
+    for (std::size_t i = 1; ok && i < n; ++i)
+      ok = (static_cast<unsigned char>(text[k + i]) & 0xc0) == 0x80;
+    if (ok && n == 3) {  // no overlong forms, no surrogates
+      const auto b1 = static_cast<unsigned char>(text[k + 1]);
+      ok = !(b == 0xe0 && b1 < 0xa0) && !(b == 0xed && b1 >= 0xa0);
+    } else if (ok && n == 4) {  // no overlong forms, nothing beyond U+10FFFF
+      const auto b1 = static_cast<unsigned char>(text[k + 1]);
+      ok = !(b == 0xf0 && b1 < 0x90) && !(b == 0xf4 && b1 >= 0x90);
+    }
+    if (!ok || (n == 1 && (b < 0x20 || b == 0x7f))) {
+      escape(b);
+      ++k;
+    } else {
+      out.append(text.substr(k, n));
+      k += n;
+    }
+  }
+  return out;
+}
+
 // Builds the DOM through nlohmann's SAX interface, tracking the path of the value being parsed:
 // a key given twice in one object (the DOM parser would keep the last silently) and a number
 // that overflows a double ("1e999": the DOM parser throws without saying where) are reported at
@@ -245,7 +287,7 @@ class DomBuilder {
         reason = reason.substr(colon + 2);
     }
     throw MalformedJsonError("", "malformed JSON at line " + std::to_string(line) + ", column " +
-                                     std::to_string(column) + ": " + reason);
+                                     std::to_string(column) + ": " + printable_utf8(reason));
   }
 
  private:

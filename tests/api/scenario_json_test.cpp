@@ -6,6 +6,9 @@
 
 #include <cmath>
 #include <limits>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
 
 #include "test_support.h"
 
@@ -97,6 +100,25 @@ TEST(ScenarioJson, MalformedJsonNamesLineAndColumn) {
       parse_text_error("{\n  \"schema\": \"fragsim.scenario/1\",\n  \"site\": {,\n}");
   EXPECT_EQ(field, "");
   EXPECT_EQ(message.rfind("malformed JSON at line 3, column 12: syntax error", 0), 0u) << message;
+}
+
+// nlohmann's message quotes the last bytes read; they reach a terminal (the CLI) and a JSON error
+// body (the daemon), so bytes that are not UTF-8 and control characters are written as \xNN,
+// and well-formed UTF-8 is kept.
+TEST(ScenarioJson, MalformedJsonMessageQuotesBadBytesEscaped) {
+  const std::pair<std::string, std::string> cases[] = {
+      {"{\"schema\": \"\xff\xfe", "last read: '\"\\xff'"},
+      {"{\"schema\": \"a\x01", "last read: '\"a<U+0001>'"},  // nlohmann's own form
+      {"{\"schema\": \"\xc3\xa9\xed\xa0\x80", "'\"\xc3\xa9\\xed\\xa0'"},
+      {"{\"schema\": \"\xe2\x82\xac\x80", "'\"\xe2\x82\xac\\x80'"}};
+  for (const auto& [text, want] : cases) {
+    const auto [field, message] = parse_text_error(text);
+    EXPECT_EQ(field, "");
+    EXPECT_NE(message.find(want), std::string::npos) << message;
+    for (const char ch : message)
+      EXPECT_FALSE(static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) << message;
+    EXPECT_NO_THROW((void)nlohmann::json(message).dump()) << "not UTF-8: " << message;
+  }
 }
 
 TEST(ScenarioJson, EmptyTextIsMalformed) {
