@@ -3,9 +3,9 @@
 #include "api/scenario_json.h"
 
 #include <algorithm>
+#include <set>
 #include <string>
 #include <string_view>
-#include <set>
 #include <vector>
 
 #include "api/group_json.h"

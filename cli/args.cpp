@@ -28,6 +28,16 @@ bool take_value(const std::vector<std::string>& args, std::size_t& k, const std:
   return false;
 }
 
+// "--name value" whose value may not be empty ("--name: empty <what>"), into `dest`.
+bool take_nonempty(const std::vector<std::string>& args, std::size_t& k, const std::string& name,
+                   const char* what, std::string& dest) {
+  std::string value;
+  if (!take_value(args, k, name, value)) return false;
+  if (value.empty()) throw UsageError(name + ": empty " + what);
+  dest = value;
+  return true;
+}
+
 int parse_threads(const std::string& v) {
   char* end = nullptr;
   const long n = std::strtol(v.c_str(), &end, 10);
@@ -68,11 +78,7 @@ ShardArg parse_shard(const std::string& v) {
 // The options run and merge share; true when args[k] was one (k advanced past its value).
 bool take_run_output(const std::vector<std::string>& args, std::size_t& k, Options& o) {
   std::string value;
-  if (take_value(args, k, "--out", value)) {
-    if (value.empty()) throw UsageError("--out: empty directory name");
-    o.out = value;
-    return true;
-  }
+  if (take_nonempty(args, k, "--out", "directory name", o.out)) return true;
   if (take_value(args, k, "--samples-scale", value)) {
     o.samples_scale = parse_scale(value);
     return true;
@@ -95,12 +101,7 @@ bool take_run_option(const std::vector<std::string>& args, std::size_t& k, Optio
     o.shard = parse_shard(value);
     return true;
   }
-  if (take_value(args, k, "--progress-file", value)) {
-    if (value.empty()) throw UsageError("--progress-file: empty file name");
-    o.progress_file = value;
-    return true;
-  }
-  return false;
+  return take_nonempty(args, k, "--progress-file", "file name", o.progress_file);
 }
 
 int parse_priority(const std::string& v) {
@@ -115,10 +116,8 @@ int parse_priority(const std::string& v) {
 bool take_submit_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
   const std::string& a = args[k];
   std::string value;
-  if (take_value(args, k, "--out", value)) {
-    if (value.empty()) throw UsageError("--out: empty directory name");
-    o.out = value;
-  } else if (take_value(args, k, "--server", value)) {
+  if (take_nonempty(args, k, "--out", "directory name", o.out)) return true;
+  if (take_value(args, k, "--server", value)) {
     if (value.rfind("http://", 0) != 0 && value.rfind("https://", 0) != 0)
       throw UsageError("--server: expected http://HOST:PORT, got \"" + value + "\"");
     o.server = value;
@@ -151,12 +150,7 @@ bool take_file_command_option(const std::vector<std::string>& args, std::size_t&
     o.pixel_m = x;
     return true;
   }
-  if (take_value(args, k, "--out", value)) {
-    if (value.empty()) throw UsageError("--out: empty file name");
-    o.out = value;
-    return true;
-  }
-  return false;
+  return take_nonempty(args, k, "--out", "file name", o.out);
 }
 
 // An option of o.command at args[k], or an operand (the scenario or input file, or merge's
