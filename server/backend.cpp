@@ -399,26 +399,11 @@ std::string default_fragsim_program() {
   return found.empty() ? "fragsim" : found;
 }
 
-ResolvedBackend resolve_backend(const BackendConfig& c) {
-  ResolvedBackend r;
-  r.kind = c.kind;
-  r.max_jobs = c.max_jobs;
-  r.threads = c.threads;
-  r.env = c.env;
-  r.poll_interval_s = c.poll_interval_s;
-  r.status_interval_s = c.status_interval_s;
-  r.lost_after_s = c.lost_after_s;
-  r.submit_timeout_s = c.submit_timeout_s;
-  r.keep_workdir = c.keep_workdir;
-  if (c.kind == "local") {
-    r.local = true;
-    return r;
-  }
-  r.local = false;
-  r.submit = c.submit;
-  r.status = c.status;
-  r.cancel = c.cancel;
-  std::string track = c.track;
+namespace {
+
+// The mpi, slurm and command presets: shard count, default submit/status/cancel templates and
+// how a job is followed (`track`, when the config leaves it empty).
+void apply_preset(const BackendConfig& c, ResolvedBackend& r, std::string& track) {
   if (c.kind == "mpi") {
     r.shards = c.shards > 0 ? c.shards : 2;
     if (c.mpirun.empty()) throw InputError("backend.mpirun", "must name the launcher");
@@ -451,6 +436,9 @@ ResolvedBackend resolve_backend(const BackendConfig& c) {
     throw InputError("backend.kind",
                      "must be local, mpi, slurm or command (got \"" + c.kind + "\")");
   }
+}
+
+void resolve_track(const std::string& track, ResolvedBackend& r) {
   if (track == "process") {
     r.track = BackendTrack::kProcess;
   } else if (track == "queue") {
@@ -462,12 +450,10 @@ ResolvedBackend resolve_backend(const BackendConfig& c) {
   } else {
     throw InputError("backend.track", "must be process or queue (got \"" + track + "\")");
   }
-  r.fragsim = c.fragsim.empty() ? default_fragsim_program() : c.fragsim;
-  r.run = c.run;
-  if (r.run.empty())
-    r.run = {
-        "{fragsim}",        "run",       "{scenario}", "--out",           "{shard_dir}", "--shard",
-        "{shard}/{shards}", "--threads", "{threads}",  "--progress-file", "{progress}",  "--quiet"};
+}
+
+// Every template names only the placeholders known where it is expanded.
+void check_templates(ResolvedBackend& r) {
   const std::set<std::string> common = {"fragsim",    "scenario", "workdir", "shards",
                                         "last_shard", "threads",  "job_id"};
   std::set<std::string> run_names = common;
@@ -483,6 +469,36 @@ ResolvedBackend resolve_backend(const BackendConfig& c) {
   const std::set<std::string> follow_names = {"ids", "workdir", "job_id", "shards"};
   check_placeholders(r.status, "backend.status", follow_names);
   check_placeholders(r.cancel, "backend.cancel", follow_names);
+}
+
+}  // namespace
+
+ResolvedBackend resolve_backend(const BackendConfig& c) {
+  ResolvedBackend r;
+  r.kind = c.kind;
+  r.max_jobs = c.max_jobs;
+  r.threads = c.threads;
+  r.env = c.env;
+  r.poll_interval_s = c.poll_interval_s;
+  r.status_interval_s = c.status_interval_s;
+  r.lost_after_s = c.lost_after_s;
+  r.submit_timeout_s = c.submit_timeout_s;
+  r.keep_workdir = c.keep_workdir;
+  r.local = c.kind == "local";
+  if (r.local) return r;
+  r.submit = c.submit;
+  r.status = c.status;
+  r.cancel = c.cancel;
+  std::string track = c.track;
+  apply_preset(c, r, track);
+  resolve_track(track, r);
+  r.fragsim = c.fragsim.empty() ? default_fragsim_program() : c.fragsim;
+  r.run = c.run;
+  if (r.run.empty())
+    r.run = {
+        "{fragsim}",        "run",       "{scenario}", "--out",           "{shard_dir}", "--shard",
+        "{shard}/{shards}", "--threads", "{threads}",  "--progress-file", "{progress}",  "--quiet"};
+  check_templates(r);
   return r;
 }
 
@@ -699,30 +715,7 @@ BackendJob BackendJob::submit(const ResolvedBackend& backend, const std::string&
         v["shard_dir"] = f.dir.string();
         v["progress"] = f.progress.string();
       }
-      const std::vector<std::string> argv = expand_all(b.submit, v);
-      const std::string stem = "submit-" + std::to_string(k);
-      const fs::path out = workdir / (stem + ".out"), err = workdir / (stem + ".log");
-      if (b.track == BackendTrack::kProcess) {
-        const pid_t pid = spawn(argv, out, err, workdir, b.env);
-        const Group g{pid, process_start_time(pid)};
-        write_file_atomic(workdir / (stem + ".pid"),
-                          std::to_string(g.pgid) + " " + std::to_string(g.start_time) + "\n");
-        j.groups_.push_back(g);
-      } else {
-        // Queue submissions are quick (sbatch returns once the job is queued): waited for.
-        const int rc = wait_for(spawn(argv, out, err, workdir, b.env), b.submit_timeout_s);
-        if (rc != 0)
-          throw std::runtime_error("submit command " + shell_quote(argv[0]) +
-                                   (rc == -2 ? " timed out (backend.submit_timeout_s)"
-                                             : " failed (exit status " + std::to_string(rc) + ")") +
-                                   "; " + log_reference(err));
-        const auto ids = parse_ids(read_file(out));
-        if (ids.empty())
-          throw std::runtime_error("submit command " + shell_quote(argv[0]) +
-                                   " printed no job id (" + out.string() + " is empty); " +
-                                   log_reference(err));
-        j.ids_.insert(j.ids_.end(), ids.begin(), ids.end());
-      }
+      j.run_submission(b, k, expand_all(b.submit, v));
     }
   } catch (...) {
     j.cancel(false);
@@ -731,6 +724,32 @@ BackendJob BackendJob::submit(const ResolvedBackend& backend, const std::string&
   }
   j.write_manifest("submitted");
   return j;
+}
+
+void BackendJob::run_submission(const ResolvedBackend& b, int k,
+                                const std::vector<std::string>& argv) {
+  const std::string stem = "submit-" + std::to_string(k);
+  const fs::path out = workdir_ / (stem + ".out"), err = workdir_ / (stem + ".log");
+  if (b.track == BackendTrack::kProcess) {
+    const pid_t pid = spawn(argv, out, err, workdir_, b.env);
+    const Group g{pid, process_start_time(pid)};
+    write_file_atomic(workdir_ / (stem + ".pid"),
+                      std::to_string(g.pgid) + " " + std::to_string(g.start_time) + "\n");
+    groups_.push_back(g);
+    return;
+  }
+  // Queue submissions are quick (sbatch returns once the job is queued): waited for.
+  const int rc = wait_for(spawn(argv, out, err, workdir_, b.env), b.submit_timeout_s);
+  if (rc != 0)
+    throw std::runtime_error("submit command " + shell_quote(argv[0]) +
+                             (rc == -2 ? " timed out (backend.submit_timeout_s)"
+                                       : " failed (exit status " + std::to_string(rc) + ")") +
+                             "; " + log_reference(err));
+  const auto ids = parse_ids(read_file(out));
+  if (ids.empty())
+    throw std::runtime_error("submit command " + shell_quote(argv[0]) + " printed no job id (" +
+                             out.string() + " is empty); " + log_reference(err));
+  ids_.insert(ids_.end(), ids.begin(), ids.end());
 }
 
 std::optional<BackendJob> BackendJob::attach(const fs::path& workdir) {

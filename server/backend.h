@@ -136,6 +136,9 @@ class BackendJob {
     std::uint64_t start_time = 0;  // /proc/<pid>/stat starttime of its leader
   };
   void write_manifest(const std::string& state) const;
+  // Runs submission k (`argv`, in workdir_, output to submit-k.out and .log): a process group
+  // to follow, or a queue submission waited for and its job ids read from its output.
+  void run_submission(const ResolvedBackend& b, int k, const std::vector<std::string>& argv);
   static std::optional<BackendJob> read_manifest(const std::filesystem::path& workdir,
                                                  std::string* state);
   bool groups_alive();
