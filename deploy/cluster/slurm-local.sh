@@ -252,6 +252,11 @@ do_start() {
   chmod 0755 "$dir/run" "$dir/run/munge"
   (umask 077 && head -c 1024 /dev/urandom > "$dir/munge-key/munge.key")
   chmod 0400 "$dir/munge-key/munge.key"
+  # Two starts at once (ctest -j runs Slurm tests side by side) could pick the same free port:
+  # both look before either binds. One start at a time picks its ports and holds this lock
+  # until its daemons have bound them (the node is idle); the daemons do not inherit it (9>&-).
+  exec 9> "${TMPDIR:-/tmp}/fragsim-slurm-local.lock"
+  flock -w 120 9 || log "another start held the port lock for 120 s; going on without it"
   ctld_port="$(free_port)"
   d_port="$(free_port "$ctld_port")"
   write_conf "$host" "$ctld_port" "$d_port"
@@ -259,7 +264,7 @@ do_start() {
   # munged forks into the background itself and writes its pid file.
   if ! munged --key-file="$dir/munge-key/munge.key" --socket="$dir/run/munge/munge.socket" \
     --pid-file="$dir/run/munged.pid" --log-file="$dir/log/munged.log" \
-    --seed-file="$dir/run/munged.seed" < /dev/null > "$dir/log/munged.out" 2>&1; then
+    --seed-file="$dir/run/munged.seed" < /dev/null > "$dir/log/munged.out" 2>&1 9>&-; then
     log "munged did not start: $(cat "$dir/log/munged.out")"
     show_logs
     do_stop
@@ -275,13 +280,13 @@ do_start() {
   # The Slurm daemons in the foreground (-D) of their own sessions, with no terminal and no pipe
   # of the caller's held open (a test runner waiting on our stdout must not wait for them).
   export SLURM_CONF="$conf"
-  setsid slurmctld -D -i -f "$conf" < /dev/null > "$dir/log/slurmctld.out" 2>&1 &
+  setsid slurmctld -D -i -f "$conf" < /dev/null > "$dir/log/slurmctld.out" 2>&1 9>&- &
   echo $! > "$dir/run/slurmctld.pid"
   for _ in $(seq 1 100); do
     timeout 5 scontrol ping > /dev/null 2>&1 && break
     sleep 0.1
   done
-  setsid slurmd -D -f "$conf" -N "$host" < /dev/null > "$dir/log/slurmd.out" 2>&1 &
+  setsid slurmd -D -f "$conf" -N "$host" < /dev/null > "$dir/log/slurmd.out" 2>&1 9>&- &
   echo $! > "$dir/run/slurmd.pid"
   for _ in $(seq 1 $((START_TIMEOUT_S * 2))); do
     for pid in slurmctld slurmd; do
@@ -297,6 +302,7 @@ do_start() {
     if [ "$state" = "idle" ]; then
       log "up in $dir: node $host, $(nproc) CPUs, partition $partition," \
         "slurmctld port $ctld_port, slurmd port $d_port"
+      exec 9>&-  # the ports are bound: the next start may look
       echo "export SLURM_CONF=$conf"
       return 0
     fi
