@@ -19,7 +19,9 @@ namespace fragsim::api {
 namespace {
 
 constexpr std::string_view kMagic = "FSPART01";
-constexpr std::uint32_t kVersion = 1;
+// 2: the hazardous fragments that left the site (a count and kLeftSiteBins more tally bins), a
+// precision target's `unmeetable` and `note`, stop reason targets_unmeetable.
+constexpr std::uint32_t kVersion = 2;
 constexpr std::size_t kTrailer = kPartialTrailerBytes;
 
 static_assert(std::endian::native == std::endian::little, "partial files are little-endian");
@@ -232,9 +234,12 @@ void put_precision(Writer& w, const run::PrecisionReport* p) {
     w.put(t.value);
     w.put(t.allowed);
     w.put(static_cast<std::uint8_t>(t.met));
+    w.put(static_cast<std::uint8_t>(t.unmeetable));
+    w.put_string(t.note);
     w.put(t.histories_needed);
   }
   w.put(static_cast<std::uint8_t>(p->all_met));
+  w.put(static_cast<std::uint8_t>(p->any_unmeetable));
   w.put(p->histories_needed);
   w.put(p->eta_s);
   w.put(p->decay_exponent);
@@ -245,7 +250,7 @@ std::shared_ptr<const run::PrecisionReport> get_precision(Reader& r) {
   auto p = std::make_shared<run::PrecisionReport>();
   p->batches = r.get<std::int64_t>();
   p->histories = r.get<std::int64_t>();
-  const std::uint64_t n = r.count(3 * 8 + 3 * 8 + 1);
+  const std::uint64_t n = r.count(4 * 8 + 3 * 8 + 2);
   for (std::uint64_t k = 0; k < n; ++k) {
     run::TargetStatus t;
     t.figure = r.get_string();
@@ -254,10 +259,13 @@ std::shared_ptr<const run::PrecisionReport> get_precision(Reader& r) {
     t.value = r.get<double>();
     t.allowed = r.get<double>();
     t.met = r.get<std::uint8_t>() != 0;
+    t.unmeetable = r.get<std::uint8_t>() != 0;
+    t.note = r.get_string();
     t.histories_needed = r.get<double>();
     p->targets.push_back(std::move(t));
   }
   p->all_met = r.get<std::uint8_t>() != 0;
+  p->any_unmeetable = r.get<std::uint8_t>() != 0;
   p->histories_needed = r.get<double>();
   p->eta_s = r.get<double>();
   p->decay_exponent = r.get<double>();
@@ -348,6 +356,7 @@ std::string encode_partial(const run::PartialRun& p, const PartialIdentity& id) 
   w.put(static_cast<std::uint8_t>(p.cancelled));
   w.put(static_cast<std::uint8_t>(p.stop_reason));
   for (const std::int64_t n : p.outcome_histories) w.put(n);
+  w.put(p.left_hazardous_histories);
   put_stats(w, p.stats);
   for (const double s : {p.integration_s, p.geometry_s, p.tally_s, p.wall_s}) w.put(s);
   w.put(static_cast<std::int32_t>(p.threads));
@@ -395,7 +404,7 @@ run::PartialRun decode_partial(std::string_view bytes, std::size_t tally_bins, P
     r.fail("impossible history or batch counts");
   p.cancelled = r.get<std::uint8_t>() != 0;
   const auto reason = r.get<std::uint8_t>();
-  if (reason > static_cast<std::uint8_t>(run::StopReason::kCancelled)) r.fail("a bad stop reason");
+  if (reason >= run::kStopReasonCount) r.fail("a bad stop reason");
   p.stop_reason = static_cast<run::StopReason>(reason);
   std::int64_t outcomes = 0;
   for (std::int64_t& n : p.outcome_histories) {
@@ -404,6 +413,10 @@ run::PartialRun decode_partial(std::string_view bytes, std::size_t tally_bins, P
     outcomes += n;
   }
   if (outcomes != p.histories_done) r.fail("outcome counts that do not add up to the histories");
+  p.left_hazardous_histories = r.get<std::int64_t>();
+  const auto left = static_cast<std::size_t>(run::Outcome::kLeftSite);
+  if (p.left_hazardous_histories < 0 || p.left_hazardous_histories > p.outcome_histories[left])
+    r.fail("an impossible count of hazardous fragments leaving the site");
   p.stats = get_stats(r);
   for (const auto m : run::RunStats::counters())
     if (p.stats.*m < 0 || p.stats.*m > (std::int64_t{1} << 56)) r.fail("impossible statistics");

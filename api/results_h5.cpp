@@ -213,6 +213,47 @@ void write_trajectories(Writer& w, const std::vector<run::TrajectoryRecord>& tra
   w.dataset_attribute("/trajectories/event", "names", trajectory_event_names());
 }
 
+// /hfd: the HFD, its band and sectors, and where the terrain's boundary cuts them.
+void write_hfd(Writer& w, const run::RunResult& r, const scene::Site& site,
+               const run::Scenario& scenario) {
+  const run::SiteBoundary& b = r.site_boundary;
+  const Handle hfd = w.group("/hfd");
+  w.attribute(hfd, "bound", b.hfd_cut ? "lower" : "none");
+  w.attribute(hfd, "note", hfd_bound_note(r));
+  w.scalar("/hfd/hazardous_fragment_distance_m", r.hazardous_fragment_distance_m);
+  const std::vector<double> band = {r.hfd_lower_m, r.hfd_upper_m};
+  w.dataset("/hfd/band_m", band);
+  w.dataset("/hfd/by_sector_m", r.hfd_by_sector_m.data(), r.hfd_by_sector_m.size());
+  const std::vector<double> origin = {r.hfd_origin_m.x(), r.hfd_origin_m.y(), r.hfd_origin_m.z()};
+  w.dataset("/hfd/origin_m", origin);
+  w.scalar("/hfd/threshold_per_m2", scenario.settings.hfd_threshold_per_m2);
+  w.dataset_attribute("/hfd/by_sector_m", "sectors",
+                      "k: azimuth [10k, 10k+10) deg from +x (east) toward +y (north)");
+  const auto flag = [](bool cut) { return static_cast<std::uint8_t>(cut ? 1 : 0); };
+  const char* values = "0 none (a value), 1 lower (the terrain's boundary cuts it: a lower bound)";
+  w.scalar("/hfd/bound", flag(b.hfd_cut));
+  w.dataset_attribute("/hfd/bound", "values", values);
+  const std::vector<std::uint8_t> band_bound = {flag(b.band_lower_cut), flag(b.band_upper_cut)};
+  w.dataset("/hfd/band_bound", band_bound);
+  w.dataset_attribute("/hfd/band_bound", "values", values);
+  std::vector<std::uint8_t> sector_bound;
+  for (const bool cut : b.hfd_sector_cut) sector_bound.push_back(flag(cut));
+  w.dataset("/hfd/by_sector_bound", sector_bound);
+  w.dataset_attribute("/hfd/by_sector_bound", "values", values);
+  w.dataset("/hfd/boundary_triangles", site.terrain_boundary_triangles());
+  w.scalar("/hfd/boundary_max_density_per_m2", b.max_boundary_density_per_m2);
+  w.scalar("/hfd/left_site_hazardous_histories", std::int64_t{b.left_hazardous_histories});
+  w.scalar("/hfd/left_site_hazardous_fragments", b.left_hazardous.mean);
+  w.scalar("/hfd/left_site_hazardous_fragments_std_error", b.left_hazardous.std_error);
+  std::vector<double> by_sector, by_sector_se;
+  for (const run::Estimate& e : b.left_hazardous_by_sector) {
+    by_sector.push_back(e.mean);
+    by_sector_se.push_back(e.std_error);
+  }
+  w.dataset("/hfd/left_site_hazardous_by_sector", by_sector);
+  w.dataset("/hfd/left_site_hazardous_by_sector_std_error", by_sector_se);
+}
+
 }  // namespace
 
 void write_results_h5(const std::filesystem::path& path, const run::RunResult& r,
@@ -247,6 +288,7 @@ void write_results_h5(const std::filesystem::path& path, const run::RunResult& r
   w.attribute(root, "created_utc", utc_now_iso8601());
   w.attribute(root, "wall_s", r.timing.wall_s);
   w.attribute(root, "threads", std::int32_t{r.timing.threads});
+  w.attribute(root, "hfd_bound", r.site_boundary.hfd_cut ? "lower" : "none");
 
   write_terrain(w, site);
 
@@ -259,18 +301,7 @@ void write_results_h5(const std::filesystem::path& path, const run::RunResult& r
     w.attribute(ptn, "max_density_per_m2", r.max_ptn_density_per_m2);
     w.attribute(ptn, "max_triangle", std::int64_t{r.max_ptn_triangle});
   }
-  {
-    w.group("/hfd");
-    w.scalar("/hfd/hazardous_fragment_distance_m", r.hazardous_fragment_distance_m);
-    const std::vector<double> band = {r.hfd_lower_m, r.hfd_upper_m};
-    w.dataset("/hfd/band_m", band);
-    w.dataset("/hfd/by_sector_m", r.hfd_by_sector_m.data(), r.hfd_by_sector_m.size());
-    const std::vector<double> origin = {r.hfd_origin_m.x(), r.hfd_origin_m.y(), r.hfd_origin_m.z()};
-    w.dataset("/hfd/origin_m", origin);
-    w.scalar("/hfd/threshold_per_m2", scenario.settings.hfd_threshold_per_m2);
-    w.dataset_attribute("/hfd/by_sector_m", "sectors",
-                        "k: azimuth [10k, 10k+10) deg from +x (east) toward +y (north)");
-  }
+  write_hfd(w, r, site, scenario);
 
   write_buildings(w, r, site);
 

@@ -35,7 +35,9 @@
 namespace fragsim::api {
 
 inline constexpr const char* kResultsFileType = "fragsim.results";
-inline constexpr int kResultsFormatVersion = 1;
+// 2: /hfd/bound, band_bound, by_sector_bound, boundary_* and left_site_hazardous_* (where the
+// terrain's boundary cuts the HFD), the root attribute hfd_bound.
+inline constexpr int kResultsFormatVersion = 2;
 
 // Writes a new file at `path` (fails if it exists). Throws std::runtime_error on HDF5 errors and
 // std::logic_error when the result does not fit the site (PTN values != terrain triangles).

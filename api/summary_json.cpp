@@ -37,6 +37,8 @@ Json target_json(const run::TargetStatus& t) {
   j["value"] = t.value;
   j["allowed"] = finite_or_null(t.allowed);
   j["met"] = t.met;
+  j["unmeetable"] = t.unmeetable;
+  j["note"] = t.note.empty() ? Json(nullptr) : Json(t.note);
   j["histories_needed"] = finite_or_null(t.histories_needed);
   return j;
 }
@@ -49,6 +51,7 @@ nlohmann::ordered_json precision_report_json(const run::PrecisionReport& p) {
   return {{"batches", p.batches},
           {"histories", p.histories},
           {"all_met", p.all_met},
+          {"any_unmeetable", p.any_unmeetable},
           {"histories_needed", finite_or_null(p.histories_needed)},
           {"eta_s", finite_or_null(p.eta_s)},
           {"decay_exponent", p.decay_exponent},
@@ -112,8 +115,10 @@ std::string plus_minus(double mean, double se) {
 
 // One line per target kind; building figures summarised by the worst one (largest value/allowed).
 std::string precision_text(const Json& p) {
-  std::string out = "\nPrecision targets (" +
-                    std::string(p.value("all_met", false) ? "all met" : "not all met") + ")\n";
+  const std::string state = p.value("all_met", false)          ? "all met"
+                            : p.value("any_unmeetable", false) ? "not all can be met"
+                                                               : "not all met";
+  std::string out = "\nPrecision targets (" + state + ")\n";
   const Json* worst = nullptr;
   double worst_ratio = -1.0;
   int buildings = 0, buildings_met = 0;
@@ -130,8 +135,13 @@ std::string precision_text(const Json& p) {
       }
       continue;
     }
+    const Json note = t.value("note", Json());
+    const std::string verdict = t.value("met", false)          ? "  met"
+                                : t.value("unmeetable", false) ? "  UNMEETABLE"
+                                                               : "  NOT MET";
     out += "  " + pad_right(t.value("figure", ""), 28) + g4(num(t, "value")) + " (allowed " +
-           g4(allowed) + ")" + (t.value("met", false) ? "  met" : "  NOT MET") + "\n";
+           g4(allowed) + ")" + verdict + (note.is_string() ? ": " + note.get<std::string>() : "") +
+           "\n";
   }
   if (buildings > 0) {
     out += "  " + pad_right("building figures", 28) + std::to_string(buildings_met) + " of " +
@@ -145,7 +155,82 @@ std::string precision_text(const Json& p) {
   return out;
 }
 
+const Json* object_at(const Json& j, const char* key) {
+  const auto it = j.find(key);
+  return it != j.end() && it->is_object() ? &*it : nullptr;
+}
+
+// A distance that the site boundary may make a lower bound: "≥ 278.1".
+std::string bounded(double m, const Json& bound) {
+  return (bound.is_string() && bound.get<std::string>() == "lower" ? "≥ " : "") + f1(m);
+}
+
+// The HFD lines: the distance and its band (each a lower bound where the site boundary cuts
+// it), the threshold, the site boundary, the hazardous fragments that left the site.
+template <class Line>
+void hfd_text(const Json& s, const Line& line) {
+  const Json bound = s.value("hfd_bound", Json());
+  std::string hfd = bounded(num(s, "hazardous_fragment_distance_m"), bound) + " m";
+  if (bound == "lower") hfd += ", a lower bound";
+  const Json band_bound = s.value("hfd_band_bound", Json::array({nullptr, nullptr}));
+  if (const auto band = s.find("hazardous_fragment_distance_band_m");
+      band != s.end() && band->is_array() && band->size() == 2 && band_bound.size() == 2)
+    hfd += "  (±1 se band " + bounded((*band)[0].get<double>(), band_bound[0]) + " .. " +
+           bounded((*band)[1].get<double>(), band_bound[1]) + " m)";
+  line("Hazardous fragment distance", hfd);
+  const double threshold = num(s, "hfd_threshold_per_m2");
+  line("  threshold", g4(threshold) + " per m² (1 per " + f1(1.0 / threshold) + " m²), from " +
+                          vec3_text(s.value("hfd_origin_m", Json())));
+  const Json* sb = object_at(s, "site_boundary");
+  if (sb == nullptr) return;
+  const double edge = num(*sb, "max_boundary_density_per_m2");
+  const int cut = sb->value("hfd_sectors_cut", 0);
+  line("  site boundary", (cut > 0 ? "hazardous in " + std::to_string(cut) + " of 36 sectors"
+                                   : std::string("not reached")) +
+                              " (density there up to " + g4(edge) + " per m², " +
+                              printf_string("%.2g", edge / threshold) + " × the threshold)");
+  if (const Json* left = object_at(*sb, "left_site_hazardous")) {
+    const auto histories = left->value("histories", std::int64_t{0});
+    line("  left site while hazardous",
+         plus_minus(num(*left, "fragments"), num(*left, "fragments_std_error")) +
+             " real fragments (" + std::to_string(histories) + " histories)" +
+             (histories > 0 ? ": where they land is not modelled" : ""));
+  }
+}
+
+const char* bound_name(bool cut) {
+  return cut ? "lower" : "none";
+}
+
+Json site_boundary_json(const run::RunResult& r) {
+  const run::SiteBoundary& b = r.site_boundary;
+  Json by_sector = Json::array(), by_sector_se = Json::array();
+  for (const run::Estimate& e : b.left_hazardous_by_sector) {
+    by_sector.push_back(e.mean);
+    by_sector_se.push_back(e.std_error);
+  }
+  const std::string note = hfd_bound_note(r);
+  return {{"hfd_sectors_cut", b.hfd_sectors_cut},
+          {"max_boundary_density_per_m2", b.max_boundary_density_per_m2},
+          {"left_site_hazardous",
+           {{"histories", b.left_hazardous_histories},
+            {"fragments", b.left_hazardous.mean},
+            {"fragments_std_error", b.left_hazardous.std_error},
+            {"by_sector_fragments", std::move(by_sector)},
+            {"by_sector_std_error", std::move(by_sector_se)}}},
+          {"note", note.empty() ? Json(nullptr) : Json(note)}};
+}
+
 }  // namespace
+
+std::string hfd_bound_note(const run::RunResult& r) {
+  const run::SiteBoundary& b = r.site_boundary;
+  if (!b.hfd_cut) return "";
+  char hfd[32];
+  std::snprintf(hfd, sizeof hfd, "%.1f", r.hazardous_fragment_distance_m);
+  return std::string("HFD ≥ ") + hfd + " m: hazardous density reaches the site boundary in " +
+         std::to_string(b.hfd_sectors_cut) + " of 36 sectors; extend the terrain";
+}
 
 Provenance build_provenance() {
   return Provenance{kVersion, kGitSha, std::nullopt};
@@ -153,23 +238,31 @@ Provenance build_provenance() {
 
 nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scenario& scenario,
                                        const Provenance& provenance) {
-  Json out = {{"schema", kResultSchema},
-              {"cancelled", r.cancelled},
-              {"samples", r.samples},
-              {"histories_done", r.histories_done},
-              {"batches", r.batches},
-              {"pilot_histories", r.pilot_histories},
-              {"stop_reason", run::stop_reason_name(r.stop_reason)},
-              {"real_fragments", r.real_fragments},
-              {"seed", r.seed},
-              {"hazardous_ke_j", scenario.settings.hazardous_ke_j},
-              {"person_height_m", scenario.settings.person_height_m},
-              {"hfd_threshold_per_m2", scenario.settings.hfd_threshold_per_m2},
-              {"hfd_origin_m", vec3_json(r.hfd_origin_m)},
-              {"hazardous_fragment_distance_m", r.hazardous_fragment_distance_m},
-              {"hazardous_fragment_distance_band_m", {r.hfd_lower_m, r.hfd_upper_m}},
-              {"hfd_by_sector_m", r.hfd_by_sector_m},
-              {"max_ptn_density_per_m2", r.max_ptn_density_per_m2}};
+  Json out = {
+      {"schema", kResultSchema},
+      {"cancelled", r.cancelled},
+      {"samples", r.samples},
+      {"histories_done", r.histories_done},
+      {"batches", r.batches},
+      {"pilot_histories", r.pilot_histories},
+      {"stop_reason", run::stop_reason_name(r.stop_reason)},
+      {"real_fragments", r.real_fragments},
+      {"seed", r.seed},
+      {"hazardous_ke_j", scenario.settings.hazardous_ke_j},
+      {"person_height_m", scenario.settings.person_height_m},
+      {"hfd_threshold_per_m2", scenario.settings.hfd_threshold_per_m2},
+      {"hfd_origin_m", vec3_json(r.hfd_origin_m)},
+      {"hazardous_fragment_distance_m", r.hazardous_fragment_distance_m},
+      {"hfd_bound", bound_name(r.site_boundary.hfd_cut)},
+      {"hazardous_fragment_distance_band_m", {r.hfd_lower_m, r.hfd_upper_m}},
+      {"hfd_band_bound",
+       {bound_name(r.site_boundary.band_lower_cut), bound_name(r.site_boundary.band_upper_cut)}},
+      {"hfd_by_sector_m", r.hfd_by_sector_m}};
+  Json sector_bounds = Json::array();
+  for (const bool cut : r.site_boundary.hfd_sector_cut) sector_bounds.push_back(bound_name(cut));
+  out["hfd_by_sector_bound"] = std::move(sector_bounds);
+  out["site_boundary"] = site_boundary_json(r);
+  out["max_ptn_density_per_m2"] = r.max_ptn_density_per_m2;
   if (r.max_ptn_triangle >= 0) {
     out["max_ptn_triangle"] = r.max_ptn_triangle;
     out["max_ptn_location_m"] = vec3_json(r.max_ptn_location_m);
@@ -248,6 +341,8 @@ std::string render_summary_text(const nlohmann::ordered_json& s) {
   if (s.value("cancelled", false))
     out += "CANCELLED: partial result of " + std::to_string(s.value("histories_done", 0)) +
            " histories, not a final result\n";
+  if (const Json* sb = object_at(s, "site_boundary"); sb && sb->value("note", Json()).is_string())
+    out += "WARNING: " + (*sb)["note"].get<std::string>() + "\n";
   std::string samples = std::to_string(s.value("samples", std::int64_t{0}));
   if (s.value("stop_reason", std::string("samples")) != "samples")
     samples += " (" + std::to_string(s.value("batches", std::int64_t{1})) +
@@ -256,15 +351,7 @@ std::string render_summary_text(const nlohmann::ordered_json& s) {
   line("Real fragments", g4(num(s, "real_fragments")));
   line("Seed", std::to_string(s.value("seed", std::uint64_t{0})));
 
-  std::string hfd = f1(num(s, "hazardous_fragment_distance_m")) + " m";
-  if (const auto band = s.find("hazardous_fragment_distance_band_m");
-      band != s.end() && band->is_array() && band->size() == 2)
-    hfd += "  (±1 se band " + f1((*band)[0].get<double>()) + " .. " + f1((*band)[1].get<double>()) +
-           " m)";
-  line("Hazardous fragment distance", hfd);
-  line("  threshold", g4(num(s, "hfd_threshold_per_m2")) + " per m² (1 per " +
-                          f1(1.0 / num(s, "hfd_threshold_per_m2")) + " m²), from " +
-                          vec3_text(s.value("hfd_origin_m", Json())));
+  hfd_text(s, line);
   std::string max_ptn = g4(num(s, "max_ptn_density_per_m2")) + " per m²";
   if (s.contains("max_ptn_location_m") && s["max_ptn_location_m"].is_array())
     max_ptn += " at " + vec3_text(s["max_ptn_location_m"]) + " (terrain triangle " +

@@ -26,6 +26,10 @@ Provenance build_provenance();
 nlohmann::ordered_json summary_to_json(const run::RunResult& result, const run::Scenario& scenario,
                                        const Provenance& provenance);
 
+// When the terrain's boundary cuts the HFD (RunResult::site_boundary): "HFD ≥ 278.1 m: hazardous
+// density reaches the site boundary in 36 of 36 sectors; extend the terrain"; else empty.
+std::string hfd_bound_note(const run::RunResult& result);
+
 // settings.precision: the last batch boundary's check of the targets (summary.json "precision",
 // also the daemon's live job progress).
 nlohmann::ordered_json precision_report_json(const run::PrecisionReport& report);

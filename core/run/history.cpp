@@ -4,6 +4,7 @@
 
 #include "core/impact/bounce.h"
 #include "core/impact/contacts.h"
+#include "core/run/hfd.h"
 #include "core/run/history_impl.h"
 
 namespace fragsim::run {
@@ -311,9 +312,19 @@ void History::fold_tallies() {
       out_.building_index.push_back(-1);
     }
     out_.outcomes.push_back(end_.outcome);
+    out_.exit_sector.push_back(exit_sector());
     out_.weights.push_back(weight_);
     out_.cells.push_back(init_.direction_cell);
   }
+}
+
+// The HFD sector where a history left the site while hazardous (kinetic energy >= the
+// threshold as it crossed the terrain's extent), else -1.
+std::int8_t History::exit_sector() const {
+  if (end_.outcome != Outcome::kLeftSite) return -1;
+  if (0.5 * mass_ * end_.v.squaredNorm() < st_.hazardous_ke_j) return -1;
+  return static_cast<std::int8_t>(
+      hfd_sector(end_.p.x() - ctx_.hfd_origin.x(), end_.p.y() - ctx_.hfd_origin.y()));
 }
 
 FragmentRecord History::fragment_record() const {
@@ -357,6 +368,7 @@ RunContext::RunContext(const Scenario& sc, const scene::Site& s)
   terrain_max_z = detail::highest_terrain_z(s);
   for (std::uint32_t t = 0; t < s.terrain_triangle_count(); ++t)
     terrain_min_nz = std::min(terrain_min_nz, s.terrain_triangle_normal(t).z());
+  hfd_origin = s.to_local(hfd_origin_input(sc, s));
   top_z = prisms.top_z();
   if (s.has_buildings()) top_z = std::max(top_z, s.buildings_bounds().hi.z());
   step_min_at_ends = sc.atmosphere.wind_mps.z() <= 0.0;

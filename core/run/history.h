@@ -41,6 +41,9 @@ struct ChunkOutput {
   std::vector<std::int32_t> building_index;  // per history: index into buildings, or -1
   std::vector<BuildingContribution> buildings;
   std::vector<Outcome> outcomes;
+  // per history: the HFD sector (core/run/hfd.h) of the point where it left the site with
+  // kinetic energy >= hazardous_ke_j, or -1
+  std::vector<std::int8_t> exit_sector;
   std::vector<FragmentRecord> records;
   std::vector<TrajectoryRecord> trajectories;
   RunStats stats;
@@ -57,6 +60,7 @@ struct RunContext {
   double terrain_min_z = 0.0;    // local
   double terrain_max_z = 0.0;    // local
   double terrain_min_nz = 1.0;   // smallest z of a terrain triangle's unit normal (> 0)
+  Vec3 hfd_origin{0, 0, 0};      // local (core/run/hfd.h)
   double top_z = 0.0;            // highest point anything can be hit or tallied (local)
   bool step_min_at_ends = true;  // no updraft: a step's lowest point is one of its ends
   bool still_air = true;         // no wind: drag only removes mechanical energy

@@ -127,6 +127,7 @@ class History {
   void end_as(Outcome outcome, double t, const Vec3& p, const Vec3& v);
   void finish();
   void fold_tallies();
+  std::int8_t exit_sector() const;
   FragmentRecord fragment_record() const;
 
   // ---- flight (history_flight.cpp) ----

@@ -36,10 +36,11 @@ struct PartialRun {
   std::int64_t shard_count = 1;
   std::vector<std::int64_t> shards;  // the shards merged in, ascending
   // Bins: terrain triangles, then building figures (kBuildingFigures per building), then
-  // outcomes (see tally_bins()).
+  // outcomes, then the hazardous fragments that left the site (see tally_bins()).
   tally::StratifiedTally tally;
   std::array<std::int64_t, kOutcomeCount> outcome_histories{};
-  std::int64_t histories_done = 0;  // tallied histories (not the pilot's)
+  std::int64_t left_hazardous_histories = 0;  // left the site while hazardous (SiteBoundary)
+  std::int64_t histories_done = 0;            // tallied histories (not the pilot's)
   std::int64_t pilot_histories = 0;
   std::int64_t batches = 0;          // batches completed, the pilot's included
   std::int64_t tallied_batches = 0;  // of them, tallied
@@ -63,10 +64,13 @@ enum BuildingFigure : int {
   kResidualKe = kPenetrationsBySurface + scene::kSurfaceTypeCount,
   kBuildingFigures = kResidualKe + 1,
 };
+// Real fragments that left the site while hazardous: in all, then per HFD sector.
+inline constexpr std::size_t kLeftSiteBins = 1 + 36;
 struct TallyBins {
   std::size_t terrain = 0;    // first bin of the terrain triangles
   std::size_t buildings = 0;  // first bin of the building figures
   std::size_t outcomes = 0;   // first bin of the outcomes
+  std::size_t left_site = 0;  // first of the kLeftSiteBins bins
   std::size_t total = 0;
 };
 TallyBins tally_bins(const scene::Site& site);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 
 namespace fragsim::run {
 
@@ -15,6 +16,26 @@ bool selected(const PrecisionSettings& p, const std::string& id) {
          std::find(p.buildings.begin(), p.buildings.end(), id) != p.buildings.end();
 }
 
+// An HFD target on an HFD that the terrain's boundary cuts. Cut at the band's lower end (the
+// field mean - se reaches the boundary): the density there is over the threshold by a standard
+// error, and no number of histories brings the HFD inside the model: unmeetable. Cut only at
+// the HFD itself or at the band's upper end: not met, as the band is not closed, but more
+// histories may narrow it back inside the terrain.
+void check_boundary(const PrecisionSnapshot& s, bool cut, TargetStatus& t) {
+  if (s.hfd_lower_cut) {
+    t.met = false;
+    t.unmeetable = true;
+    t.note = "the hazardous density reaches the site boundary in " +
+             std::to_string(s.hfd_lower_sectors_cut) +
+             (s.hfd_lower_sectors_cut == 1 ? " sector" : " sectors") +
+             " even at the band's lower end (mean - 1 se): the HFD is a lower bound; extend "
+             "the terrain";
+  } else if (cut) {
+    t.met = false;
+    t.note = "the HFD band reaches the site boundary: not met while it does";
+  }
+}
+
 TargetStatus hfd_target(const PrecisionSettings& p, const PrecisionSnapshot& s) {
   TargetStatus t;
   t.figure = "hfd_half_band_m";
@@ -25,6 +46,7 @@ TargetStatus hfd_target(const PrecisionSettings& p, const PrecisionSnapshot& s) 
   if (p.hfd_half_band_rel) allowed = std::max(allowed, *p.hfd_half_band_rel * s.hfd_m);
   t.allowed = allowed;
   t.met = t.value <= allowed;
+  check_boundary(s, s.hfd_upper_cut, t);  // the band's ends are the mean -+ se fields' HFDs
   return t;
 }
 
@@ -62,6 +84,7 @@ std::vector<TargetStatus> check_targets(const PrecisionSettings& p, const Precis
     t.value = s.ptn_rel_error_at_hfd;
     t.allowed = *p.ptn_rel_error_at_hfd;
     t.met = t.value <= t.allowed;
+    check_boundary(s, s.hfd_cut, t);
     out.push_back(t);
   }
   if (p.building_rel_error || p.building_abs_error) {
@@ -127,7 +150,8 @@ PrecisionReport PrecisionTracker::update(std::vector<TargetStatus> targets, std:
       continue;
     }
     r.all_met = false;
-    if (!(t.allowed > 0.0)) {
+    r.any_unmeetable = r.any_unmeetable || t.unmeetable;
+    if (!(t.allowed > 0.0) || t.unmeetable || !t.note.empty()) {
       t.histories_needed = kInf;
       continue;
     }

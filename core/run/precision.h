@@ -17,6 +17,10 @@ struct PrecisionSnapshot {
   std::int64_t batches = 0;
   std::int64_t histories = 0;
   double hfd_m = 0.0, hfd_lower_m = 0.0, hfd_upper_m = 0.0;
+  // The terrain's boundary cuts the HFD of the field mean, mean - se (the band's lower end,
+  // in `hfd_lower_sectors_cut` sectors), mean + se (core/run/hfd.h).
+  bool hfd_cut = false, hfd_lower_cut = false, hfd_upper_cut = false;
+  int hfd_lower_sectors_cut = 0;
   double ptn_rel_error_at_hfd = 0.0;  // see ptn_rel_error_near_hfd
   struct Building {
     std::string id;
@@ -41,6 +45,10 @@ struct TargetStatus {
   // Histories the run would need for this figure, extrapolated from its observed error decay
   // (PrecisionTracker); equal to the current histories when met; +inf when it cannot be met.
   double histories_needed = 0.0;
+  // An HFD target on an HFD the terrain's boundary cuts even at the band's lower end: more
+  // histories cannot make a lower bound a value (docs/precision.md).
+  bool unmeetable = false;
+  std::string note;  // why a target is unmeetable, or not met whatever its value
 };
 
 struct PrecisionReport {
@@ -48,9 +56,17 @@ struct PrecisionReport {
   std::int64_t histories = 0;
   std::vector<TargetStatus> targets;
   bool all_met = false;
+  bool any_unmeetable = false;
   double histories_needed = 0.0;  // the largest over the targets
   double eta_s = 0.0;             // to histories_needed at the observed rate (+inf: not reachable)
   double decay_exponent = 0.5;    // fitted error ~ n^-alpha (median over unmet targets)
+  // Nothing more histories could change: every target met or unmeetable, some unmeetable.
+  bool all_met_or_unmeetable() const {
+    if (!any_unmeetable) return false;
+    for (const auto& t : targets)
+      if (!t.met && !t.unmeetable) return false;
+    return true;
+  }
 };
 
 // Checks every requested target against a snapshot (histories_needed left at 0).

@@ -24,7 +24,11 @@ enum class StopReason : std::uint8_t {
   kMaxBatches = 2,   // settings.precision.max_batches reached
   kMaxWallTime = 3,  // settings.precision.max_wall_s reached at a batch boundary
   kCancelled = 4,    // partial result
+  // Every precision target is met or cannot be met (an HFD target on an HFD the terrain's
+  // boundary cuts: docs/precision.md), and at least one cannot.
+  kTargetsUnmeetable = 5,
 };
+inline constexpr int kStopReasonCount = 6;
 const char* stop_reason_name(StopReason s);
 
 struct Estimate {
@@ -46,6 +50,21 @@ enum class Outcome : std::uint8_t {
 };
 inline constexpr int kOutcomeCount = 9;
 const char* outcome_name(Outcome o);
+
+// The figures the terrain's boundary makes lower bounds, and what left the site while hazardous.
+struct SiteBoundary {
+  std::array<bool, 36> hfd_sector_cut{};     // sector k's HFD is a lower bound
+  int hfd_sectors_cut = 0;                   // of them
+  bool hfd_cut = false;                      // the HFD is a lower bound (some sector is cut)
+  bool band_lower_cut = false;               // the band's lower end (field mean - se) is
+  bool band_upper_cut = false;               // the band's upper end (field mean + se) is
+  double max_boundary_density_per_m2 = 0.0;  // largest density of a triangle at the boundary
+  // Real fragments that left the terrain's extent with kinetic energy >= hazardous_ke_j (their
+  // landing is not modelled), overall and by the HFD sector of the point where they left.
+  Estimate left_hazardous;
+  std::array<Estimate, 36> left_hazardous_by_sector{};
+  std::int64_t left_hazardous_histories = 0;
+};
 
 struct BuildingResult {
   std::string id;
@@ -178,6 +197,11 @@ struct RunResult {
   double hfd_upper_m = 0.0;
   std::array<double, 36>
       hfd_by_sector_m{};  // sector k: azimuth [10k, 10k+10) deg from +x toward +y
+
+  // Where the terrain's boundary cut these figures (core/run/hfd.h): a triangle touching the
+  // boundary in the sector has a density (of the field the figure comes from) at or above the
+  // threshold, so the figure is only a lower bound. The HFD is cut when any sector is.
+  SiteBoundary site_boundary;
 
   std::vector<BuildingResult> buildings;
 

@@ -10,12 +10,14 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <thread>
 #include <tuple>
 
 #include "core/common/error.h"
+#include "core/run/hfd.h"
 #include "core/run/history.h"
 #include "core/run/importance.h"
 #include "core/run/ordered_sequencer.h"
@@ -144,6 +146,7 @@ class Reducer {
       const auto o = static_cast<std::size_t>(c.outcomes[h]);
       t.add(bins_.outcomes + o, w);
       ++out_.outcome_histories[o];
+      if (c.exit_sector[h] >= 0) add_left_hazardous(c.exit_sector[h], w);
       t.history_done();
     }
     for (std::size_t k = 0; k < t.partitions(); ++k) t.flush(k);
@@ -176,6 +179,12 @@ class Reducer {
     t.add(base + kResidualKe, w * b.residual_ke_j);
   }
 
+  void add_left_hazardous(std::int8_t sector, double w) {
+    out_.tally.add(bins_.left_site, w);
+    out_.tally.add(bins_.left_site + 1 + static_cast<std::size_t>(sector), w);
+    ++out_.left_hazardous_histories;
+  }
+
   void add_records_and_stats(ChunkOutput& c) {
     for (auto& r : c.records) out_.records.push_back(r);
     for (auto& tr : c.trajectories) out_.trajectories.push_back(std::move(tr));
@@ -190,29 +199,6 @@ class Reducer {
   const LaunchStrata& strata_;
   std::vector<std::int64_t> samples_;
 };
-
-// Largest horizontal distance from `origin` of a triangle centroid with density >= threshold,
-// overall and per 10-degree sector (azimuth from +x toward +y).
-double hazardous_distance(const scene::Site& site, const std::vector<double>& density,
-                          double threshold, const Vec3& origin, std::array<double, 36>* by_sector) {
-  double best = 0.0;
-  if (by_sector) by_sector->fill(0.0);
-  for (std::uint32_t t = 0; t < density.size(); ++t) {
-    if (!(density[t] >= threshold) || density[t] <= 0.0) continue;
-    const Vec3 c = site.terrain_triangle_centroid(t);
-    const double dx = c.x() - origin.x(), dy = c.y() - origin.y();
-    const double r = std::hypot(dx, dy);
-    best = std::max(best, r);
-    if (by_sector) {
-      double az = std::atan2(dy, dx) / kDegToRad;
-      if (az < 0.0) az += 360.0;
-      const int k = std::clamp(static_cast<int>(az / 10.0), 0, 35);
-      (*by_sector)[static_cast<std::size_t>(k)] =
-          std::max((*by_sector)[static_cast<std::size_t>(k)], r);
-    }
-  }
-  return best;
-}
 
 }  // namespace
 
@@ -254,30 +240,6 @@ int thread_count(const Settings& st, std::int64_t chunks) {
   return std::max(threads, 1);
 }
 
-// Horizontal distance of every terrain triangle's centroid from the HFD origin (local), computed
-// as hazardous_distance does, for the precision checks at batch boundaries.
-std::vector<double> centroid_distances(const scene::Site& site, const Vec3& origin) {
-  std::vector<double> d(site.terrain_triangle_count());
-  for (std::uint32_t t = 0; t < d.size(); ++t) {
-    const Vec3 c = site.terrain_triangle_centroid(t);
-    d[t] = std::hypot(c.x() - origin.x(), c.y() - origin.y());
-  }
-  return d;
-}
-
-double hfd_of(const std::vector<double>& density, const std::vector<double>& distance,
-              double threshold) {
-  double best = 0.0;
-  for (std::size_t t = 0; t < density.size(); ++t)
-    if (density[t] >= threshold && density[t] > 0.0) best = std::max(best, distance[t]);
-  return best;
-}
-
-Vec3 hfd_origin_input(const Scenario& sc, const scene::Site& site) {
-  if (sc.settings.hfd_origin_m) return *sc.settings.hfd_origin_m;
-  return sc.groups.empty() ? site.local_origin() : sc.groups[0].frame.origin_m;
-}
-
 // Checks the precision targets at each batch boundary (under the sequencer's lock) and decides
 // whether the run stops there.
 class PrecisionControl {
@@ -289,7 +251,7 @@ class PrecisionControl {
     p_ = &*sc.settings.precision;
     if (p_->hfd_half_band_m || p_->hfd_half_band_rel || p_->ptn_rel_error_at_hfd ||
         p_->direction_importance)
-      distance_ = centroid_distances(site, site.to_local(hfd_origin_input(sc, site)));
+      geometry_.emplace(site, site.to_local(hfd_origin_input(sc, site)));
   }
 
   // After batch `batches` (1-based) has been folded, `tallied` of them into the estimates (all
@@ -304,9 +266,11 @@ class PrecisionControl {
     auto report = std::make_shared<PrecisionReport>(
         tracker_.update(check_targets(*p_, snap), batches, histories,
                         elapsed > 0.0 ? static_cast<double>(histories_run) / elapsed : 0.0));
-    const bool met = p_->has_targets() && report->all_met && tallied >= p_->min_batches;
-    if (met) {
+    const bool settled = p_->has_targets() && tallied >= p_->min_batches;
+    if (settled && report->all_met) {
       reason_ = StopReason::kTargetsMet;
+    } else if (settled && report->all_met_or_unmeetable()) {
+      reason_ = StopReason::kTargetsUnmeetable;
     } else if (batches >= p_->max_batches) {
       reason_ = StopReason::kMaxBatches;
     } else if (p_->max_wall_s > 0.0 && elapsed >= p_->max_wall_s) {
@@ -325,7 +289,10 @@ class PrecisionControl {
   }
   StopReason reason() const { return reason_; }
   double hfd_m() const { return hfd_m_; }  // at the last boundary (0 unless computed)
-  const std::vector<double>& distances() const { return distance_; }
+  const std::vector<double>& distances() const {
+    static const std::vector<double> none;
+    return geometry_ ? geometry_->distances() : none;
+  }
 
  private:
   PrecisionSnapshot snapshot(std::int64_t batches) const {
@@ -333,24 +300,7 @@ class PrecisionControl {
     s.batches = batches;
     s.histories = tallies_.histories_done;
     const double scale = 1.0 / static_cast<double>(batches);
-    const Settings& st = sc_.settings;
-    if (!distance_.empty()) {
-      const tally::StratifiedTally& tally = tallies_.tally;
-      std::vector<double> density = tally.means(bins_.terrain, distance_.size()),
-                          se = tally.std_errors(bins_.terrain, distance_.size());
-      for (std::size_t t = 0; t < density.size(); ++t) {
-        density[t] *= scale;
-        se[t] *= scale;
-      }
-      std::vector<double> shifted(density.size());
-      s.hfd_m = hfd_of(density, distance_, st.hfd_threshold_per_m2);
-      for (std::size_t t = 0; t < density.size(); ++t) shifted[t] = density[t] - se[t];
-      s.hfd_lower_m = hfd_of(shifted, distance_, st.hfd_threshold_per_m2);
-      for (std::size_t t = 0; t < density.size(); ++t) shifted[t] = density[t] + se[t];
-      s.hfd_upper_m = hfd_of(shifted, distance_, st.hfd_threshold_per_m2);
-      s.ptn_rel_error_at_hfd =
-          ptn_rel_error_near_hfd(density, se, distance_, st.hfd_threshold_per_m2, s.hfd_m);
-    }
+    if (geometry_) hfd_snapshot(scale, s);
     const auto& bs = site_.buildings();
     for (std::size_t b = 0; b < bs.size(); ++b) {
       const std::size_t base = bins_.buildings + b * kBuildingFigures;
@@ -370,13 +320,39 @@ class PrecisionControl {
     return s;
   }
 
+  // The HFD, its band and where the terrain's boundary cuts them, from the estimates of
+  // `1 / scale` batches.
+  void hfd_snapshot(double scale, PrecisionSnapshot& s) const {
+    const std::size_t n = site_.terrain_triangle_count();
+    const double threshold = sc_.settings.hfd_threshold_per_m2;
+    std::vector<double> density = tallies_.tally.means(bins_.terrain, n),
+                        se = tallies_.tally.std_errors(bins_.terrain, n);
+    for (std::size_t t = 0; t < n; ++t) {
+      density[t] *= scale;
+      se[t] *= scale;
+    }
+    const HfdGeometry& g = *geometry_;
+    std::vector<double> shifted(n);
+    s.hfd_m = g.hfd(density, threshold);
+    s.hfd_cut = g.cut(density, threshold).any();
+    for (std::size_t t = 0; t < n; ++t) shifted[t] = density[t] - se[t];
+    s.hfd_lower_m = g.hfd(shifted, threshold);
+    const BoundaryCut lower_cut = g.cut(shifted, threshold);
+    s.hfd_lower_cut = lower_cut.any();
+    s.hfd_lower_sectors_cut = lower_cut.sector_count;
+    for (std::size_t t = 0; t < n; ++t) shifted[t] = density[t] + se[t];
+    s.hfd_upper_m = g.hfd(shifted, threshold);
+    s.hfd_upper_cut = g.cut(shifted, threshold).any();
+    s.ptn_rel_error_at_hfd = ptn_rel_error_near_hfd(density, se, g.distances(), threshold, s.hfd_m);
+  }
+
   const Scenario& sc_;
   const scene::Site& site_;
   const PartialRun& tallies_;
   const TallyBins bins_;
   Clock::time_point t_start_;
   const PrecisionSettings* p_ = nullptr;
-  std::vector<double> distance_;
+  std::optional<HfdGeometry> geometry_;
   PrecisionTracker tracker_;
   StopReason reason_ = StopReason::kSamples;
   double hfd_m_ = 0.0;
@@ -447,10 +423,34 @@ void learn(DirectionLearner& learner, const ChunkOutput& c) {
   }
 }
 
+// The HFD, its band, its sectors and which of them the terrain's boundary cuts, from the
+// result's density field.
+void fill_hfd(const Scenario& sc, const scene::Site& site, RunResult& r) {
+  const double threshold = sc.settings.hfd_threshold_per_m2;
+  r.hfd_origin_m = hfd_origin_input(sc, site);
+  const HfdGeometry g(site, site.to_local(r.hfd_origin_m));
+  const std::vector<double>& density = r.ptn_density_per_m2;
+  r.hazardous_fragment_distance_m = g.hfd(density, threshold, &r.hfd_by_sector_m);
+  SiteBoundary& sb = r.site_boundary;
+  const BoundaryCut cut = g.cut(density, threshold);
+  sb.hfd_sector_cut = cut.sectors;
+  sb.hfd_sectors_cut = cut.sector_count;
+  sb.hfd_cut = cut.any();
+  sb.max_boundary_density_per_m2 = g.max_boundary_density(density);
+  std::vector<double> shifted(density.size());
+  for (std::size_t t = 0; t < shifted.size(); ++t)
+    shifted[t] = density[t] - r.ptn_std_error_per_m2[t];
+  r.hfd_lower_m = g.hfd(shifted, threshold);
+  sb.band_lower_cut = g.cut(shifted, threshold).any();
+  for (std::size_t t = 0; t < shifted.size(); ++t)
+    shifted[t] = density[t] + r.ptn_std_error_per_m2[t];
+  r.hfd_upper_m = g.hfd(shifted, threshold);
+  sb.band_upper_cut = g.cut(shifted, threshold).any();
+}
+
 // Turns the folded tallies of `batches` batches into the result's figures.
 void fill_figures(const Scenario& sc, const scene::Site& site, const PartialRun& p,
                   std::int64_t batches, RunResult& r) {
-  const Settings& st = sc.settings;
   const double scale = 1.0 / static_cast<double>(std::max<std::int64_t>(1, batches));
   const TallyBins bins = tally_bins(site);
   r.ptn_density_per_m2 = p.tally.means(bins.terrain, site.terrain_triangle_count());
@@ -468,18 +468,7 @@ void fill_figures(const Scenario& sc, const scene::Site& site, const PartialRun&
         site.terrain_triangle_centroid(static_cast<std::uint32_t>(r.max_ptn_triangle)));
   }
 
-  r.hfd_origin_m = hfd_origin_input(sc, site);
-  const Vec3 hfd_origin = site.to_local(r.hfd_origin_m);
-  r.hazardous_fragment_distance_m = hazardous_distance(
-      site, r.ptn_density_per_m2, st.hfd_threshold_per_m2, hfd_origin, &r.hfd_by_sector_m);
-  std::vector<double> shifted(r.ptn_density_per_m2.size());
-  for (std::size_t t = 0; t < shifted.size(); ++t)
-    shifted[t] = r.ptn_density_per_m2[t] - r.ptn_std_error_per_m2[t];
-  r.hfd_lower_m = hazardous_distance(site, shifted, st.hfd_threshold_per_m2, hfd_origin, nullptr);
-  for (std::size_t t = 0; t < shifted.size(); ++t)
-    shifted[t] = r.ptn_density_per_m2[t] + r.ptn_std_error_per_m2[t];
-  r.hfd_upper_m = hazardous_distance(site, shifted, st.hfd_threshold_per_m2, hfd_origin, nullptr);
-
+  fill_hfd(sc, site, r);
   auto est = [&](std::size_t bin) {
     return Estimate{p.tally.mean(bin) * scale, p.tally.std_error(bin) * scale};
   };
@@ -501,6 +490,11 @@ void fill_figures(const Scenario& sc, const scene::Site& site, const PartialRun&
     r.outcome_fragments[o] = est(bins.outcomes + o);
     r.outcome_histories[o] = p.outcome_histories[o];
   }
+  SiteBoundary& sb = r.site_boundary;
+  sb.left_hazardous = est(bins.left_site);
+  for (std::size_t k = 0; k < sb.left_hazardous_by_sector.size(); ++k)
+    sb.left_hazardous_by_sector[k] = est(bins.left_site + 1 + k);
+  sb.left_hazardous_histories = p.left_hazardous_histories;
 }
 
 }  // namespace
@@ -512,6 +506,7 @@ const char* stop_reason_name(StopReason s) {
     case StopReason::kMaxBatches: return "max_batches";
     case StopReason::kMaxWallTime: return "max_wall_time";
     case StopReason::kCancelled: return "cancelled";
+    case StopReason::kTargetsUnmeetable: return "targets_unmeetable";
   }
   return "unknown";
 }
@@ -521,7 +516,8 @@ TallyBins tally_bins(const scene::Site& site) {
   b.terrain = 0;
   b.buildings = site.terrain_triangle_count();
   b.outcomes = b.buildings + site.buildings().size() * kBuildingFigures;
-  b.total = b.outcomes + kOutcomeCount;
+  b.left_site = b.outcomes + kOutcomeCount;
+  b.total = b.left_site + kLeftSiteBins;
   return b;
 }
 
@@ -569,6 +565,7 @@ ChunkOutput chunk_output(const ChunkSpec& cs, std::int64_t first,
   const auto n = static_cast<std::size_t>(cs.count);
   out.ptn_end.reserve(n);
   out.outcomes.reserve(n);
+  out.exit_sector.reserve(n);
   out.building_index.reserve(n);
   out.weights.reserve(n);
   out.cells.reserve(n);
@@ -847,6 +844,7 @@ void merge(PartialRun& into, PartialRun&& other) {
   std::sort(sum.shards.begin(), sum.shards.end());
   for (std::size_t o = 0; o < kOutcomeCount; ++o)
     add_count(sum.outcome_histories[o], other.outcome_histories[o]);
+  add_count(sum.left_hazardous_histories, other.left_hazardous_histories);
   add_count(sum.histories_done, other.histories_done);
   add_count(sum.pilot_histories, other.pilot_histories);
   for (const auto m : RunStats::counters()) add_count(sum.stats.*m, other.stats.*m);

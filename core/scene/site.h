@@ -155,6 +155,12 @@ class Site {
   // triangle ahead.
   void prefetch_terrain_triangle(std::uint32_t t) const { __builtin_prefetch(&terrain_facet_[t]); }
   const TerrainIndex2D& terrain_index() const { return index_; }
+  // The terrain triangles that touch its boundary, ascending: those with a vertex on an edge
+  // that no other triangle shares (the outer ring of cells of a plane or grid; the rim of a mesh,
+  // and of its holes). Nothing is modelled beyond them, so a hazardous density on one of them
+  // makes the HFD of its sector a lower bound (core/run/hfd.h). Vertices are matched by position,
+  // so a mesh whose triangles repeat their shared vertices has the same boundary as a welded one.
+  const std::vector<std::uint32_t>& terrain_boundary_triangles() const { return terrain_boundary_; }
   // Plane or grid terrain: terrain_index() bucket (i, j) = grid cell (i, j), holding triangle
   // 2k below its (i,j)-(i+1,j+1) diagonal and 2k + 1 above it (k = j nx + i).
   bool terrain_is_lattice() const { return terrain_is_lattice_; }
@@ -254,6 +260,7 @@ class Site {
   double plane_elevation_ = 0.0;
   Box3 terrain_bounds_;
   TerrainIndex2D index_;
+  std::vector<std::uint32_t> terrain_boundary_;
   std::uint16_t terrain_material_ = 0;
 
   std::vector<Building> buildings_;

@@ -37,6 +37,9 @@ class SiteBuilder {
   static void build_mesh_terrain(Site& site, const MeshSpec& mesh, const std::string& f);
   // Per-triangle areas, upward unit normals and planes, and the terrain's bounds.
   static void build_terrain_facets(Site& site);
+  // Site::terrain_boundary_triangles(): from the cell counts of a lattice, from the edges shared
+  // by one triangle only (vertices matched by position) of a mesh (lattice.ncx == 0).
+  static void build_terrain_boundary(Site& site, const Lattice& lattice);
   // Validates and meshes the buildings (needs the terrain for default base elevations).
   static void build_buildings(Site& site, const SiteSpec& spec, const MaterialIds& ids);
   // Creates the Embree device and scene.

@@ -1,7 +1,9 @@
 // Terrain: validation, meshing of the plane and grid forms, the local frame, normals, areas and
 // the 2-D index.
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <tuple>
 
 #include "core/scene/site_builder.h"
 #include "core/scene/terrain_index.h"
@@ -67,6 +69,7 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
   else
     build_mesh_terrain(site, std::get<MeshSpec>(terrain.geometry), f);
   build_terrain_facets(site);
+  build_terrain_boundary(site, lattice);
   site.terrain_is_lattice_ = lattice.ncx > 0;
   site.index_ =
       site.terrain_is_lattice_
@@ -203,6 +206,83 @@ void SiteBuilder::build_terrain_facets(Site& site) {
     site.terrain_bounds_.extend(b);
     site.terrain_bounds_.extend(c);
   }
+}
+
+namespace {
+
+// Triangles of a lattice of ncx x ncy cells that lie in its outer ring of cells, ascending.
+std::vector<std::uint32_t> lattice_boundary(int ncx, int ncy) {
+  std::vector<std::uint32_t> out;
+  const auto add = [&](int i, int j) {
+    const auto k = static_cast<std::uint32_t>(j * ncx + i);
+    out.push_back(2 * k);
+    out.push_back(2 * k + 1);
+  };
+  for (int j = 0; j < ncy; ++j) {
+    if (j == 0 || j == ncy - 1) {
+      for (int i = 0; i < ncx; ++i) add(i, j);
+    } else {
+      add(0, j);
+      if (ncx > 1) add(ncx - 1, j);
+    }
+  }
+  return out;
+}
+
+// Per vertex: the smallest index of a vertex at the same position.
+std::vector<std::uint32_t> welded_ids(const std::vector<Vec3>& vertices) {
+  std::vector<std::uint32_t> order(vertices.size());
+  for (std::uint32_t v = 0; v < order.size(); ++v) order[v] = v;
+  const auto key = [&](std::uint32_t v) {
+    return std::make_tuple(vertices[v].x(), vertices[v].y(), vertices[v].z(), v);
+  };
+  std::sort(order.begin(), order.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+  std::vector<std::uint32_t> id(vertices.size());
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const bool same = k > 0 && vertices[order[k]] == vertices[order[k - 1]];
+    id[order[k]] = same ? id[order[k - 1]] : order[k];
+  }
+  return id;
+}
+
+// Triangles of a mesh with a vertex on an edge used by one triangle only.
+std::vector<std::uint32_t> mesh_boundary(const std::vector<Vec3>& vertices,
+                                         const std::vector<std::array<std::uint32_t, 3>>& tris) {
+  const std::vector<std::uint32_t> id = welded_ids(vertices);
+  std::vector<std::uint64_t> edges;
+  edges.reserve(3 * tris.size());
+  for (const auto& t : tris) {
+    for (int k = 0; k < 3; ++k) {
+      const std::uint64_t a = id[t[k]], b = id[t[(k + 1) % 3]];
+      edges.push_back(std::min(a, b) << 32 | std::max(a, b));
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  std::vector<bool> on_rim(vertices.size(), false);
+  for (std::size_t k = 0; k < edges.size();) {
+    std::size_t n = 1;
+    while (k + n < edges.size() && edges[k + n] == edges[k]) ++n;
+    if (n == 1) {
+      on_rim[edges[k] >> 32] = true;
+      on_rim[edges[k] & 0xffffffffu] = true;
+    }
+    k += n;
+  }
+  std::vector<std::uint32_t> out;
+  for (std::uint32_t t = 0; t < tris.size(); ++t) {
+    const auto& v = tris[t];
+    if (on_rim[id[v[0]]] || on_rim[id[v[1]]] || on_rim[id[v[2]]]) out.push_back(t);
+  }
+  return out;
+}
+
+}  // namespace
+
+void SiteBuilder::build_terrain_boundary(Site& site, const Lattice& lattice) {
+  site.terrain_boundary_ = lattice.ncx > 0
+                               ? lattice_boundary(lattice.ncx, lattice.ncy)
+                               : mesh_boundary(site.terrain_vertices_, site.terrain_triangles_);
 }
 
 }  // namespace fragsim::scene

@@ -440,8 +440,10 @@ TEST_P(PartialFile, WrongMagicVersionOrShapeIsRefused) {
   expect_refused("PK\x03\x04" + bytes.substr(4), bins, "no FSPART01 header");
   std::string body = body_of(bytes);
   std::string version = body;
-  write_at<std::uint32_t>(version, 8, 2);
-  expect_refused(with_trailer(version), bins, "an unknown version");
+  for (const std::uint32_t v : {1u, 3u}) {  // 1: before the site-boundary tallies
+    write_at<std::uint32_t>(version, 8, v);
+    expect_refused(with_trailer(version), bins, "an unknown version");
+  }
   const Offsets o = offsets_of(c().middle());
   ASSERT_EQ(read_at<std::uint64_t>(body, o.tally), bins);
   ASSERT_EQ(read_at<std::uint32_t>(body, o.tally + 8), c().middle().tally.partitions());
@@ -584,10 +586,15 @@ TEST_P(PartialFile, UnknownCodesAndBadFieldsAreRefused) {
     bad.trajectories.back().event.back() = static_cast<run::TrajectoryEvent>(event);
     expect_refused(encode_partial(bad, kIdentity), bins, "an unknown trajectory event");
   }
-  for (const int reason : {static_cast<int>(run::StopReason::kCancelled) + 1, 0xff}) {
+  for (const int reason : {run::kStopReasonCount, 0xff}) {
     PartialRun bad = p;
     bad.stop_reason = static_cast<run::StopReason>(reason);
     expect_refused(encode_partial(bad, kIdentity), bins, "a bad stop reason");
+  }
+  for (const std::int64_t left : {std::int64_t{-1}, p.outcome_histories[3] + 1}) {
+    PartialRun bad = p;  // outcome 3: left_site
+    bad.left_hazardous_histories = left;
+    expect_refused(encode_partial(bad, kIdentity), bins, "hazardous fragments leaving the site");
   }
   for (const std::int64_t count : {std::int64_t{0}, std::int64_t{-1}, run::kMaxShards + 1}) {
     PartialRun bad = p;

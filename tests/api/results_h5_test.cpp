@@ -114,7 +114,8 @@ class ResultsH5 : public ::testing::Test {
 TEST_F(ResultsH5, RootAttributes) {
   const fs::path f = write("r.h5", result_);
   EXPECT_EQ(read_attribute_string(f, "/", "file_type"), "fragsim.results");
-  EXPECT_EQ(read_attribute_int64(f, "/", "format_version"), 1);
+  EXPECT_EQ(read_attribute_int64(f, "/", "format_version"), 2);
+  EXPECT_EQ(read_attribute_string(f, "/", "hfd_bound"), "none");
   EXPECT_EQ(read_attribute_string(f, "/", "fragsim_version"), kVersion);
   EXPECT_EQ(read_attribute_string(f, "/", "git_sha"), kGitSha);
   EXPECT_EQ(read_attribute_string(f, "/", "scenario_sha256"), std::string(64, 'a'));

@@ -186,7 +186,7 @@ TEST(SiteDocument, UnknownAndMissingKeys) {
 TEST(SiteDocument, BuildSiteAcceptsTheExample) {
   const auto site = build_site(parse_site_document(minimal_site()));
   ASSERT_NE(site, nullptr);
-  EXPECT_EQ(site->terrain_triangle_count(), 3200u);
+  EXPECT_EQ(site->terrain_triangle_count(), 20000u);  // 100 x 100 cells of 30 m
   ASSERT_EQ(site->buildings().size(), 1u);
   EXPECT_EQ(site->buildings()[0].id, "B1");
 }
@@ -206,7 +206,7 @@ TEST(SiteDocument, BuildingFootprintErrorIsSiteRelative) {
 
 TEST(SiteDocument, BuildingOutsideTheTerrainIsSiteRelative) {
   Json site = minimal_site();
-  site["buildings"][0]["footprint_m"] = {{900, 900}, {910, 900}, {910, 910}, {900, 910}};
+  site["buildings"][0]["footprint_m"] = {{1900, 1900}, {1910, 1900}, {1910, 1910}, {1900, 1910}};
   EXPECT_EQ(build_error(site), FieldMessage("buildings[0].footprint_m",
                                             "footprint lies outside the terrain; give "
                                             "base_elevation_m"));

@@ -204,14 +204,16 @@ TEST(SummaryJson, PrecisionStopAndTargets) {
   report->histories = 14000;
   report->histories_needed = std::numeric_limits<double>::infinity();
   report->eta_s = std::numeric_limits<double>::infinity();
-  run::TargetStatus hfd{"hfd_half_band_m", "", "half_band_m", 4.5, 3.0, false, 31500.0};
+  run::TargetStatus hfd{"hfd_half_band_m", "", "half_band_m", 4.5, 3.0, false, 31500.0, false, ""};
   run::TargetStatus b{"building_penetrations",
                       "far_store",
                       "zero_count_bound",
                       0.02,
                       -std::numeric_limits<double>::infinity(),
                       false,
-                      std::numeric_limits<double>::infinity()};
+                      std::numeric_limits<double>::infinity(),
+                      false,
+                      ""};
   report->targets = {hfd, b};
   r.precision = report;
   const Json j = summary_to_json(r, run::Scenario{}, build_provenance());

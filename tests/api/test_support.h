@@ -59,6 +59,17 @@ inline Json minimal_example() {
   return Json::parse(read_text(source_path("examples/minimal/scenario.json")));
 }
 
+// `scenario` (or a site) on a 400 m x 400 m plane of 10 m cells (3,200 triangles), as the
+// minimal example had before it grew to hold its fragments: a small site for tests of formats,
+// exports and services, where the site's size is not the point. Most fragments leave it, so its
+// HFD is cut by the site boundary.
+inline Json on_small_plane(Json scenario) {
+  Json& site = scenario.contains("site") ? scenario["site"] : scenario;
+  site["terrain"]["plane"]["extent_m"] = {-200, -200, 200, 200};
+  site["terrain"]["plane"]["cell_m"] = 10;
+  return scenario;
+}
+
 // The minimal example on a coarse plane (4 x 4 cells of 100 m) at UTM-sized coordinates, its
 // building moved along: input coordinates far from the local ones.
 inline run::Scenario far_plane_scenario() {

@@ -29,7 +29,7 @@ class ResultsExport : public ::testing::Test {
   // The minimal example moved to UTM 11N (input (0, 0) at 452300 E, 3839800 N), with fragments
   // slow and steep enough to leave a hazardous area near the origin.
   fs::path run_minimal(const std::string& crs) {
-    Json sc = api::testing::minimal_example();
+    Json sc = api::testing::on_small_plane(api::testing::minimal_example());
     sc["site"]["origin"] = {
         {"crs", crs}, {"easting_m", 452300}, {"northing_m", 3839800}, {"elevation_m", 0}};
     auto& g = sc["fragment_groups"][0];

@@ -120,7 +120,7 @@ class VtkhdfExport : public ::testing::Test {
   // one sample crossing a triangle gives about 10 times the threshold; with count 1000 about half
   // of it, so that densities lie on both sides of the threshold.
   fs::path run_minimal(int count = 20000) {
-    Json sc = api::testing::minimal_example();
+    Json sc = api::testing::on_small_plane(api::testing::minimal_example());
     sc["site"]["origin"] = {
         {"crs", "EPSG:32611"}, {"easting_m", 452300}, {"northing_m", 3839800}, {"elevation_m", 0}};
     auto& g = sc["fragment_groups"][0];  // slow and many: some triangles are hazardous

@@ -174,6 +174,32 @@ std::string unquoted(std::string s) {
   return s;
 }
 
+// The HFD flagged as a lower bound in one run and not in the other is a changed result, however
+// close the numbers: say so. The hazardous fragments leaving the site are compared as an estimate.
+void compare_site_boundary(Comparer& cmp, Comparison& out, const Json& base, const Json& now) {
+  if (!base.contains("site_boundary")) {
+    cmp.missing("site_boundary", "missing in the base (regenerate)");
+    return;
+  }
+  if (!now.contains("site_boundary")) {
+    cmp.missing("site_boundary", "missing in the new run");
+    return;
+  }
+  const Json& b = base.at("site_boundary");
+  const Json& n = now.at("site_boundary");
+  if (b.at("hfd_cut") == n.at("hfd_cut"))
+    ++out.figures;
+  else
+    cmp.missing("site_boundary.hfd_cut",
+                "the HFD is " + std::string(b.at("hfd_cut").get<bool>() ? "" : "not ") +
+                    "cut by the site boundary in the base, " +
+                    (n.at("hfd_cut").get<bool>() ? "" : "not ") + "now");
+  const Json& bl = b.at("left_hazardous");
+  const Json& nl = n.at("left_hazardous");
+  cmp.estimate("site_boundary.left_hazardous", bl.at("mean").get<double>(),
+               bl.at("se").get<double>(), nl.at("mean").get<double>(), nl.at("se").get<double>());
+}
+
 }  // namespace
 
 // --- the regression set -------------------------------------------------------------------
@@ -367,6 +393,17 @@ Json measure(const CaseRun& run, const std::vector<SampledTriangle>& triangles) 
   }
   j["sector_hfd"] = sectors;
 
+  // Where the terrain's boundary cuts the HFD (a lower bound), and what left the site while
+  // hazardous: the flags must not change (compare()), the count is a figure like the others.
+  const run::SiteBoundary& sb = r.site_boundary;
+  Json sector_cut = Json::array();
+  for (std::size_t k = 0; k < 36; ++k)
+    if (sb.hfd_sector_cut[k]) sector_cut.push_back(k);
+  j["site_boundary"] = {{"hfd_cut", sb.hfd_cut},
+                        {"sectors_cut", sector_cut},
+                        {"left_hazardous", estimate_json(sb.left_hazardous)},
+                        {"left_hazardous_histories", sb.left_hazardous_histories}};
+
   j["max_ptn"] = {{"density_per_m2", r.max_ptn_density_per_m2},
                   {"std_error_per_m2",
                    r.max_ptn_triangle >= 0
@@ -496,6 +533,8 @@ Comparison compare(const Json& base, const Json& now) {
       cmp.sector_hfd(name, bs[k], ns[k], cell);
     }
   }
+
+  compare_site_boundary(cmp, out, base, now);
 
   {
     const Json& b = base.at("max_ptn");

@@ -43,13 +43,19 @@ constexpr const char* kUnknownSite = "s_0000000000000000";
 // The service's destructor stops it (a running job is requeued at shutdown).
 constexpr std::int64_t kBlockerSamples = 50'000'000;
 
+// The minimal example on a 400 m plane of 10 m cells (api::testing::on_small_plane): the
+// service's tests need a small valid site, not one that holds every fragment.
+Json small_example() {
+  return api::testing::on_small_plane(minimal_example());
+}
+
 Json minimal_site() {
-  return minimal_example()["site"];
+  return small_example()["site"];
 }
 
 // The minimal example by site_id, `samples` histories.
 Json job_on(const std::string& site_id, std::int64_t samples = 200) {
-  Json j = minimal_example();
+  Json j = small_example();
   j.erase("site");
   j["site_id"] = site_id;
   j["fragment_groups"][0]["samples"] = samples;
@@ -414,7 +420,7 @@ TEST_F(ServiceAuth, NoAuthNeedsNoToken) {
   });
   EXPECT_EQ(get_anonymous("/v1/sites").status, 200);
   EXPECT_EQ(get_anonymous("/metrics").status, 200);
-  Json body = minimal_example();
+  Json body = small_example();
   body["fragment_groups"][0]["samples"] = 10;
   const Response r =
       call("POST", "/v1/jobs", {}, body.dump(), {{"content-type", "application/json"}}, false);
@@ -564,7 +570,7 @@ TEST_F(ServiceInput, JobErrorsAre422WithTheirPaths) {
   expect_error(post("/v1/jobs", j), 422, "invalid_input", "site_id");
 
   // An inline site gets the geometry check at submission, with the scenario's path.
-  j = minimal_example();
+  j = small_example();
   j["site"]["buildings"][0]["footprint_m"] = {{60, -10}, {80, 10}, {80, -10}, {60, 10}};
   expect_error(post("/v1/jobs", j), 422, "invalid_input", "site.buildings[0].footprint_m");
 
@@ -606,7 +612,7 @@ TEST_F(ServiceInput, TooLargeATerrainIs422BeforeItIsBuilt) {
       << r.body;
   EXPECT_EQ(body_of(get("/v1/sites"))["sites"].size(), 0u);
   // Inline in a job: the same, with the scenario's path.
-  Json job = minimal_example();
+  Json job = small_example();
   job["site"] = huge;
   expect_error(post("/v1/jobs", job), 422, "limit_exceeded", "site.terrain");
   EXPECT_EQ(get("/v1/jobs").body, R"({"jobs":[]})");
@@ -837,7 +843,7 @@ TEST_F(ServiceJobs, PostJobIs202WithLocationAndJobStatus) {
 
 TEST_F(ServiceJobs, InlineSiteJobHasNullSiteId) {
   start();
-  Json body = minimal_example();
+  Json body = small_example();
   body["fragment_groups"][0]["samples"] = 100;
   const Response r = post("/v1/jobs", body);
   ASSERT_EQ(r.status, 202) << r.body;
@@ -1199,7 +1205,7 @@ TEST_F(ServiceResults, SmallJobIsDoneAndItsResultsAreServed) {
   const Json p = body_of(ptn);
   EXPECT_EQ(p["job_id"], id);
   EXPECT_EQ(p["triangles"], 3200);
-  Json inline_scenario = minimal_example();
+  Json inline_scenario = small_example();
   inline_scenario["fragment_groups"][0]["samples"] = 200;
   const run::RunResult direct = run::run(api::parse_scenario(inline_scenario));
   EXPECT_EQ(p["density_per_m2"].get<std::vector<double>>(), direct.ptn_density_per_m2);

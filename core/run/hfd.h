@@ -1,0 +1,62 @@
+#pragma once
+// The hazardous fragment distance (HFD) of a PTN density field, overall and per 10-degree
+// sector, and whether the terrain's boundary cuts it (docs/scenario.md, "When the site boundary
+// cuts the HFD").
+//
+// The HFD is the largest horizontal distance from the HFD origin of a terrain triangle centroid
+// whose density is at or above the threshold. The density is only known on the terrain: when a
+// triangle touching the terrain's boundary (Site::terrain_boundary_triangles) is at or above the
+// threshold, the hazardous area runs off the model in that triangle's sector, and the sector's
+// HFD, and with it the overall HFD, is only a lower bound.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/common/types.h"
+#include "core/run/scenario.h"
+#include "core/scene/site.h"
+
+namespace fragsim::run {
+
+inline constexpr int kHfdSectors = 36;  // sector k: azimuth [10k, 10k + 10) deg from +x to +y
+using SectorFigures = std::array<double, kHfdSectors>;
+using SectorFlags = std::array<bool, kHfdSectors>;
+
+// The sector of the horizontal offset (dx, dy) from the HFD origin.
+int hfd_sector(double dx, double dy);
+
+// The point the HFD is measured from, input coordinates: settings.hfd_origin_m, else the first
+// group's frame origin, else the site's local origin.
+Vec3 hfd_origin_input(const Scenario& sc, const scene::Site& site);
+
+// Which figures of one density field the boundary cut.
+struct BoundaryCut {
+  SectorFlags sectors{};  // a boundary triangle of the sector is at or above the threshold
+  int sector_count = 0;   // of them
+  bool any() const { return sector_count > 0; }
+};
+
+// Per terrain triangle, its centroid's distance from the HFD origin and its sector; the
+// boundary triangles. Built once per run (or per result).
+class HfdGeometry {
+ public:
+  HfdGeometry(const scene::Site& site, const Vec3& origin_local);
+
+  // The HFD of `density` (0 when no triangle is at or above the threshold), and per sector.
+  double hfd(const std::vector<double>& density, double threshold,
+             SectorFigures* by_sector = nullptr) const;
+  // The sectors whose HFD of `density` the terrain's boundary cuts.
+  BoundaryCut cut(const std::vector<double>& density, double threshold) const;
+  // The largest density on a triangle touching the boundary (0 without one).
+  double max_boundary_density(const std::vector<double>& density) const;
+
+  const std::vector<double>& distances() const { return distance_; }
+  int sector_of(std::uint32_t triangle) const { return sector_[triangle]; }
+
+ private:
+  std::vector<double> distance_;      // per triangle, m
+  std::vector<std::uint8_t> sector_;  // per triangle
+  const std::vector<std::uint32_t>& boundary_;
+};
+
+}  // namespace fragsim::run
