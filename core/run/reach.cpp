@@ -70,7 +70,7 @@ double terrain_edge_along(const scene::Site& site, const Vec2& o, const Vec2& di
     }
     in = s;
   }
-  while (out - in > 1e-3) {
+  for (int it = 0; it < 64 && out - in > 1e-3; ++it) {  // 64: a bound whatever the distances
     const double mid = 0.5 * (in + out);
     (on_terrain(site, o + mid * dir) ? in : out) = mid;
   }
