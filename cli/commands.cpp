@@ -27,6 +27,7 @@
 #include "core/common/error.h"
 #include "core/run/partial.h"
 #include "core/run/precision.h"
+#include "core/run/reach.h"
 #include "core/run/run.h"
 
 namespace fragsim::cli {
@@ -50,6 +51,15 @@ std::string illustrative_note(const api::ScenarioDocument& doc) {
     names += names.empty() ? name : ", " + name;
   }
   return names.empty() ? "" : "note: materials marked illustrative: " + names + "\n";
+}
+
+// Fragment groups that can plainly reach beyond the terrain (core/run/reach.h): a warning line
+// each. The input is valid all the same.
+std::string reach_warnings(const run::Scenario& sc, const scene::Site& site) {
+  std::string text;
+  for (const run::ReachWarning& w : run::groups_beyond_terrain(sc, site))
+    text += "warning: " + run::reach_message(w) + "\n";
+  return text;
 }
 
 const char* terrain_form(const scene::TerrainSpec& t) {
@@ -100,7 +110,7 @@ int validate_command(const Options& o) {
             << sc.site.materials.size() << " materials\n"
             << "  fragment groups: " << sc.groups.size() << " (" << samples << " samples, "
             << fragments << " real fragments)\n";
-  std::cerr << illustrative_note(doc);
+  std::cerr << illustrative_note(doc) << reach_warnings(sc, *site);
   return kExitOk;
 }
 
@@ -186,7 +196,7 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
                        "cannot be split into shards (--shard I/N with N > 1): its checks at batch "
                        "boundaries need every history of a batch in one process (--shard 0/1 "
                        "runs it whole as one partial)");
-    if (!o.quiet) std::cerr << illustrative_note(p.doc);
+    if (!o.quiet) std::cerr << illustrative_note(p.doc) << reach_warnings(p.doc.scenario, *p.site);
     // Created before the run, so that an --out that cannot be made fails now, not after it; it
     // is removed again (if created here) unless the outputs are committed.
     const std::unique_ptr<api::OutputDir> out = open_out(o);

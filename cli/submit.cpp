@@ -133,6 +133,15 @@ std::string state_line(const Json& job, const std::string& state) {
   return line;
 }
 
+// The daemon's warnings on a submitted job (fragment groups that can reach beyond the terrain,
+// docs/http-api.md), printed as `fragsim run` prints them.
+void print_warnings(const Json& reply) {
+  const auto it = reply.find("warnings");
+  if (it == reply.end() || !it->is_array()) return;
+  for (const auto& w : *it)
+    if (w.is_object()) std::cerr << "warning: " << w.value("message", std::string()) << "\n";
+}
+
 // Uploads an inline site (POST /v1/sites) and names it by site_id in the scenario, then submits
 // the job (POST /v1/jobs). Returns the job id and whether the server queued it anew (202).
 std::pair<std::string, bool> submit_job(Client& client, Json scenario, const Options& o) {
@@ -148,7 +157,9 @@ std::pair<std::string, bool> submit_job(Client& client, Json scenario, const Opt
   if (o.priority) scenario["priority"] = *o.priority;
   if (!o.idempotency_key.empty()) scenario["idempotency_key"] = o.idempotency_key;
   const auto [status, body] = client.request("POST", "/v1/jobs", scenario.dump());
-  return {Json::parse(body).at("job_id").get<std::string>(), status == 202};
+  const Json reply = Json::parse(body);
+  if (!o.quiet) print_warnings(reply);
+  return {reply.at("job_id").get<std::string>(), status == 202};
 }
 
 // Follows the job until it ends, with a line when its state changes and about every 2 s while

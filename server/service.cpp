@@ -20,6 +20,7 @@
 #include "api/sha256.h"
 #include "api/site_document.h"
 #include "api/summary_json.h"
+#include "core/run/reach.h"
 #include "core/scene/site_limits.h"
 #include "fragsim/version.h"
 #include "gis/gdal_support.h"
@@ -656,6 +657,53 @@ OJson Service::job_json(const JobRow& row) {
   return j;
 }
 
+namespace {
+
+// Fragment groups of a submitted job that can plainly reach beyond the terrain (core/run/reach.h,
+// issue 22): warnings, not errors; the job is queued all the same.
+OJson reach_warnings(const run::Scenario& sc, const scene::Site& site) {
+  OJson list = OJson::array();
+  for (const run::ReachWarning& w : run::groups_beyond_terrain(sc, site))
+    list.push_back(OJson{{"field", run::reach_field(w)}, {"message", run::reach_message(w)}});
+  return list;
+}
+
+// "job queued", then a "job warning" line for each warning.
+void log_queued(const JobRow& row, const OJson& warnings) {
+  log(LogLevel::kInfo, "job queued",
+      {{"job_id", row.job_id},
+       {"site_id", row.site_id.value_or("inline")},
+       {"priority", std::to_string(row.priority)},
+       {"histories", std::to_string(row.histories_total)},
+       {"owner", row.owner.value_or("-")},
+       {"warnings", std::to_string(warnings.size())}});
+  for (const OJson& w : warnings)
+    log(LogLevel::kWarn, "job warning",
+        {{"job_id", row.job_id},
+         {"field", w.at("field").get<std::string>()},
+         {"message", w.at("message").get<std::string>()}});
+}
+
+// An accepted submission (202 queued anew, 200 a retry of one): the job with its warnings.
+Response job_accepted(int status, OJson job, OJson warnings) {
+  const std::string location = "/v1/jobs/" + job["job_id"].get<std::string>();
+  job["warnings"] = std::move(warnings);
+  Response r = json_response(status, job);
+  r.headers.emplace_back("Location", location);
+  return r;
+}
+
+}  // namespace
+
+// The site a job will run on: an inline site gets the full geometry check now, not when the job
+// runs; a stored site (`held`) was checked when it was uploaded.
+std::shared_ptr<const scene::Site> Service::job_site(const api::JobRequest& jr,
+                                                     const SiteEntry* held) const {
+  if (jr.document.site_id) return held != nullptr ? held->site : nullptr;
+  check_terrain_size(jr.document.scenario.site.terrain, "site.terrain");
+  return api::validate_scenario(jr.document.scenario);
+}
+
 Response Service::post_job(const Request& req) {
   if (auto bad = check_json_content_type(req)) return *bad;
   const nlohmann::json body = parse_body(req);
@@ -673,11 +721,8 @@ Response Service::post_job(const Request& req) {
                      "the job asks for up to " + std::to_string(jr.total_samples) +
                          " samples in all; this daemon allows at most " +
                          std::to_string(config_.max_samples_per_job) + " (--max-samples-per-job)");
-  // An inline site gets the full geometry check now, not when the job runs.
-  if (!jr.document.site_id) {
-    check_terrain_size(jr.document.scenario.site.terrain, "site.terrain");
-    (void)api::validate_scenario(jr.document.scenario);
-  }
+  const std::shared_ptr<const scene::Site> site = job_site(jr, held.get());
+  OJson warnings = site ? reach_warnings(jr.document.scenario, *site) : OJson::array();
 
   JobRow row;
   row.job_id = new_job_id();
@@ -710,20 +755,12 @@ Response Service::post_job(const Request& req) {
                                 "\" was used for a different request (job " + inserted.job.job_id +
                                 ")",
                             "idempotency_key");
-    Response r = json_response(200, job_json(inserted.job));
-    r.headers.emplace_back("Location", "/v1/jobs/" + inserted.job.job_id);
-    return r;
+    // The same request: the same scenario and site, so the same warnings.
+    return job_accepted(200, job_json(inserted.job), std::move(warnings));
   }
   scheduler_.notify();
-  log(LogLevel::kInfo, "job queued",
-      {{"job_id", row.job_id},
-       {"site_id", row.site_id.value_or("inline")},
-       {"priority", std::to_string(row.priority)},
-       {"histories", std::to_string(row.histories_total)},
-       {"owner", row.owner.value_or("-")}});
-  Response r = json_response(202, job_json(inserted.job));
-  r.headers.emplace_back("Location", "/v1/jobs/" + row.job_id);
-  return r;
+  log_queued(row, warnings);
+  return job_accepted(202, job_json(inserted.job), std::move(warnings));
 }
 
 Response Service::list_jobs(const Request& req) {

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "api/job_request.h"
 #include "server/config.h"
 #include "server/job_maps.h"
 #include "server/metrics.h"
@@ -117,6 +118,9 @@ class Service {
 
   bool authorised(const Request& req) const;
   void check_terrain_size(const scene::TerrainSpec& terrain, const std::string& field) const;
+  // The built site a submitted job names or holds (an inline one checked and built now).
+  std::shared_ptr<const scene::Site> job_site(const api::JobRequest& jr,
+                                              const SiteEntry* held) const;
   std::optional<std::string> owner_of(const Request& req) const;
   nlohmann::ordered_json site_json(const SiteEntry& e);
   nlohmann::ordered_json job_json(const JobRow& row);

@@ -219,6 +219,35 @@ TEST_F(Cli, RunWritesSummaryAndResults) {
   EXPECT_EQ(stored["settings"]["threads"], 2);
 }
 
+// Issue 22: a terrain too small for its fragments (the minimal example's group on a 400 m x
+// 400 m plane) is valid input: `validate` exits 0 with its ok lines and warns on stderr, naming
+// the group; `run` warns the same before the run (and not with --quiet); a terrain large enough
+// gives no warning.
+TEST_F(Cli, ATerrainTooSmallForAGroupIsWarnedOfNotRefused) {
+  Json small = minimal_example();
+  small["site"]["terrain"]["plane"]["extent_m"] = {-200, -200, 200, 200};
+  const fs::path small_file = scenario_file("small.json", small.dump());
+  const std::string warning = "warning: fragment_groups[0] (\"steel spheres\"): about ";
+  const CliResult v = run({"validate", small_file.string()});
+  EXPECT_EQ(v.exit_code, 0) << v.err;
+  EXPECT_EQ(v.out.rfind("ok: " + small_file.string() + "\n", 0), 0u) << v.out;
+  EXPECT_NE(v.err.find(warning), std::string::npos) << v.err;
+  EXPECT_NE(v.err.find("extend the terrain"), std::string::npos) << v.err;
+  EXPECT_EQ(v.err.find("warning: ", v.err.find(warning) + 1), std::string::npos) << "one group";
+
+  const CliResult r = run({"run", small_file.string(), "--out", (dir_ / "r").string(),
+                           "--samples-scale", "0.01", "--threads", "1"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find(warning), std::string::npos) << r.err;
+
+  Json large = small;
+  large["site"]["terrain"]["plane"]["extent_m"] = {-5000, -5000, 5000, 5000};
+  large["site"]["terrain"]["plane"]["cell_m"] = 250;
+  const CliResult l = run({"validate", scenario_file("large.json", large.dump()).string()});
+  EXPECT_EQ(l.exit_code, 0) << l.err;
+  EXPECT_EQ(l.err.find("warning:"), std::string::npos) << l.err;
+}
+
 TEST_F(Cli, QuietRunPrintsNothing) {
   const CliResult r = run({"run", FRAGSIM_SOURCE_DIR "/examples/minimal/scenario.json", "--out",
                            (dir_ / "q").string(), "--quiet", "--samples-scale", "0.1"});

@@ -548,6 +548,22 @@ TEST(Daemon, SubmitCommandRunsAScenarioOnTheServer) {
   EXPECT_NE(read_text(dir / "submit2.log").find("unauthorized"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir / "out2"));
 
+  // The daemon's warnings on a job are printed (issue 22): the minimal example's group can reach
+  // beyond a 400 m x 400 m plane. --no-wait: the job id on stdout, the warning on stderr.
+  Json small = minimal_scenario();
+  small["site"]["terrain"]["plane"]["extent_m"] = {-200, -200, 200, 200};
+  small["fragment_groups"][0]["samples"] = 20;
+  write_text(dir / "small.json", small.dump());
+  ASSERT_EQ(run_process({FRAGSIM_CLI, "submit", (dir / "small.json").string(), "--server", url,
+                         "--token-file", (dir / "tokens").string(), "--no-wait"},
+                        dir / "submit_small.log"),
+            0)
+      << read_text(dir / "submit_small.log");
+  EXPECT_NE(read_text(dir / "submit_small.log")
+                .find("warning: fragment_groups[0] (\"steel spheres\"): about "),
+            std::string::npos)
+      << read_text(dir / "submit_small.log");
+
   // A second daemon on the same data directory refuses to start.
   Daemon other(dir);
   EXPECT_THROW(other.start(), std::runtime_error);

@@ -810,7 +810,8 @@ TEST_F(ServiceJobs, PostJobIs202WithLocationAndJobStatus) {
                                          "histories_per_s", "eta_s",           "precision",
                                          "attempts",        "error",           "links"};
   for (const auto& key : keys) EXPECT_TRUE(j.contains(key)) << key;
-  EXPECT_EQ(j.size(), keys.size()) << j.dump();
+  EXPECT_EQ(j.size(), keys.size() + 1) << j.dump();
+  EXPECT_TRUE(j["warnings"].is_array()) << "the submission's warnings, with the JobStatus";
   EXPECT_EQ(j["site_id"], site);
   EXPECT_EQ(j["state"], "queued");
   EXPECT_EQ(j["priority"], 7);
@@ -838,7 +839,43 @@ TEST_F(ServiceJobs, PostJobIs202WithLocationAndJobStatus) {
 
   const Json again = job(id);
   EXPECT_EQ(again["job_id"], id);
-  EXPECT_EQ(again.size(), keys.size());
+  EXPECT_EQ(again.size(), keys.size()) << "warnings are the submission's only";
+}
+
+// Issue 22: a fragment group that can plainly reach beyond the terrain (the minimal example's
+// steel spheres on a 400 m x 400 m plane) is queued all the same, with a warning naming it: by
+// site_id and with the site inline, and again on an idempotent repeat. A terrain large enough:
+// an empty list.
+TEST_F(ServiceJobs, PostJobWarnsOfAGroupThatCanReachBeyondTheTerrain) {
+  start();
+  Json small = minimal_example();
+  small["site"]["terrain"]["plane"]["extent_m"] = {-200, -200, 200, 200};
+  small["fragment_groups"][0]["samples"] = 50;
+  Json by_id = job_on(add_site(small["site"]), 50);
+  by_id["idempotency_key"] = "reach";
+  const Response r = post("/v1/jobs", by_id);
+  ASSERT_EQ(r.status, 202) << r.body;
+  const Json warnings = body_of(r)["warnings"];
+  ASSERT_EQ(warnings.size(), 1u) << r.body;
+  EXPECT_EQ(warnings[0].size(), 2u);
+  EXPECT_EQ(warnings[0]["field"], "fragment_groups[0]");
+  const std::string message = warnings[0]["message"];
+  EXPECT_EQ(message.rfind("fragment_groups[0] (\"steel spheres\"): about ", 0), 0u) << message;
+  EXPECT_NE(message.find("extend the terrain"), std::string::npos) << message;
+
+  const Response repeat = post("/v1/jobs", by_id);
+  ASSERT_EQ(repeat.status, 200) << repeat.body;
+  EXPECT_EQ(body_of(repeat)["warnings"], warnings);
+  const Response inline_site = post("/v1/jobs", small);
+  ASSERT_EQ(inline_site.status, 202) << inline_site.body;
+  EXPECT_EQ(body_of(inline_site)["warnings"], warnings);
+
+  Json large = small;
+  large["site"]["terrain"]["plane"]["extent_m"] = {-5000, -5000, 5000, 5000};
+  large["site"]["terrain"]["plane"]["cell_m"] = 250;
+  const Response none = post("/v1/jobs", large);
+  ASSERT_EQ(none.status, 202) << none.body;
+  EXPECT_EQ(body_of(none)["warnings"], Json::array());
 }
 
 TEST_F(ServiceJobs, InlineSiteJobHasNullSiteId) {
