@@ -53,12 +53,13 @@ std::string illustrative_note(const api::ScenarioDocument& doc) {
   return names.empty() ? "" : "note: materials marked illustrative: " + names + "\n";
 }
 
-// Fragment groups that can plainly reach beyond the terrain (core/run/reach.h): a warning line
-// each. The input is valid all the same.
+// Fragment groups that can reach beyond the terrain (core/run/reach.h): a "warning:" line each
+// when plain, a "note:" line when a single pilot fragment got there. The input is valid all
+// the same.
 std::string reach_warnings(const run::Scenario& sc, const scene::Site& site) {
   std::string text;
   for (const run::ReachWarning& w : run::groups_beyond_terrain(sc, site))
-    text += "warning: " + run::reach_message(w) + "\n";
+    text += std::string(w.severity()) + ": " + run::reach_message(w) + "\n";
   return text;
 }
 

@@ -139,7 +139,9 @@ void print_warnings(const Json& reply) {
   const auto it = reply.find("warnings");
   if (it == reply.end() || !it->is_array()) return;
   for (const auto& w : *it)
-    if (w.is_object()) std::cerr << "warning: " << w.value("message", std::string()) << "\n";
+    if (w.is_object())
+      std::cerr << w.value("severity", std::string("warning")) << ": "
+                << w.value("message", std::string()) << "\n";
 }
 
 // Uploads an inline site (POST /v1/sites) and names it by site_id in the scenario, then submits

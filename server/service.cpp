@@ -664,7 +664,9 @@ namespace {
 OJson reach_warnings(const run::Scenario& sc, const scene::Site& site) {
   OJson list = OJson::array();
   for (const run::ReachWarning& w : run::groups_beyond_terrain(sc, site))
-    list.push_back(OJson{{"field", run::reach_field(w)}, {"message", run::reach_message(w)}});
+    list.push_back(OJson{{"field", run::reach_field(w)},
+                         {"severity", w.severity()},
+                         {"message", run::reach_message(w)}});
   return list;
 }
 

@@ -200,16 +200,22 @@ std::string reach_message(const ReachWarning& w) {
   char ke[32];
   std::snprintf(ke, sizeof ke, "%g", w.hazardous_ke_j);
   const long azimuth = std::lround(w.farthest_azimuth_deg) % 360;
-  return reach_field(w) + " (\"" + w.group_name + "\"): about " + percent(w.fraction) +
-         " % of its fragments (~" + about(w.real_fragments, 2) +
-         " real fragments) land beyond the terrain while still hazardous (>= " + ke +
-         " J); the farthest about " + about(w.farthest_m, 3) +
-         " m from its origin toward azimuth " + std::to_string(azimuth) +
-         " deg, where the terrain ends at " + about(w.terrain_edge_m, 3) +
-         " m. The hazardous fragment distance will likely be cut by the site boundary: extend "
-         "the terrain. (Estimate from " +
-         std::to_string(w.pilot) + " drag trajectories, " + std::to_string(w.beyond) +
-         " of them beyond, standard error " + percent(w.fraction_se) +
+  const std::string what = w.plain() ? "about " + percent(w.fraction) + " % of its fragments (~" +
+                                           about(w.real_fragments, 2) + " real fragments) land"
+                                     : "a few of its fragments (one pilot fragment of " +
+                                           std::to_string(w.pilot) + ", ~" +
+                                           about(w.real_fragments, 2) + " real fragments) can land";
+  const std::string advice =
+      w.plain() ? "Where they land is not modelled and the hazardous fragment distance may be cut "
+                  "by the site boundary (the run says whether it is): extend the terrain."
+                : "Where they land is not modelled; the run says whether the site boundary cuts "
+                  "the hazardous fragment distance.";
+  return reach_field(w) + " (\"" + w.group_name + "\"): " + what +
+         " beyond the terrain while still hazardous (>= " + ke + " J); the farthest about " +
+         about(w.farthest_m, 3) + " m from its origin toward azimuth " + std::to_string(azimuth) +
+         " deg, where the terrain ends at " + about(w.terrain_edge_m, 3) + " m. " + advice +
+         " (Estimate from " + std::to_string(w.pilot) + " drag trajectories, " +
+         std::to_string(w.beyond) + " of them beyond, standard error " + percent(w.fraction_se) +
          " %, over flat ground at the launch level; no terrain relief, no bounce.)";
 }
 

@@ -40,6 +40,11 @@ struct ReachWarning {
   double farthest_m = 0.0;            // horizontal distance of the farthest beyond landing ...
   double farthest_azimuth_deg = 0.0;  // ... its azimuth from the origin, +x toward +y, [0, 360)
   double terrain_edge_m = 0.0;        // where the terrain ends along that azimuth (horizontal)
+  // Plain: at least kPlainBeyond pilot fragments beyond (a "warning"); a single one is a "note"
+  // (one draw of K says little more than that the tail of the group can get there).
+  static constexpr std::int64_t kPlainBeyond = 2;
+  bool plain() const { return beyond >= kPlainBeyond; }
+  const char* severity() const { return plain() ? "warning" : "note"; }
 };
 
 // K for each of `groups` groups under `options`: the per-group pilot, less when the budget

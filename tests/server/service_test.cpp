@@ -857,8 +857,9 @@ TEST_F(ServiceJobs, PostJobWarnsOfAGroupThatCanReachBeyondTheTerrain) {
   ASSERT_EQ(r.status, 202) << r.body;
   const Json warnings = body_of(r)["warnings"];
   ASSERT_EQ(warnings.size(), 1u) << r.body;
-  EXPECT_EQ(warnings[0].size(), 2u);
+  EXPECT_EQ(warnings[0].size(), 3u);
   EXPECT_EQ(warnings[0]["field"], "fragment_groups[0]");
+  EXPECT_EQ(warnings[0]["severity"], "warning");
   const std::string message = warnings[0]["message"];
   EXPECT_EQ(message.rfind("fragment_groups[0] (\"steel spheres\"): about ", 0), 0u) << message;
   EXPECT_NE(message.find("extend the terrain"), std::string::npos) << message;

@@ -49,6 +49,7 @@ TEST(Reach, AGroupThatPlainlyReachesBeyondASmallPlaneWarnsAndIsNamed) {
   const std::string m = reach_message(w[0]);
   EXPECT_EQ(m.rfind("fragment_groups[0] (\"steel spheres\"): about ", 0), 0u) << m;
   EXPECT_NE(m.find("extend the terrain"), std::string::npos) << m;
+  EXPECT_STREQ(w[0].severity(), "warning");
 }
 
 TEST(Reach, TheSameGroupOnALargeEnoughPlaneDoesNotWarn) {
@@ -131,9 +132,40 @@ TEST(Reach, TheMessageGivesTheEstimateInRoundFigures) {
             "fragment_groups[0] (\"steel spheres\"): about 63 % of its fragments (~630 real "
             "fragments) land beyond the terrain while still hazardous (>= 79 J); the farthest "
             "about 1,230 m from its origin toward azimuth 40 deg, where the terrain ends at 283 m. "
-            "The hazardous fragment distance will likely be cut by the site boundary: extend the "
-            "terrain. (Estimate from 256 drag trajectories, 161 of them beyond, standard error "
-            "3 %, over flat ground at the launch level; no terrain relief, no bounce.)");
+            "Where they land is not modelled and the hazardous fragment distance may be cut by "
+            "the site boundary (the run says whether it is): extend the terrain. (Estimate from "
+            "256 drag trajectories, 161 of them beyond, standard error 3 %, over flat ground at "
+            "the launch level; no terrain relief, no bounce.)");
+  EXPECT_STREQ(w.severity(), "warning");
+}
+
+// A single pilot fragment beyond (the demo's head closure, 1 of 256) says only that the tail of
+// the group can get there: a note, not a warning.
+TEST(Reach, ASinglePilotFragmentBeyondIsANote) {
+  ReachWarning w;
+  w.group = 1;
+  w.group_name = "head closure";
+  w.count = 200.0;
+  w.pilot = 256;
+  w.beyond = 1;
+  w.fraction = 1.0 / 256.0;
+  w.fraction_se = std::sqrt(w.fraction * (1 - w.fraction) / 256.0);
+  w.real_fragments = 200.0 * w.fraction;
+  w.hazardous_ke_j = 79.0;
+  w.farthest_m = 1110.0;
+  w.farthest_azimuth_deg = 17.0;
+  w.terrain_edge_m = 1050.0;
+  EXPECT_FALSE(w.plain());
+  EXPECT_STREQ(w.severity(), "note");
+  const std::string m = reach_message(w);
+  EXPECT_EQ(m.rfind("fragment_groups[1] (\"head closure\"): a few of its fragments (one pilot "
+                    "fragment of 256, ~0.78 real fragments) can land beyond the terrain",
+                    0),
+            0u)
+      << m;
+  EXPECT_EQ(m.find("extend the terrain"), std::string::npos) << m;
+  w.beyond = 2;
+  EXPECT_STREQ(w.severity(), "warning");
 }
 
 }  // namespace
