@@ -38,6 +38,13 @@ struct Results {
   std::vector<double> density, std_error;
   double threshold = 0, hfd_m = 0, band_lo = 0, band_hi = 0;
   std::vector<double> by_sector;
+  // Where the terrain's boundary cuts the HFD (results.h5 /hfd/*bound*, format 2): "lower" or
+  // "none" each; "unknown" from a results.h5 of format 1, which does not say.
+  std::string hfd_bound = "unknown", band_lower_bound = "unknown", band_upper_bound = "unknown";
+  std::vector<std::string> sector_bound = std::vector<std::string>(36, "unknown");
+  std::string hfd_note;
+  double left_hazardous = 0, left_hazardous_se = 0;  // real fragments (format 2)
+  std::vector<double> left_hazardous_by_sector = std::vector<double>(36, 0.0);
   Vec3 hfd_origin;
   std::vector<Building> buildings;
   std::string crs;            // "" when the site has none
@@ -102,6 +109,27 @@ void read_buildings(const fs::path& f, Results& r) {
         {v[t[k][0]].head<2>(), v[t[k][1]].head<2>(), v[t[k][2]].head<2>()});
 }
 
+const char* bound_name(double flag) {
+  return flag != 0.0 ? "lower" : "none";
+}
+
+void read_hfd_bounds(const fs::path& f, Results& r) {
+  if (api::read_attribute_int64(f, "/", "format_version") < 2) return;
+  r.hfd_bound = bound_name(api::read_dataset_double(f, "/hfd/bound").at(0));
+  const auto band = api::read_dataset_double(f, "/hfd/band_bound");
+  r.band_lower_bound = bound_name(band.at(0));
+  r.band_upper_bound = bound_name(band.at(1));
+  const auto sectors = api::read_dataset_double(f, "/hfd/by_sector_bound");
+  for (std::size_t k = 0; k < r.sector_bound.size() && k < sectors.size(); ++k)
+    r.sector_bound[k] = bound_name(sectors[k]);
+  r.hfd_note = api::read_attribute_string(f, "/hfd", "note");
+  r.left_hazardous = api::read_dataset_double(f, "/hfd/left_site_hazardous_fragments").at(0);
+  r.left_hazardous_se =
+      api::read_dataset_double(f, "/hfd/left_site_hazardous_fragments_std_error").at(0);
+  r.left_hazardous_by_sector = api::read_dataset_double(f, "/hfd/left_site_hazardous_by_sector");
+  r.left_hazardous_by_sector.resize(36, 0.0);
+}
+
 Results read_results(const fs::path& f) {
   Results r;
   try {
@@ -120,6 +148,7 @@ Results read_results(const fs::path& f) {
     r.by_sector = api::read_dataset_double(f, "/hfd/by_sector_m");
     const auto o = api::read_dataset_double(f, "/hfd/origin_m");
     r.hfd_origin = Vec3(o.at(0) + r.offset.x(), o.at(1) + r.offset.y(), o.at(2));
+    read_hfd_bounds(f, r);
     read_buildings(f, r);
   } catch (const std::exception& e) {
     throw InputError("RESULTS.h5", f.string() + ": " + e.what());
@@ -323,20 +352,26 @@ void add_feature(OGRLayer& l, const OGRGeometry& g, const std::function<void(OGR
 
 void write_hazard_layer(GDALDataset& ds, const Results& r, const LayerSet& g,
                         const OGRSpatialReference* srs, OGRCoordinateTransformation* tr) {
-  OGRLayer* l =
-      new_layer(ds, "hazardous_area", srs, wkbMultiPolygon,
-                {{"band", OFTString}, {"threshold_per_m2", OFTReal}, {"rule", OFTString}});
-  const std::array<std::tuple<const char*, const OGRGeometry*, const char*>, 3> rows = {
-      {{"estimate", g.estimate.get(), "density >= threshold"},
-       {"lower_1se", g.lower.get(), "density - 1 standard error >= threshold"},
-       {"upper_1se", g.upper.get(), "density + 1 standard error >= threshold"}}};
-  for (const auto& [band, geom, rule] : rows)
+  OGRLayer* l = new_layer(ds, "hazardous_area", srs, wkbMultiPolygon,
+                          {{"band", OFTString},
+                           {"threshold_per_m2", OFTReal},
+                           {"rule", OFTString},
+                           {"extent_bound", OFTString}});
+  // extent_bound "lower": the area reaches the site boundary and goes on beyond the model.
+  const std::array<std::tuple<const char*, const OGRGeometry*, const char*, const std::string*>, 3>
+      rows = {{{"estimate", g.estimate.get(), "density >= threshold", &r.hfd_bound},
+               {"lower_1se", g.lower.get(), "density - 1 standard error >= threshold",
+                &r.band_lower_bound},
+               {"upper_1se", g.upper.get(), "density + 1 standard error >= threshold",
+                &r.band_upper_bound}}};
+  for (const auto& [band, geom, rule, bound] : rows)
     add_feature(
         *l, *geom,
-        [&, band = band, rule = rule](OGRFeature& f) {
+        [&, band = band, rule = rule, bound = bound](OGRFeature& f) {
           f.SetField("band", band);
           f.SetField("threshold_per_m2", r.threshold);
           f.SetField("rule", rule);
+          f.SetField("extent_bound", bound->c_str());
         },
         tr);
 }
@@ -368,22 +403,37 @@ void write_hfd_layers(GDALDataset& ds, const Results& r, const OGRSpatialReferen
                       OGRCoordinateTransformation* tr) {
   OGRLayer* p = new_layer(ds, "hfd", srs, wkbPoint,
                           {{"hfd_m", OFTReal},
+                           {"hfd_bound", OFTString},
                            {"band_lower_m", OFTReal},
                            {"band_upper_m", OFTReal},
-                           {"threshold_per_m2", OFTReal}});
+                           {"band_lower_bound", OFTString},
+                           {"band_upper_bound", OFTString},
+                           {"threshold_per_m2", OFTReal},
+                           {"note", OFTString},
+                           {"left_site_hazardous", OFTReal},
+                           {"left_site_hazardous_se", OFTReal}});
   const OGRPoint origin(r.hfd_origin.x(), r.hfd_origin.y());
   add_feature(
       *p, origin,
       [&](OGRFeature& f) {
         f.SetField("hfd_m", r.hfd_m);
+        f.SetField("hfd_bound", r.hfd_bound.c_str());
         f.SetField("band_lower_m", r.band_lo);
         f.SetField("band_upper_m", r.band_hi);
+        f.SetField("band_lower_bound", r.band_lower_bound.c_str());
+        f.SetField("band_upper_bound", r.band_upper_bound.c_str());
         f.SetField("threshold_per_m2", r.threshold);
+        f.SetField("note", r.hfd_note.c_str());
+        f.SetField("left_site_hazardous", r.left_hazardous);
+        f.SetField("left_site_hazardous_se", r.left_hazardous_se);
       },
       tr);
-  OGRLayer* s =
-      new_layer(ds, "hfd_sectors", srs, wkbLineString,
-                {{"azimuth_from_deg", OFTReal}, {"azimuth_to_deg", OFTReal}, {"hfd_m", OFTReal}});
+  OGRLayer* s = new_layer(ds, "hfd_sectors", srs, wkbLineString,
+                          {{"azimuth_from_deg", OFTReal},
+                           {"azimuth_to_deg", OFTReal},
+                           {"hfd_m", OFTReal},
+                           {"hfd_bound", OFTString},
+                           {"left_site_hazardous", OFTReal}});
   for (std::size_t k = 0; k < r.by_sector.size(); ++k) {
     const double a = (10.0 * static_cast<double>(k) + 5.0) * M_PI / 180.0;  // sector centre
     OGRLineString line;
@@ -396,6 +446,8 @@ void write_hfd_layers(GDALDataset& ds, const Results& r, const OGRSpatialReferen
           f.SetField("azimuth_from_deg", 10.0 * static_cast<double>(k));
           f.SetField("azimuth_to_deg", 10.0 * static_cast<double>(k + 1));
           f.SetField("hfd_m", r.by_sector[k]);
+          f.SetField("hfd_bound", r.sector_bound[k].c_str());
+          f.SetField("left_site_hazardous", r.left_hazardous_by_sector[k]);
         },
         tr);
   }
@@ -444,6 +496,7 @@ void stage_paraview(const fs::path& h5, const Vec2& offset,
 ExportReport export_results(const ExportOptions& o) {
   const Results r = read_results(o.results_h5);
   ExportReport report;
+  if (r.hfd_bound == "lower") report.notes.push_back(r.hfd_note);  // on every export, first
   // site.origin.crs is informational in a scenario: a label PROJ does not know (e.g. "local")
   // is treated as no CRS, as the PTN GeoJSON route does, rather than refusing the export.
   std::optional<OGRSpatialReference> srs;

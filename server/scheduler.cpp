@@ -14,6 +14,7 @@
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
 #include "api/sha256.h"
+#include "api/summary_json.h"
 #include "core/common/error.h"
 #include "core/run/partial.h"
 #include "core/run/run.h"
@@ -344,7 +345,11 @@ bool Scheduler::persist(const JobRow& job, const api::ScenarioDocument& doc,
       {{"job_id", id},
        {"wall_s", format_double(wall)},
        {"histories", std::to_string(result.histories_done)},
-       {"hfd_m", format_double(result.hazardous_fragment_distance_m)}});
+       {"hfd_m", format_double(result.hazardous_fragment_distance_m)},
+       {"hfd_bound", result.site_boundary.hfd_cut ? "lower" : "none"}});
+  if (result.site_boundary.hfd_cut)
+    log(LogLevel::kWarn, "job hfd is a lower bound",
+        {{"job_id", id}, {"note", api::hfd_bound_note(result)}});
   return true;
 }
 

@@ -214,6 +214,47 @@ TEST_F(ResultsH5, PtnHfdBuildingsOutcomes) {
   EXPECT_EQ(read_dataset_double(f, "/outcomes/fragments_std_error")[3], 3.75);
 }
 
+// Issue 22: where the terrain's boundary cuts the HFD, and the hazardous fragments that left.
+TEST_F(ResultsH5, SiteBoundaryFlagsAndLeavers) {
+  const fs::path none = write("none.h5", result_);
+  EXPECT_EQ(read_dataset_double(none, "/hfd/bound"), std::vector<double>{0.0});
+  EXPECT_EQ(read_attribute_string(none, "/hfd", "bound"), "none");
+  EXPECT_EQ(read_attribute_string(none, "/hfd", "note"), "");
+  // The 4 x 4-cell plane: its 12 outer cells are the boundary.
+  EXPECT_EQ(read_dataset_int64(none, "/hfd/boundary_triangles").size(), 24u);
+
+  run::RunResult r = result_;
+  run::SiteBoundary& b = r.site_boundary;
+  b.hfd_cut = b.band_upper_cut = true;
+  b.hfd_sectors_cut = 1;
+  b.hfd_sector_cut[7] = true;
+  b.max_boundary_density_per_m2 = 0.03;
+  b.left_hazardous = {12.5, 2.5};
+  b.left_hazardous_by_sector[7] = {12.5, 2.5};
+  b.left_hazardous_histories = 25;
+  const fs::path f = write("cut.h5", r);
+  EXPECT_EQ(read_attribute_string(f, "/", "hfd_bound"), "lower");
+  EXPECT_EQ(read_attribute_string(f, "/hfd", "bound"), "lower");
+  EXPECT_EQ(read_attribute_string(f, "/hfd", "note"), hfd_bound_note(r));
+  EXPECT_EQ(read_dataset_double(f, "/hfd/bound"), std::vector<double>{1.0});
+  EXPECT_EQ(read_dataset_double(f, "/hfd/band_bound"), (std::vector<double>{0.0, 1.0}));
+  std::vector<double> sectors(36, 0.0);
+  sectors[7] = 1.0;
+  EXPECT_EQ(read_dataset_double(f, "/hfd/by_sector_bound"), sectors);
+  const auto boundary = read_dataset_int64(f, "/hfd/boundary_triangles");
+  EXPECT_EQ(std::vector<std::uint32_t>(boundary.begin(), boundary.end()),
+            site_->terrain_boundary_triangles());
+  EXPECT_EQ(read_dataset_double(f, "/hfd/boundary_max_density_per_m2"), std::vector<double>{0.03});
+  EXPECT_EQ(read_dataset_int64(f, "/hfd/left_site_hazardous_histories"),
+            std::vector<std::int64_t>{25});
+  EXPECT_EQ(read_dataset_double(f, "/hfd/left_site_hazardous_fragments"),
+            std::vector<double>{12.5});
+  EXPECT_EQ(read_dataset_double(f, "/hfd/left_site_hazardous_fragments_std_error"),
+            std::vector<double>{2.5});
+  EXPECT_EQ(read_dataset_double(f, "/hfd/left_site_hazardous_by_sector")[7], 12.5);
+  EXPECT_EQ(read_dataset_double(f, "/hfd/left_site_hazardous_by_sector_std_error")[7], 2.5);
+}
+
 TEST_F(ResultsH5, FragmentAndTrajectoryRecords) {
   const fs::path f = write("r.h5", result_);
   EXPECT_EQ(read_dataset_int64(f, "/fragments/history"), (std::vector<std::int64_t>{0, 1, 2}));

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <limits>
 #include <memory>
 
@@ -83,6 +84,80 @@ TEST(SummaryJson, HeadlineFields) {
   EXPECT_EQ(s["provenance"]["version"], kVersion);
   EXPECT_EQ(s["provenance"]["git_sha"], kGitSha);
   EXPECT_EQ(s["provenance"]["scenario_sha256"], "abc123");
+}
+
+// Issue 22: an HFD cut by the site boundary is a lower bound in summary.json (hfd_bound, the band's
+// ends, every sector) and says so first thing in the text, with the fragments that left.
+run::RunResult cut_result() {
+  run::RunResult r = synthetic_result();
+  run::SiteBoundary& b = r.site_boundary;
+  b.hfd_cut = true;
+  b.band_upper_cut = true;
+  b.hfd_sectors_cut = 2;
+  b.hfd_sector_cut[0] = b.hfd_sector_cut[35] = true;
+  b.max_boundary_density_per_m2 = 0.05;
+  b.left_hazardous = {963.0, 4.25};
+  b.left_hazardous_by_sector[0] = {500.0, 3.0};
+  b.left_hazardous_by_sector[35] = {463.0, 3.0};
+  b.left_hazardous_histories = 1926;
+  return r;
+}
+
+TEST(SummaryJson, AnHfdCutByTheSiteBoundaryIsALowerBound) {
+  const Json s = summary_to_json(cut_result(), run::Scenario{}, build_provenance());
+  EXPECT_EQ(s["hfd_bound"], "lower");
+  EXPECT_EQ(s["hfd_band_bound"], Json::array({"none", "lower"}));
+  ASSERT_EQ(s["hfd_by_sector_bound"].size(), 36u);
+  EXPECT_EQ(s["hfd_by_sector_bound"][0], "lower");
+  EXPECT_EQ(s["hfd_by_sector_bound"][1], "none");
+  EXPECT_EQ(s["hfd_by_sector_bound"][35], "lower");
+  // The flag follows the figure it qualifies.
+  std::vector<std::string> keys;
+  for (const auto& item : s.items()) keys.push_back(item.key());
+  const auto at = [&](const char* k) {
+    return std::find(keys.begin(), keys.end(), k) - keys.begin();
+  };
+  EXPECT_EQ(at("hfd_bound"), at("hazardous_fragment_distance_m") + 1);
+  EXPECT_EQ(at("hfd_band_bound"), at("hazardous_fragment_distance_band_m") + 1);
+  EXPECT_EQ(at("hfd_by_sector_bound"), at("hfd_by_sector_m") + 1);
+  const Json& sb = s["site_boundary"];
+  EXPECT_EQ(sb["hfd_sectors_cut"], 2);
+  EXPECT_EQ(sb["max_boundary_density_per_m2"], 0.05);
+  EXPECT_EQ(sb["left_site_hazardous"]["histories"], 1926);
+  EXPECT_EQ(sb["left_site_hazardous"]["fragments"], 963.0);
+  EXPECT_EQ(sb["left_site_hazardous"]["fragments_std_error"], 4.25);
+  EXPECT_EQ(sb["left_site_hazardous"]["by_sector_fragments"][35], 463.0);
+  EXPECT_EQ(sb["left_site_hazardous"]["by_sector_std_error"][0], 3.0);
+  EXPECT_EQ(sb["note"],
+            "HFD ≥ 266.5 m: hazardous density reaches the site boundary in 2 of 36 sectors; "
+            "extend the terrain");
+
+  const std::string text = render_summary_text(s);
+  EXPECT_EQ(text.rfind("WARNING: HFD ≥ 266.5 m: hazardous density reaches the site boundary in 2 "
+                       "of 36 sectors; extend the terrain\n",
+                       0),
+            0u)
+      << text;
+  for (const char* part :
+       {"Hazardous fragment distance   ≥ 266.5 m, a lower bound  (±1 se band 248.0 .. ≥ 273.2 m)",
+        "  site boundary               hazardous in 2 of 36 sectors (density there up to 0.05 per "
+        "m², 2.8 × the threshold)",
+        "  left site while hazardous   963 ± 4.25 real fragments (1926 histories): where they land "
+        "is not modelled"})
+    EXPECT_NE(text.find(part), std::string::npos) << "missing \"" << part << "\" in\n" << text;
+}
+
+TEST(SummaryJson, AnHfdInsideTheSiteIsNoBound) {
+  const Json s = summary_to_json(synthetic_result(), run::Scenario{}, build_provenance());
+  EXPECT_EQ(s["hfd_bound"], "none");
+  EXPECT_EQ(s["hfd_band_bound"], Json::array({"none", "none"}));
+  for (const auto& b : s["hfd_by_sector_bound"]) EXPECT_EQ(b, "none");
+  EXPECT_TRUE(s["site_boundary"]["note"].is_null());
+  EXPECT_EQ(s["site_boundary"]["hfd_sectors_cut"], 0);
+  const std::string text = render_summary_text(s);
+  EXPECT_EQ(text.find("WARNING"), std::string::npos) << text;
+  EXPECT_EQ(text.find("≥"), std::string::npos) << text;
+  EXPECT_NE(text.find("  site boundary               not reached"), std::string::npos) << text;
 }
 
 TEST(SummaryJson, Buildings) {
@@ -236,6 +311,23 @@ TEST(SummaryJson, PrecisionStopAndTargets) {
   EXPECT_NE(text.find("NOT MET"), std::string::npos) << text;
   EXPECT_NE(text.find("0 of 1 met; worst far_store building_penetrations"), std::string::npos)
       << text;
+
+  // An HFD target the site boundary makes unmeetable: in JSON, and said with its reason.
+  report->targets[0].unmeetable = true;
+  report->targets[0].note = "the HFD is a lower bound; extend the terrain";
+  report->any_unmeetable = true;
+  r.stop_reason = run::StopReason::kTargetsUnmeetable;
+  const Json u = summary_to_json(r, run::Scenario{}, build_provenance());
+  EXPECT_EQ(u["stop_reason"], "targets_unmeetable");
+  EXPECT_TRUE(u["precision"]["any_unmeetable"].get<bool>());
+  EXPECT_TRUE(u["precision"]["targets"][0]["unmeetable"].get<bool>());
+  EXPECT_EQ(u["precision"]["targets"][0]["note"], "the HFD is a lower bound; extend the terrain");
+  EXPECT_TRUE(u["precision"]["targets"][1]["note"].is_null());
+  const std::string ut = render_summary_text(u);
+  EXPECT_NE(ut.find("Precision targets (not all can be met)"), std::string::npos) << ut;
+  EXPECT_NE(ut.find("UNMEETABLE: the HFD is a lower bound; extend the terrain"), std::string::npos)
+      << ut;
+  EXPECT_NE(ut.find("stopped: targets_unmeetable"), std::string::npos) << ut;
 }
 
 }  // namespace

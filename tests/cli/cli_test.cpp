@@ -248,6 +248,30 @@ TEST_F(Cli, ATerrainTooSmallForAGroupIsWarnedOfNotRefused) {
   EXPECT_EQ(l.err.find("warning:"), std::string::npos) << l.err;
 }
 
+// Issue 22: the printed summary of a run whose HFD the site boundary cuts starts with a warning
+// and prints the HFD as a bound; summary.json says "lower". The example as shipped: neither.
+TEST_F(Cli, AnHfdCutByTheSiteBoundaryIsPrintedAsALowerBound) {
+  Json small = minimal_example();
+  small["site"]["terrain"]["plane"]["extent_m"] = {-200, -200, 200, 200};
+  small["site"]["terrain"]["plane"]["cell_m"] = 10;
+  const CliResult r = run({"run", scenario_file("small.json", small.dump()).string(), "--out",
+                           (dir_ / "small").string(), "--threads", "1"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.rfind("WARNING: HFD ≥ ", 0), 0u) << r.out;
+  EXPECT_NE(r.out.find("reaches the site boundary in "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("Hazardous fragment distance   ≥ "), std::string::npos) << r.out;
+  const Json s = Json::parse(fragsim::api::testing::read_text(dir_ / "small/summary.json"));
+  EXPECT_EQ(s["hfd_bound"], "lower");
+  EXPECT_GT(s["site_boundary"]["left_site_hazardous"]["histories"].get<int>(), 0);
+
+  const CliResult e = run({"run", FRAGSIM_SOURCE_DIR "/examples/minimal/scenario.json", "--out",
+                           (dir_ / "example").string(), "--threads", "1"});
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+  EXPECT_EQ(e.out.find("WARNING"), std::string::npos) << e.out;
+  EXPECT_EQ(e.out.find("≥"), std::string::npos) << e.out;
+  EXPECT_NE(e.out.find("  site boundary               not reached"), std::string::npos) << e.out;
+}
+
 TEST_F(Cli, QuietRunPrintsNothing) {
   const CliResult r = run({"run", FRAGSIM_SOURCE_DIR "/examples/minimal/scenario.json", "--out",
                            (dir_ / "q").string(), "--quiet", "--samples-scale", "0.1"});

@@ -6,6 +6,7 @@
 #include <ogrsf_frmts.h>
 
 #include <cmath>
+#include <map>
 
 #include "api/ptn_json.h"
 #include "api/results_h5.h"
@@ -159,6 +160,64 @@ TEST_F(ResultsExport, TheHazardousAreaIsExactlyTheTrianglesAtOrAboveTheThreshold
   EXPECT_EQ(ds->GetLayerByName("hfd_sectors")->GetFeatureCount(), 36);
 }
 
+// Issue 22: the HFD, its band, its sectors and the hazardous area say whether the terrain's
+// boundary cuts them, as results.h5 does, in the GeoPackage and the KML; the export's first note
+// says so. On the small plane the area runs off the site; on the minimal example's own 3 km plane
+// it does not.
+std::map<std::string, std::string> hfd_fields(const fs::path& gpkg) {
+  GDALDatasetUniquePtr ds(GDALDataset::Open(gpkg.c_str(), GDAL_OF_VECTOR));
+  std::map<std::string, std::string> out;
+  if (!ds) return out;
+  OGRLayer* hfd = ds->GetLayerByName("hfd");
+  for (auto& f : *hfd)
+    for (const char* k : {"hfd_bound", "band_lower_bound", "band_upper_bound", "note"})
+      out[k] = f->GetFieldAsString(k);
+  for (auto& f : *ds->GetLayerByName("hazardous_area"))
+    out[std::string("area_") + f->GetFieldAsString("band")] = f->GetFieldAsString("extent_bound");
+  int k = 0;
+  for (auto& f : *ds->GetLayerByName("hfd_sectors"))
+    out["sector_" + std::to_string(k++)] = f->GetFieldAsString("hfd_bound");
+  return out;
+}
+
+TEST_F(ResultsExport, TheHfdLayersSayWhereTheSiteBoundaryCutsThem) {
+  const fs::path h5 = run_minimal("EPSG:32611");
+  const ExportReport rep = export_results({h5, dir_ / "gis", std::nullopt});
+  ASSERT_EQ(api::read_dataset_double(h5, "/hfd/bound").at(0), 1.0) << "the small plane is cut";
+  auto f = hfd_fields(dir_ / "gis/hazard.gpkg");
+  EXPECT_EQ(f["hfd_bound"], "lower");
+  EXPECT_EQ(f["area_estimate"], "lower");
+  const std::string note = api::read_attribute_string(h5, "/hfd", "note");
+  EXPECT_EQ(note.rfind("HFD ≥ ", 0), 0u) << note;
+  EXPECT_EQ(f["note"], note);
+  ASSERT_FALSE(rep.notes.empty());
+  EXPECT_EQ(rep.notes[0], note);
+  const auto band = api::read_dataset_double(h5, "/hfd/band_bound");
+  EXPECT_EQ(f["band_lower_bound"], band[0] != 0 ? "lower" : "none");
+  EXPECT_EQ(f["band_upper_bound"], band[1] != 0 ? "lower" : "none");
+  EXPECT_EQ(f["area_lower_1se"], f["band_lower_bound"]);
+  EXPECT_EQ(f["area_upper_1se"], f["band_upper_bound"]);
+  const auto sectors = api::read_dataset_double(h5, "/hfd/by_sector_bound");
+  int cut = 0;
+  for (std::size_t k = 0; k < 36; ++k) {
+    EXPECT_EQ(f["sector_" + std::to_string(k)], sectors[k] != 0 ? "lower" : "none") << k;
+    cut += sectors[k] != 0;
+  }
+  EXPECT_GT(cut, 0);
+  EXPECT_NE(api::testing::read_text(dir_ / "gis/hazard.kml").find("hfd_bound"), std::string::npos);
+
+  Json sc = api::testing::minimal_example();  // its own 3 km plane
+  sc["fragment_groups"][0]["samples"] = 200;
+  const fs::path big = testing::write_run(sc, dir_ / "big");
+  const ExportReport big_rep = export_results({big, dir_ / "big_gis", std::nullopt});
+  f = hfd_fields(dir_ / "big_gis/hazard.gpkg");
+  EXPECT_EQ(f["hfd_bound"], "none");
+  EXPECT_EQ(f["note"], "");
+  EXPECT_EQ(f["area_estimate"], "none");
+  for (int k = 0; k < 36; ++k) EXPECT_EQ(f["sector_" + std::to_string(k)], "none") << k;
+  for (const auto& n : big_rep.notes) EXPECT_EQ(n.find("HFD ≥"), std::string::npos) << n;
+}
+
 TEST_F(ResultsExport, BuildingsCarryTheirFiguresAndGeoJsonIsRfc7946) {
   const fs::path h5 = run_minimal("EPSG:32611");
   export_results({h5, dir_ / "gis", std::nullopt});
@@ -197,8 +256,10 @@ TEST_F(ResultsExport, WithoutACrsOnlyLocalFilesAreWrittenAndSaid) {
   EXPECT_EQ(rep.files,
             (std::vector<std::string>{"ptn_density.tif", "ptn_classes.tif", "hazard.gpkg",
                                       "terrain.vtkhdf", "buildings.vtkhdf"}));
-  ASSERT_EQ(rep.notes.size(), 2u);  // and no trajectories were recorded
-  EXPECT_NE(rep.notes[1].find("no CRS"), std::string::npos);
+  // The HFD is a lower bound (the small plane), no trajectories were recorded, no CRS.
+  ASSERT_EQ(rep.notes.size(), 3u);
+  EXPECT_EQ(rep.notes[0].rfind("HFD ≥ ", 0), 0u);
+  EXPECT_NE(rep.notes[2].find("no CRS"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir_ / "gis/hazard.kml"));
 }
 
@@ -211,8 +272,8 @@ TEST_F(ResultsExport, ACrsLabelPROJDoesNotKnowIsReadAsNoCrs) {
   EXPECT_EQ(rep.files,
             (std::vector<std::string>{"ptn_density.tif", "ptn_classes.tif", "hazard.gpkg",
                                       "terrain.vtkhdf", "buildings.vtkhdf"}));
-  ASSERT_EQ(rep.notes.size(), 3u);  // the label, no trajectories, no CRS
-  EXPECT_NE(rep.notes[0].find("\"local\" is not a CRS PROJ knows"), std::string::npos);
+  ASSERT_EQ(rep.notes.size(), 4u);  // the HFD a lower bound, the label, no trajectories, no CRS
+  EXPECT_NE(rep.notes[1].find("\"local\" is not a CRS PROJ knows"), std::string::npos);
 }
 
 TEST_F(ResultsExport, NotAResultsFileIsAnInputErrorNamingIt) {

@@ -923,6 +923,9 @@ TEST_F(ServiceJobs, PrecisionJobShowsItsTargetsAndStopsWithItsReason) {
   EXPECT_EQ(summary["samples"], 400);
   EXPECT_TRUE(summary["precision"]["all_met"].get<bool>());
   EXPECT_TRUE(job(done)["precision"].is_null()) << "live only";
+  // The small plane cuts the HFD: the daemon's summary says it is a lower bound (issue 22).
+  EXPECT_EQ(summary["hfd_bound"], "lower");
+  EXPECT_EQ(summary["site_boundary"]["note"].get<std::string>().rfind("HFD ≥ ", 0), 0u);
 }
 
 TEST_F(ServiceJobs, IdempotencyKey) {

@@ -202,6 +202,71 @@ TEST(Precision, MinBatchesHoldsBackAnEarlyStop) {
   EXPECT_EQ(r.batches, 5);
 }
 
+// Steel spheres fanned toward +x over a plane of half-width `half_m` (10 m cells): on 200 m
+// the hazardous area runs off the +x side well above the threshold (core/run/hfd_test.cpp).
+Scenario fan_scenario(double half_m) {
+  Scenario sc = validation::flat_site_scenario(half_m, 10.0);
+  auto g = validation::sphere_group(Vec3(0, 0, 1.0), 0.1, 60.0, 20000.0, 500);
+  g.cd.constant = 0.47;
+  g.direction.elevation_min_deg = 10.0;
+  g.direction.elevation_max_deg = 40.0;
+  g.direction.azimuth_min_deg = -20.0;
+  g.direction.azimuth_max_deg = 20.0;
+  sc.groups = {g};
+  return sc;
+}
+
+// Issue 22: a bound cannot meet a precision target. With the HFD cut by the site boundary even
+// at the band's lower end, the HFD targets are unmeetable, say why, and the run stops at the
+// first boundary after min_batches where nothing else is left to meet: targets_unmeetable, not
+// max_batches 40 batches later, and never targets_met. On a plane large enough the same targets
+// are met or not, as before.
+TEST(Precision, AnHfdTargetOnAnHfdCutByTheSiteBoundaryIsUnmeetableAndStopsTheRun) {
+  Scenario sc = fan_scenario(200.0);
+  PrecisionSettings p;
+  p.hfd_half_band_m = 1000.0;  // met by any band: only the boundary stands in the way
+  p.ptn_rel_error_at_hfd = 1.0;
+  p.max_batches = 40;
+  sc.settings.precision = p;
+  const RunResult r = run(sc);
+  EXPECT_TRUE(r.site_boundary.band_lower_cut);
+  EXPECT_EQ(r.stop_reason, StopReason::kTargetsUnmeetable);
+  EXPECT_EQ(r.batches, p.min_batches);
+  ASSERT_NE(r.precision, nullptr);
+  EXPECT_FALSE(r.precision->all_met);
+  EXPECT_TRUE(r.precision->any_unmeetable);
+  EXPECT_TRUE(std::isinf(r.precision->eta_s));
+  ASSERT_EQ(r.precision->targets.size(), 2u);
+  for (const TargetStatus& t : r.precision->targets) {
+    EXPECT_FALSE(t.met) << t.figure;
+    EXPECT_TRUE(t.unmeetable) << t.figure;
+    EXPECT_NE(t.note.find("reaches the site boundary"), std::string::npos) << t.note;
+    EXPECT_NE(t.note.find("extend the terrain"), std::string::npos) << t.note;
+    EXPECT_TRUE(std::isinf(t.histories_needed)) << t.figure;
+  }
+  EXPECT_STREQ(stop_reason_name(r.stop_reason), "targets_unmeetable");
+
+  // A building target still unmet keeps the run going (to its cap here).
+  sc.site.materials["wall"] = scene::MaterialSpec{};
+  sc.site.materials["roof"] = scene::MaterialSpec{};
+  sc.site.buildings = {validation::box_building("B", 60, -10, 80, 10, 6.0)};
+  p.building_rel_error = 1e-6;
+  p.max_batches = 4;
+  sc.settings.precision = p;
+  EXPECT_EQ(run(sc).stop_reason, StopReason::kMaxBatches);
+
+  Scenario big = fan_scenario(600.0);
+  p = PrecisionSettings{};
+  p.hfd_half_band_m = 1000.0;
+  big.settings.precision = p;
+  const RunResult b = run(big);
+  EXPECT_FALSE(b.site_boundary.hfd_cut);
+  EXPECT_EQ(b.stop_reason, StopReason::kTargetsMet);
+  ASSERT_NE(b.precision, nullptr);
+  EXPECT_FALSE(b.precision->targets[0].unmeetable);
+  EXPECT_TRUE(b.precision->targets[0].note.empty());
+}
+
 TEST(Precision, ProgressCarriesTheLastCheck) {
   Scenario sc = batched_scenario();
   PrecisionSettings p = targets();
@@ -283,6 +348,50 @@ TEST(PrecisionTargets, BuildingListAndHfdBand) {
   EXPECT_FALSE(check_targets(p, s)[0].met);
   p.hfd_half_band_m = 5.0;  // either
   EXPECT_TRUE(check_targets(p, s)[0].met);
+}
+
+// The site boundary and the HFD targets: cut at the band's lower end, unmeetable; cut only at the
+// HFD or the band's upper end, not met (the band is not closed) but not unmeetable either.
+TEST(PrecisionTargets, AnHfdCutByTheSiteBoundaryIsNotMetOrUnmeetable) {
+  PrecisionSettings p;
+  p.hfd_half_band_m = 10.0;
+  p.ptn_rel_error_at_hfd = 0.5;
+  PrecisionSnapshot s = snapshot_with({1.0, 0.1}, {1.0, 0.1});
+  s.hfd_m = 200.0;
+  s.hfd_lower_m = 198.0;
+  s.hfd_upper_m = 201.0;
+  s.ptn_rel_error_at_hfd = 0.1;
+  auto t = check_targets(p, s);
+  ASSERT_EQ(t.size(), 2u);
+  EXPECT_TRUE(t[0].met && t[1].met);
+
+  s.hfd_upper_cut = true;
+  t = check_targets(p, s);
+  EXPECT_FALSE(t[0].met);
+  EXPECT_FALSE(t[0].unmeetable);
+  EXPECT_EQ(t[0].note, "the HFD band reaches the site boundary: not met while it does");
+  EXPECT_TRUE(t[1].met) << "the density near the HFD: the HFD itself is not cut";
+
+  s.hfd_cut = true;
+  t = check_targets(p, s);
+  EXPECT_FALSE(t[1].met);
+  EXPECT_FALSE(t[1].unmeetable);
+
+  s.hfd_lower_cut = true;
+  s.hfd_lower_sectors_cut = 3;
+  t = check_targets(p, s);
+  for (const auto& x : t) {
+    EXPECT_FALSE(x.met);
+    EXPECT_TRUE(x.unmeetable);
+    EXPECT_EQ(x.note,
+              "the hazardous density reaches the site boundary in 3 sectors even at the band's "
+              "lower end (mean - 1 se): the HFD is a lower bound; extend the terrain");
+  }
+  PrecisionTracker tracker;
+  const PrecisionReport r = tracker.update(t, 2, 1000, 100.0);
+  EXPECT_TRUE(r.any_unmeetable);
+  EXPECT_TRUE(r.all_met_or_unmeetable());
+  EXPECT_FALSE(r.all_met);
 }
 
 TEST(PrecisionTargets, PtnErrorNearTheHfdIsTheRmsOverTheOuterHazardousTriangles) {

@@ -1,6 +1,7 @@
 // Terrain meshing, local frame, heights, and materials.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -156,6 +157,78 @@ TEST(MeshTerrain, OverhangReportsTheHighestSurface) {
   const auto site = Site::build(spec);
   const Vec3 o = site->local_origin();
   EXPECT_NEAR(site->terrain_height(2 - o.x(), 2 - o.y()) + o.z(), 5.0, 1e-12);
+}
+
+// ---- the terrain's boundary (Site::terrain_boundary_triangles, issue 22) ----
+
+// Brute force: triangles with a vertex (matched by position) on an edge no other triangle
+// shares.
+std::vector<std::uint32_t> boundary_by_brute_force(const Site& s) {
+  const auto& v = s.terrain_vertices();
+  const auto& tris = s.terrain_triangles();
+  const auto same_edge = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d) {
+    return (v[a] == v[c] && v[b] == v[d]) || (v[a] == v[d] && v[b] == v[c]);
+  };
+  std::vector<Vec3> rim;
+  for (std::size_t t = 0; t < tris.size(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = tris[t][k], b = tris[t][(k + 1) % 3];
+      int uses = 0;
+      for (const auto& u : tris)
+        for (int m = 0; m < 3; ++m) uses += same_edge(a, b, u[m], u[(m + 1) % 3]) ? 1 : 0;
+      if (uses == 1) {
+        rim.push_back(v[a]);
+        rim.push_back(v[b]);
+      }
+    }
+  }
+  std::vector<std::uint32_t> out;
+  for (std::uint32_t t = 0; t < tris.size(); ++t) {
+    bool touches = false;
+    for (const auto i : tris[t])
+      touches = touches || std::find(rim.begin(), rim.end(), v[i]) != rim.end();
+    if (touches) out.push_back(t);
+  }
+  return out;
+}
+
+TEST(TerrainBoundary, APlaneOrGridHasItsOuterRingOfCells) {
+  // 12 x 7 cells: 2 (12 + 12 + 5 + 5) = 68 triangles in the ring.
+  const auto plane = Site::build(plane_site({0, 0, 120, 70}, 10, 0));
+  EXPECT_EQ(plane->terrain_boundary_triangles().size(), 68u);
+  EXPECT_EQ(plane->terrain_boundary_triangles(), boundary_by_brute_force(*plane));
+  const auto grid =
+      Site::build(grid_site(make_grid(0, 0, 5, 9, 4, [](double x, double y) { return x * y; })));
+  EXPECT_EQ(grid->terrain_boundary_triangles().size(), 2u * (8 + 8 + 1 + 1));
+  EXPECT_EQ(grid->terrain_boundary_triangles(), boundary_by_brute_force(*grid));
+  // One cell wide: everything is boundary.
+  const auto strip = Site::build(plane_site({0, 0, 100, 10}, 10, 0));
+  EXPECT_EQ(strip->terrain_boundary_triangles().size(), strip->terrain_triangle_count());
+}
+
+TEST(TerrainBoundary, AMeshHasItsRimAndTheRimsOfItsHoles) {
+  // A 6 x 6 vertex jittered lattice with the triangles of one inner cell removed: a hole.
+  MeshSpec m = testing::jittered_mesh(7, 6, 10.0);
+  m.triangles.erase(m.triangles.begin() + 2 * (2 * 5 + 2),
+                    m.triangles.begin() + 2 * (2 * 5 + 2) + 2);
+  SiteSpec spec = plane_site();
+  spec.terrain.geometry = m;
+  const auto site = Site::build(spec);
+  const auto& b = site->terrain_boundary_triangles();
+  EXPECT_EQ(b, boundary_by_brute_force(*site));
+  EXPECT_TRUE(std::is_sorted(b.begin(), b.end()));
+  EXPECT_LT(b.size(), site->terrain_triangle_count()) << "the centre of a 5 x 5-cell mesh is not";
+
+  // The same triangles with every vertex repeated per triangle (an unwelded mesh, as STL files
+  // are): the same boundary.
+  MeshSpec loose;
+  for (const auto& t : m.triangles) {
+    const auto base = static_cast<std::int64_t>(loose.vertices_m.size());
+    for (const auto i : t) loose.vertices_m.push_back(m.vertices_m[static_cast<std::size_t>(i)]);
+    loose.triangles.push_back({base, base + 1, base + 2});
+  }
+  spec.terrain.geometry = loose;
+  EXPECT_EQ(Site::build(spec)->terrain_boundary_triangles(), b);
 }
 
 TEST(LocalFrame, UtmCoordinatesGiveTheSameLocalGeometry) {
