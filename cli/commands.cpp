@@ -115,6 +115,10 @@ int validate_command(const Options& o) {
   return kExitOk;
 }
 
+std::string input_notes(const PreparedRun& p) {
+  return illustrative_note(p.doc) + reach_warnings(p.doc.scenario, *p.site);
+}
+
 api::PartialIdentity identity_of(const Options& o, const PreparedRun& p) {
   return {api::sha256_hex(p.text), o.samples_scale.value_or(1.0)};
 }
@@ -197,7 +201,7 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
                        "cannot be split into shards (--shard I/N with N > 1): its checks at batch "
                        "boundaries need every history of a batch in one process (--shard 0/1 "
                        "runs it whole as one partial)");
-    if (!o.quiet) std::cerr << illustrative_note(p.doc) << reach_warnings(p.doc.scenario, *p.site);
+    if (!o.quiet) std::cerr << input_notes(p);
     // Created before the run, so that an --out that cannot be made fails now, not after it; it
     // is removed again (if created here) unless the outputs are committed.
     const std::unique_ptr<api::OutputDir> out = open_out(o);

@@ -34,6 +34,9 @@ struct PreparedRun {
 };
 PreparedRun prepare(const Options& options);
 PreparedRun prepare_text(const Options& options, std::string text);
+// What a person should know about valid input before the run (stderr, not with --quiet): the
+// materials marked illustrative, the groups that can land beyond the terrain (core/run/reach.h).
+std::string input_notes(const PreparedRun& prepared);
 // What a partial of this run must share with the others it is merged with.
 api::PartialIdentity identity_of(const Options& options, const PreparedRun& prepared);
 // --out, created if missing (and removed again unless committed). A directory that cannot be

@@ -1,6 +1,6 @@
 // libFuzzer target: bytes as the body of fragsimd's POST /v1/jobs. A "site_id" resolves against a
-// catalogue of one site (examples/minimal's, id in fuzz/corpus/fuzz_job); an inline site gets the
-// full geometry check, as in Service::post_job.
+// catalogue of one site (examples/minimal's former 400 m plane, id in fuzz/corpus/fuzz_job); an
+// inline site gets the full geometry check, as in Service::post_job.
 #include <cstddef>
 #include <cstdint>
 
@@ -10,7 +10,8 @@
 
 namespace {
 
-// The site of examples/minimal/scenario.json, as a stored site.
+// The site of examples/minimal/scenario.json as it was before it grew to a 3 km plane (a 400 m
+// plane of 10 m cells), as a stored site.
 constexpr const char* kStoredSite = R"({
   "origin": {"crs": "local", "easting_m": 0, "northing_m": 0, "elevation_m": 0},
   "terrain": {"plane": {"elevation_m": 0, "extent_m": [-200, -200, 200, 200], "cell_m": 10},

@@ -41,7 +41,8 @@ using fragsim::server::Service;
 constexpr int kRequestsPerReset = 500;
 constexpr const char* kToken = "fuzz-token-0123456789";
 
-// The site of examples/minimal, and a job of 40 histories on it.
+// The site of examples/minimal as it was before it grew to a 3 km plane (a 400 m plane of 10 m
+// cells), and a job of 40 histories on it.
 constexpr const char* kSite = R"({
   "origin": {"crs": "local", "easting_m": 0, "northing_m": 0, "elevation_m": 0},
   "terrain": {"plane": {"elevation_m": 0, "extent_m": [-200, -200, 200, 200], "cell_m": 10},

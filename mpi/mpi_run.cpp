@@ -236,6 +236,7 @@ int run_mpi(const std::vector<std::string>& args, MPI_Comm comm, const std::atom
     if (rank == 0) std::cerr << "error: " << e.what() << "\n";
     return cli::kExitInvalidInput;
   }
+  if (rank == 0 && !o.quiet) std::cerr << cli::input_notes(*p);
   std::unique_ptr<api::OutputDir> out;
   if (const int status = open_out(o, rank, comm, out); status != 0) return status;
   try {

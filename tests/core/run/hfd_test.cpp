@@ -150,7 +150,8 @@ TEST(HfdCut, AFanLeavingASmallPlaneFlagsTheSectorsOnItsSideOnly) {
   for (int j = 0; j < 40; ++j) {
     for (int i = 0; i < 40; ++i) {
       for (int w = 0; w < 2; ++w) {
-        const std::uint32_t ts = cell_triangle(40, i, j, w), tb = cell_triangle(120, i + 40, j + 40, w);
+        const std::uint32_t ts = cell_triangle(40, i, j, w),
+                            tb = cell_triangle(120, i + 40, j + 40, w);
         ASSERT_EQ(r.ptn_density_per_m2[ts], big.ptn_density_per_m2[tb]) << i << ", " << j;
       }
     }
