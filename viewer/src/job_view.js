@@ -4,12 +4,13 @@
 import * as THREE from '../vendor/three.module.js';
 import { api, download, errorText } from './api.js';
 import { LogScale, lut, viridis, ylOrRd, rdPu, css, ZERO_GREY, BUILDING_GREY } from './colormap.js';
-import { el, fixed, sig, plusMinus, integer, localTime, showError } from './format.js';
+import { el, fixed, sig, plusMinus, localTime, showError } from './format.js';
 import { densityLegend, keyItem, rampLegend } from './legend.js';
 import * as meshes from './meshes.js';
 import { densityProfiles, drawDensityPlot } from './plot.js';
 import { parseScene } from './scene_format.js';
 import { SceneView } from './scene3d.js';
+import { boundaryNote, isLower, precisionStatus, sectorLowerBounds, summaryRow, summaryRows } from './summary_text.js';
 
 const $ = (id) => document.getElementById(id);
 const COLORS = { contour: '#111111', hfd: '#d6001c', sectors: '#ff7f0e', launch: '#d6001c' };
@@ -36,6 +37,7 @@ export async function enterJob(id, ctx) {
   if (!ctx.current()) return;
   const scene = parseScene(buf);
   renderSummary(summary, scene);
+  renderBoundaryWarning(summary);
   const sv = jobSceneView();
   const built = buildJobScene(scene, summary);
   state = { id, scene, summary, ...built };
@@ -68,6 +70,7 @@ function resetPage(id) {
   $('job-title').textContent = id;
   $('job-state').textContent = '';
   showError($('job-error'), '');
+  renderBoundaryWarning({});
   $('summary-table').tBodies[0].replaceChildren();
   $('buildings-table').tBodies[0].replaceChildren();
   $('downloads').replaceChildren();
@@ -95,7 +98,8 @@ async function waitUntilDone(id, ctx) {
       const why = s.error ? `: ${s.error.code}: ${s.error.message}` : '';
       throw new Error(`job ${id} is ${s.state}${why}`);
     }
-    $('job-state').textContent = `${s.state}, ${Math.floor(100 * (s.progress || 0))} % — results appear when it is done`;
+    const targets = s.precision ? ` — precision: ${precisionStatus(s.precision)}` : '';
+    $('job-state').textContent = `${s.state}, ${Math.floor(100 * (s.progress || 0))} % — results appear when it is done${targets}`;
     await new Promise((r) => setTimeout(r, 1000));
   }
 }
@@ -125,11 +129,7 @@ function buildJobScene(scene, summary) {
     meshes.contourSegments(A.terrain_vertices, A.terrain_triangles, density, thr, lift), COLORS.contour);
   const hfd = summary.hazardous_fragment_distance_m || 0;
   const sectors = summary.hfd_by_sector_m || [];
-  const zTop = origin[2] + lift;
-  layers.hfd = meshes.lineSegments(meshes.circleSegments(origin[0], origin[1], zTop, hfd), COLORS.hfd,
-    { onTop: true, order: 5, opacity: 0.95 });
-  layers.sectors = meshes.lineSegments(meshes.sectorSegments(origin[0], origin[1], zTop, sectors), COLORS.sectors,
-    { onTop: true, order: 4, opacity: 0.9 });
+  Object.assign(layers, hfdLayers(origin[0], origin[1], origin[2] + lift, summary));
   const maxSector = Math.max(0, ...sectors);
   const radius = Math.min(halfDiag, Math.max(1.5 * Math.max(hfd, maxSector), 0.2 * halfDiag, 30));
   layers.launch = meshes.marker(origin[0], origin[1], origin[2], radius / 60, COLORS.launch);
@@ -145,6 +145,30 @@ function buildJobScene(scene, summary) {
 
   const frame = { target: [origin[0], origin[1], origin[2]], radius, zMax: box.max.z };
   return { group, layers, frame, scale, vmax, terrain: terrain.mesh, terrainColors: colors, buildingMesh: b.mesh, buildingRgb: b.rgb, buildingRange: b.range };
+}
+
+// The HFD circle and the per-sector distances. A distance that the site boundary cuts (a lower
+// bound: nothing is modelled beyond the terrain) is drawn dashed, so that the map never shows a cut
+// HFD as an exact one; the others are drawn solid, as they always were.
+function hfdLayers(cx, cy, z, summary) {
+  const hfd = summary.hazardous_fragment_distance_m || 0;
+  const d = summary.hfd_by_sector_m || [];
+  const lower = sectorLowerBounds(summary);
+  const dash = (2 * Math.PI * Math.max(hfd, ...d, 1)) / 80;  // ~50 dashes round the HFD circle
+  const circle = meshes.lineSegments(meshes.circleSegments(cx, cy, z, hfd), COLORS.hfd,
+    { onTop: true, order: 5, opacity: 0.95, dash: isLower(summary.hfd_bound) ? dash : 0 });
+  circle.name = 'hfd';
+  const style = { onTop: true, order: 4, opacity: 0.9 };
+  const sectorLines = (keep, opts) =>
+    meshes.lineSegments(meshes.sectorSegments(cx, cy, z, d.map((r, k) => (keep(k) ? r : 0))), COLORS.sectors, opts);
+  const solid = sectorLines((k) => !lower[k], style);
+  solid.name = 'sectors';
+  if (!lower.some(Boolean)) return { hfd: circle, sectors: solid };
+  const cut = sectorLines((k) => lower[k], { ...style, dash });
+  cut.name = 'sectors-lower-bound';
+  const both = new THREE.Group();
+  both.add(solid, cut);
+  return { hfd: circle, sectors: both };
 }
 
 function maxOf(a) {
@@ -175,8 +199,7 @@ function renderLegend(scene, summary, built) {
   const traj = scene.trajectories;
   const keys = [
     keyItem(COLORS.contour, 'hazardous area (≥ threshold)'),
-    keyItem(COLORS.hfd, `HFD ${fixed(summary.hazardous_fragment_distance_m)} m`),
-    keyItem(COLORS.sectors, 'HFD per 10° sector'),
+    ...hfdKeys(summary),
     keyItem(COLORS.launch, 'HFD origin', 'box'),
   ];
   densityLegend($('legend'), { scale: built.scale, ramp: viridis, threshold: summary.hfd_threshold_per_m2, zeroColor: ZERO_GREY, keys });
@@ -189,6 +212,18 @@ function renderLegend(scene, summary, built) {
         [keyItem(css(BUILDING_GREY), '0', 'box')])
       : el('div', { class: 'legend-row' }, [keyItem(css(BUILDING_GREY), 'buildings: no expected penetration', 'box')]));
   }
+}
+
+// The HFD's and the sectors' keys; dashed ones say what the dashes mean (a lower bound).
+function hfdKeys(summary) {
+  const hfd = fixed(summary.hazardous_fragment_distance_m);
+  const keys = [isLower(summary.hfd_bound)
+    ? keyItem(COLORS.hfd, `HFD ≥ ${hfd} m (lower bound: site boundary)`, 'dashed')
+    : keyItem(COLORS.hfd, `HFD ${hfd} m`)];
+  keys.push(keyItem(COLORS.sectors, 'HFD per 10° sector'));
+  if (sectorLowerBounds(summary).some(Boolean))
+    keys.push(keyItem(COLORS.sectors, 'sector HFD ≥ (lower bound: site boundary)', 'dashed'));
+  return keys;
 }
 
 function renderLayerToggles(layers) {
@@ -259,28 +294,15 @@ function hideRowHighlight() {
 // ---- tables -------------------------------------------------------------------------------------
 
 function renderSummary(s, scene) {
-  const thr = s.hfd_threshold_per_m2;
-  const band = s.hazardous_fragment_distance_band_m || [null, null];
-  const traj = scene.trajectories;
-  const rows = [
-    ['hfd', 'Hazardous fragment distance (m)', fixed(s.hazardous_fragment_distance_m, 1)],
-    ['hfd_band', 'HFD band, mean ∓ 1 se (m)', `${fixed(band[0], 1)} – ${fixed(band[1], 1)}`],
-    ['hfd_origin', 'HFD origin x, y, z (m)', (s.hfd_origin_m || []).map((v) => fixed(v, 1)).join(', ')],
-    ['threshold', 'Density threshold (per m²)', `${sig(thr, 4)} (1 per ${sig(1 / thr, 4)} m²)`],
-    ['max_density', 'Max PTN density (per m²)', sig(s.max_ptn_density_per_m2, 4)],
-    ['buildings', 'Buildings', String((s.buildings || []).length)],
-    ['samples', 'Samples', integer(s.samples)],
-    ['histories', 'Histories simulated', integer(s.histories_done)],
-    ['batches', 'Batches', integer(s.batches)],
-    ['stop_reason', 'Stop reason', s.stop_reason ?? '—'],
-    ['real_fragments', 'Real fragments', sig(s.real_fragments, 6)],
-    ['wall_time', 'Wall time (s)', fixed(s.timing && s.timing.wall_s, 2)],
-    ['seed', 'Seed', String(s.seed)],
-    ['triangles', 'Terrain triangles', integer(scene.arrays.terrain_triangles.length / 3)],
-  ];
-  if (traj) rows.push(['trajectories', 'Trajectories shown', `${integer(traj.sent)} of ${integer(traj.recorded)} recorded`]);
-  $('summary-table').tBodies[0].replaceChildren(...rows.map(([key, label, value]) =>
-    el('tr', { dataset: { key } }, [el('th', { text: label }), el('td', { class: 'value', text: value })])));
+  $('summary-table').tBodies[0].replaceChildren(...summaryRows(s, scene).map(summaryRow));
+}
+
+// A cut HFD changes what the whole study means, so its note heads the page, not a table row.
+function renderBoundaryWarning(summary) {
+  const note = boundaryNote(summary);
+  const box = $('job-warning');
+  box.replaceChildren(...(note ? [el('strong', { text: 'Warning: ' }), note] : []));
+  box.hidden = !note;
 }
 
 function renderBuildings(s, rgb) {
@@ -315,7 +337,7 @@ function drawPlot() {
     plotCache = { state, profile: densityProfiles(A.terrain_vertices, A.terrain_triangles, density, origin, minRange) };
   }
   drawDensityPlot($('density-plot'), plotCache.profile, {
-    threshold: s.hfd_threshold_per_m2, hfd: s.hazardous_fragment_distance_m,
+    threshold: s.hfd_threshold_per_m2, hfd: s.hazardous_fragment_distance_m, hfdLower: isLower(s.hfd_bound),
   });
 }
 

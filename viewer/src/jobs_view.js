@@ -132,6 +132,19 @@ function wireForm() {
   });
 }
 
+// The submission's warnings (valid, likely not what was meant: fragments that can land beyond the
+// terrain while hazardous, so that the HFD would be cut) under the form. The daemon does not
+// store them, so this is the only time the page can show them. Each message names its field.
+function showWarnings(warnings) {
+  const list = $('submit-warnings');
+  list.replaceChildren(...warnings.map((w) => {
+    const severity = w.severity || 'warning';
+    return el('li', { class: severity === 'note' ? 'note' : 'warning', dataset: { field: w.field || '' } },
+      [el('span', { class: 'severity', text: `${severity}: ` }), w.message || '']);
+  }));
+  list.hidden = warnings.length === 0;
+}
+
 // The file's text is sent as it is; the form's priority is added as the top-level "priority" key
 // unless the file has one (text insertion, so that numbers such as 64-bit seeds are untouched).
 export function withPriority(text, priority) {
@@ -154,6 +167,7 @@ async function submit() {
   const status = $('submit-status');
   showError($('submit-error'), '');
   status.hidden = true;
+  showWarnings([]);
   if (!file) {
     showError($('submit-error'), 'choose a scenario file first');
     return;
@@ -167,6 +181,7 @@ async function submit() {
     const job = await api.submitJob(withPriority(text, priority));
     status.textContent = `submitted ${job.job_id} (${job.state})`;
     status.hidden = false;
+    showWarnings(job.warnings || []);
     await refresh();
   } catch (e) {
     showError($('submit-error'), errorText(e));

@@ -62,11 +62,12 @@ function logBar(scale, ramp, mark) {
 
 function swatch(color, kind = 'box') {
   const s = el('span', { class: 'swatch ' + kind });
-  if (kind === 'line') s.style.borderTopColor = color;
+  if (kind === 'line' || kind === 'dashed') s.style.borderTopColor = color;
   else s.style.backgroundColor = color;
   return s;
 }
 
+// kind: 'line', 'dashed' (a lower bound in the 3-D view) or 'box'.
 export function keyItem(color, label, kind = 'line') {
   return el('span', { class: 'key-item' }, [swatch(color, kind), label]);
 }

@@ -27,6 +27,20 @@ const perf = {
     if (!perf.sceneView) throw new Error('no 3-D view on this page');
     return perf.sceneView.project(p);
   },
+  // The 3-D view's named line overlays (the HFD circle 'hfd', 'sectors', 'sectors-lower-bound'):
+  // [{name, material (its three.js type: LineDashedMaterial when dashed), segments, visible (it
+  // and its parents: a layer toggle hides the group)}].
+  lines() {
+    const out = [];
+    perf.sceneView?.content?.traverse((o) => {
+      if (!o.isLineSegments || !o.name) return;
+      let visible = true;
+      o.traverseAncestors((a) => { visible &&= a.visible; });
+      const segments = o.geometry.attributes.position.count / 2;
+      out.push({ name: o.name, material: o.material.type, segments, visible: visible && o.visible });
+    });
+    return out;
+  },
   renderState() {
     const v = perf.sceneView;
     return v ? { settled: v.settled, settledFrames: v.settledFrames, topView: v.topView, moving: v.moving } : null;

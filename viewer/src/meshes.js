@@ -148,13 +148,17 @@ export function buildingColors(triBuilding, triSurface, buildingRgb) {
 
 // ---- lines --------------------------------------------------------------------------------------
 
-export function lineSegments(positions, color, { opacity = 1, onTop = false, order = 1 } = {}) {
+// dash (m, > 0): dashed, dashes of that length with gaps of 0.6 of it along the segments' running
+// length (the page's mark of a distance that is only a lower bound); else solid.
+export function lineSegments(positions, color, { opacity = 1, onTop = false, order = 1, dash = 0 } = {}) {
   const geometry = new THREE.BufferGeometry();
   geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
-  const material = new THREE.LineBasicMaterial({
-    color, transparent: opacity < 1 || onTop, opacity, depthTest: !onTop, depthWrite: !onTop,
-  });
+  const common = { color, transparent: opacity < 1 || onTop, opacity, depthTest: !onTop, depthWrite: !onTop };
+  const material = dash > 0
+    ? new THREE.LineDashedMaterial({ ...common, dashSize: dash, gapSize: 0.6 * dash })
+    : new THREE.LineBasicMaterial(common);
   const lines = new THREE.LineSegments(geometry, material);
+  if (dash > 0) lines.computeLineDistances();
   lines.renderOrder = order;
   return lines;
 }

@@ -58,8 +58,9 @@ function setupCanvas(canvas) {
   return { ctx, w, h };
 }
 
-// profile from densityProfiles; threshold and hfd (m) marked.
-export function drawDensityPlot(canvas, profile, { threshold, hfd }) {
+// profile from densityProfiles; threshold and hfd (m) marked, "HFD ≥" when hfdLower (the site
+// boundary cuts it: the curves stop at the terrain's edge, not where the density falls).
+export function drawDensityPlot(canvas, profile, { threshold, hfd, hfdLower = false }) {
   const { ctx, w, h } = setupCanvas(canvas);
   const M = { l: 56, r: 74, t: 12, b: 40 };
   const pw = w - M.l - M.r, ph = h - M.t - M.b;
@@ -112,7 +113,14 @@ export function drawDensityPlot(canvas, profile, { threshold, hfd }) {
   ctx.textAlign = 'left';
   ctx.textBaseline = 'bottom';
   ctx.fillText('threshold', M.l + 4, Y(threshold) - 2);
-  if (hfd > 0 && hfd < profile.rMax) ctx.fillText(`HFD ${hfd.toFixed(1)} m`, X(hfd) + 4, M.t + 12);
+  const label = `HFD ${hfdLower ? '≥ ' : ''}${hfd.toFixed(1)} m`;
+  canvas.dataset.hfdLabel = hfd > 0 ? label : '';  // what the canvas says, for the tests
+  if (hfd > 0 && hfd < profile.rMax) {
+    // Left of its line when it would run past the plot's right edge into the key.
+    const left = X(hfd) + 4 + ctx.measureText(label).width > M.l + pw;
+    ctx.textAlign = left ? 'right' : 'left';
+    ctx.fillText(label, X(hfd) + (left ? -4 : 4), M.t + 12);
+  }
   ctx.strokeStyle = '#888';
   ctx.lineWidth = 1;
   ctx.strokeRect(M.l + 0.5, M.t + 0.5, pw, ph);

@@ -5,7 +5,9 @@
 // Starts a loopback fragsimd (token auth, the page compiled in unless FRAGSIM_UI_DIR is set), runs
 // examples/demo/scenario.json (which records 1,000 trajectories), keeps a longer copy of it
 // running for the jobs view, and writes viewer-jobs.png, viewer-job.png, viewer-job-top.png and
-// viewer-site.png at 1400 x 900. Not a test: it asserts nothing beyond the views becoming ready.
+// viewer-site.png at 1400 x 900; then viewer-job-hfd-lower-bound.png, the minimal example on a
+// 400 m plane whose boundary cuts the HFD (top view, trajectories hidden). Not a test: it asserts
+// nothing beyond the views becoming ready.
 import path from 'node:path';
 import * as h from './harness.mjs';
 
@@ -50,6 +52,13 @@ async function main() {
     for (const j of (await daemon.expectOk('/v1/jobs')).jobs)
       if (j.state === 'queued' || j.state === 'running')
         await daemon.request(`/v1/jobs/${j.job_id}`, { method: 'DELETE' });
+
+    const cut = await daemon.runScenario(h.smallPlaneScenario(), 60000);
+    await page.goto(`${daemon.base}/ui/#/jobs/${cut.job.job_id}`);
+    await h.waitReady(page, 'job');
+    await page.click('#toggle-2d');
+    await page.uncheck('#layer-trajectories');
+    await shoot(page, 'viewer-job-hfd-lower-bound');
   } finally {
     await browser.close();
     await daemon.stop();

@@ -45,6 +45,16 @@ export function minimalScenario() {
   return s;
 }
 
+/** minimalScenario() on a 400 m x 400 m plane in 10 m cells: its fragments fly beyond the terrain
+ *  while hazardous, so its HFD (~266 m) is a lower bound cut by the site boundary (issue 22; ~19
+ *  of 36 sectors), and its submission answers with a warning. Same 2000 samples (~0.1 s). */
+export function smallPlaneScenario() {
+  const s = minimalScenario();
+  s.site.terrain.plane.extent_m = [-200, -200, 200, 200];
+  s.site.terrain.plane.cell_m = 10;
+  return s;
+}
+
 /** examples/demo/scenario.json with every group's samples multiplied by `factor`. */
 export function demoScenario(factor = 1) {
   const s = readJson(path.join(REPO, 'examples', 'demo', 'scenario.json'));

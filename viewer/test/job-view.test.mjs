@@ -1,18 +1,33 @@
 // (c) The job view of a finished job: WebGL canvas rendered (non-blank), summary table equal to
 // GET /v1/jobs/{id}/summary (HFD to 1 decimal, building count), buildings table, density plot,
 // legend, downloads (summary.json fetched with the header, saved from a Blob), 3-D <-> top view;
-// no console errors, no page errors.
+// no console errors, no page errors. The HFD as a lower bound (issue 22): the minimal example's is
+// not cut (no banner, no "≥", solid lines); the same on a 400 m plane is (banner with the note,
+// "≥" in the table, the legend and the plot, the HFD circle and the cut sectors dashed); on a
+// 200 m plane with a precision target, the target is UNMEETABLE and the run stops for it.
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import { after, before, test } from 'node:test';
 import * as h from './harness.mjs';
 
-let daemon, browser, page, run;
+let daemon, browser, page, run, cut, unmeetable;
+
+/** The 200 m plane with an HFD precision target: the band's lower end is cut, so the target is
+ *  unmeetable and the run stops at the first check (800 histories). */
+function unmeetableScenario() {
+  const s = h.smallPlaneScenario();
+  s.site.terrain.plane.extent_m = [-100, -100, 100, 100];
+  s.fragment_groups[0].samples = 200;
+  s.settings.record_trajectories = false;
+  s.settings.precision = { hfd_half_band_m: 1, max_batches: 5 };
+  return s;
+}
 
 before(async () => {
   daemon = await h.startDaemon();
   browser = await h.launchBrowser();
-  run = await daemon.runScenario(h.minimalScenario());
+  [run, cut, unmeetable] = await Promise.all(
+    [h.minimalScenario(), h.smallPlaneScenario(), unmeetableScenario()].map((s) => daemon.runScenario(s)));
   page = await h.openPage(browser, { viewport: { width: 1400, height: 900 } });
   await h.login(page, daemon);
   page.diag.consoleErrors.length = 0; // the 401 before the token was given is expected
@@ -125,6 +140,84 @@ test('reloading the job URL (deep link) renders the job again', { timeout: 30000
   await h.nextFrames(page);
   assertRendered(await h.canvasStats(page, '#scene-canvas'), 'after reload');
   assert.equal(await h.summaryValue(page, 'hfd').then((t) => t.replace(/\s*m$/, '')), run.summary.hazardous_fragment_distance_m.toFixed(1));
+});
+
+/** The 3-D view's named line overlays by name: {hfd: material type, ...} (fragsimViewer.lines()). */
+async function overlayLines() {
+  const lines = await page.evaluate(() => window.fragsimViewer.lines());
+  return Object.fromEntries(lines.map((l) => [l.name, l]));
+}
+
+/** Open job `id` in this page (hash route) and wait for its view. */
+async function openJob(id) {
+  await page.evaluate((j) => { delete document.body.dataset.ready; location.hash = `#/jobs/${j}`; }, id);
+  await h.waitReady(page, 'job');
+  await h.nextFrames(page);
+}
+
+test('an HFD the site boundary does not cut reads as before: no banner, no "≥", solid lines', async () => {
+  const sum = run.summary;
+  assert.equal(sum.hfd_bound, 'none', 'the minimal example (3 km plane) should not be cut');
+  assert.ok(page.url().endsWith(`#/jobs/${run.job.job_id}`), page.url());
+  assert.ok(await page.locator('#job-warning').isHidden(), '#job-warning shown for an HFD that is not cut');
+  const table = await page.locator('#summary-table').innerText();
+  assert.ok(!table.includes('≥'), `"≥" in the summary table of an uncut HFD:\n${table}`);
+  assert.match(await h.summaryValue(page, 'site_boundary'), /^not reached/);
+  assert.equal(await h.summaryValue(page, 'stop_reason'), 'all samples run');
+  const lines = await overlayLines();
+  assert.equal(lines.hfd?.material, 'LineBasicMaterial', JSON.stringify(lines));
+  assert.equal(lines.sectors?.material, 'LineBasicMaterial', JSON.stringify(lines));
+  assert.equal(lines['sectors-lower-bound'], undefined, JSON.stringify(lines));
+  const legend = await page.locator('#legend').innerText();
+  assert.ok(legend.includes(`HFD ${sum.hazardous_fragment_distance_m.toFixed(1)} m`) && !/lower bound/.test(legend), legend);
+  assert.equal(await page.locator('#density-plot').getAttribute('data-hfd-label'), `HFD ${sum.hazardous_fragment_distance_m.toFixed(1)} m`);
+});
+
+test('an HFD the site boundary cuts: banner, "≥" in the table, legend and plot, dashed lines', { timeout: 30000 }, async () => {
+  const sum = cut.summary, sb = sum.site_boundary;
+  assert.equal(sum.hfd_bound, 'lower', 'the 400 m plane should cut the HFD');
+  assert.ok(typeof sb.note === 'string' && sb.hfd_sectors_cut > 0, JSON.stringify(sb));
+  await openJob(cut.job.job_id);
+  await h.screenshot(page, 'job-7-hfd-lower-bound', { fullPage: true });
+
+  const banner = page.locator('#job-warning');
+  assert.ok(await banner.isVisible(), '#job-warning not shown');
+  assert.ok((await banner.innerText()).includes(sb.note), `banner: ${await banner.innerText()}`);
+  const hfd = sum.hazardous_fragment_distance_m.toFixed(1);
+  const cell = await h.summaryValue(page, 'hfd');
+  assert.ok(cell.startsWith(`≥ ${hfd}`) && cell.includes('lower bound: the hazardous density reaches the site boundary'), cell);
+  const band = sum.hazardous_fragment_distance_band_m.map((v, i) => `${sum.hfd_band_bound[i] === 'lower' ? '≥ ' : ''}${v.toFixed(1)}`);
+  assert.equal(await h.summaryValue(page, 'hfd_band'), band.join(' – '));
+  assert.match(await h.summaryValue(page, 'site_boundary'), new RegExp(`^hazardous in ${sb.hfd_sectors_cut} of 36 sectors`));
+  const left = await h.summaryValue(page, 'left_site_hazardous');
+  assert.ok(left.includes(`(${sb.left_site_hazardous.histories.toLocaleString('en-US')} histories)`), left);
+
+  const lower = sum.hfd_by_sector_bound.map((b, k) => b === 'lower' && sum.hfd_by_sector_m[k] > 0);
+  const nCut = lower.filter(Boolean).length, nDrawn = sum.hfd_by_sector_m.filter((r) => r > 0).length;
+  const lines = await overlayLines();
+  assert.equal(lines.hfd?.material, 'LineDashedMaterial', JSON.stringify(lines));
+  assert.equal(lines['sectors-lower-bound']?.material, 'LineDashedMaterial', JSON.stringify(lines));
+  assert.equal(lines['sectors-lower-bound'].segments, 5 * nCut, 'a radial segment and 4 arc pieces per cut sector');
+  assert.equal(lines.sectors?.material, 'LineBasicMaterial', JSON.stringify(lines));
+  assert.equal(lines.sectors.segments, 5 * (nDrawn - nCut));
+  const legend = await page.locator('#legend').innerText();
+  assert.ok(legend.includes(`HFD ≥ ${hfd} m (lower bound: site boundary)`), legend);
+  assert.ok(legend.includes('sector HFD ≥ (lower bound: site boundary)'), legend);
+  assert.equal(await page.locator('#density-plot').getAttribute('data-hfd-label'), `HFD ≥ ${hfd} m`);
+  const s3d = await h.canvasStats(page, '#scene-canvas', 'job-8-canvas-hfd-lower-bound');
+  assertRendered(s3d, '#scene-canvas of the cut HFD');
+});
+
+test('an unmeetable precision target and its stop reason are said in words', { timeout: 30000 }, async () => {
+  const sum = unmeetable.summary;
+  assert.equal(sum.stop_reason, 'targets_unmeetable', JSON.stringify(sum.precision));
+  const t = sum.precision.targets[0];
+  await openJob(unmeetable.job.job_id);
+  assert.equal(await h.summaryValue(page, 'stop_reason'), 'stopped: a precision target cannot be met by more histories');
+  assert.equal(await h.summaryValue(page, 'precision'), 'not all can be met');
+  const row = await h.summaryValue(page, `target-${t.figure}`);
+  assert.ok(row.includes('UNMEETABLE') && row.includes(t.note) && !/not met/.test(row), row);
+  await h.screenshot(page.locator('#summary-table'), 'job-9-unmeetable-target');
 });
 
 test('no console errors, no page errors in the job view', () => {

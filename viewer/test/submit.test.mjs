@@ -1,5 +1,6 @@
 // (e) Submitting a scenario file from the page: a bad one shows the daemon's "field: message" in
-// #submit-error; a good one (with #submit-priority) becomes a job.
+// #submit-error; a good one (with #submit-priority) becomes a job, with no warning; one whose
+// fragments can land beyond its terrain while hazardous shows the answer's warnings under the form.
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
@@ -79,9 +80,33 @@ test('a good scenario with a priority becomes a job', { timeout: 40000 }, async 
   const row = page.locator(`#jobs-table tr[data-job-id="${created.job_id}"]`);
   await row.locator('td.state', { hasText: 'done' }).waitFor({ timeout: 10000 });
   assert.equal((await row.locator('td.priority').innerText()).trim(), '7');
+  assert.ok(await page.locator('#submit-warnings').isHidden(), '#submit-warnings shown for a scenario without warnings');
   const errText = (await page.locator('#submit-error').innerText().catch(() => '')).trim();
   assert.ok(!(await page.locator('#submit-error').isVisible()) || errText === '', `#submit-error still shows "${errText}" after a good submit`);
   await h.screenshot(page, 'submit-3-good', { fullPage: true });
   assert.deepEqual(page.diag.pageErrors, [], 'page errors');
   assert.deepEqual(h.unexpectedConsoleErrors(page, [401, 400, 422]), [], 'console errors');
+});
+
+test('a scenario whose fragments land beyond the terrain shows the answer\'s warnings', { timeout: 30000 }, async () => {
+  const file = path.join(dir, 'small-plane.json');
+  fs.writeFileSync(file, JSON.stringify(h.smallPlaneScenario()));
+  await page.setInputFiles('#submit-file', file);
+  const [res] = await Promise.all([
+    page.waitForResponse((r) => r.request().method() === 'POST' && new URL(r.url()).pathname === '/v1/jobs'),
+    page.click('#submit-button'),
+  ]);
+  const answer = await res.json();
+  assert.ok(answer.warnings?.length > 0, `POST /v1/jobs answered no warnings: ${JSON.stringify(answer)}`);
+  const items = page.locator('#submit-warnings li');
+  await items.first().waitFor({ timeout: 10000 });
+  assert.equal(await items.count(), answer.warnings.length);
+  for (const [i, w] of answer.warnings.entries()) {
+    const text = (await items.nth(i).innerText()).replace(/\s+/g, ' ').trim();
+    assert.equal(text, `${w.severity}: ${w.message}`.replace(/\s+/g, ' '));
+    assert.equal(await items.nth(i).getAttribute('data-field'), w.field);
+  }
+  assert.match(answer.warnings[0].message, /beyond the terrain/);
+  await h.screenshot(page, 'submit-4-warnings', { fullPage: true });
+  assert.deepEqual(page.diag.pageErrors, [], 'page errors');
 });

@@ -1,0 +1,161 @@
+// The job's figures as a person reads them (summary.json, and the live job's `precision`): HFDs
+// that the site boundary cuts carry "≥" (issue 22: the terrain ends, so nothing is known beyond
+// it and the distance is only a lower bound), stop reasons and precision targets in words.
+// Summaries of older jobs lack the bound keys: their figures read as they always did.
+
+import { el, fixed, sig, plusMinus, integer } from './format.js';
+
+export const LOWER_BOUND_NOTE = 'lower bound: the hazardous density reaches the site boundary';
+
+export function isLower(bound) {
+  return bound === 'lower';
+}
+
+// A distance (m) to one decimal, "≥ 266.4" when it is a lower bound.
+export function bounded(m, bound) {
+  return (isLower(bound) ? '≥ ' : '') + fixed(m, 1);
+}
+
+// Per sector k, is hfd_by_sector_m[k] a lower bound? (36 booleans; none for older summaries)
+export function sectorLowerBounds(s) {
+  const b = s.hfd_by_sector_bound || [];
+  return Array.from({ length: 36 }, (_, k) => isLower(b[k]));
+}
+
+// The note of a cut HFD, e.g. "HFD ≥ 266.4 m: hazardous density reaches the site boundary in 19
+// of 36 sectors; extend the terrain"; null when it is not cut (or the summary predates the key).
+export function boundaryNote(s) {
+  const note = s.site_boundary && s.site_boundary.note;
+  return typeof note === 'string' && note ? note : null;
+}
+
+const STOP_REASONS = {
+  samples: 'all samples run',
+  targets_met: 'precision targets met',
+  max_batches: 'max_batches reached',
+  max_wall_time: 'max_wall_s reached',
+  cancelled: 'cancelled',
+  targets_unmeetable: 'stopped: a precision target cannot be met by more histories',
+};
+
+export function stopReasonText(reason) {
+  if (reason === null || reason === undefined) return '—';
+  return STOP_REASONS[reason] || reason;
+}
+
+// ---- precision targets --------------------------------------------------------------------------
+
+// "met", "UNMEETABLE" or "not met"; an unmeetable target is one no number of histories can meet
+// (today: an HFD target whose band's lower end the site boundary cuts), which "not met" hides.
+export function targetVerdict(t) {
+  if (t.met) return 'met';
+  return t.unmeetable ? 'UNMEETABLE' : 'not met';
+}
+
+// "10.57 (allowed 1) UNMEETABLE", with the target's note (why) as a sub-line when it has one.
+function targetLine(t) {
+  const line = `${sig(t.value, 4)} (allowed ${sig(t.allowed, 4)}) ${targetVerdict(t)}`;
+  return typeof t.note === 'string' && t.note ? [line, t.note] : line;
+}
+
+function isBuildingTarget(t) {
+  return String(t.figure || '').startsWith('building_');
+}
+
+function overallVerdict(p) {
+  if (p.all_met) return 'all met';
+  return p.any_unmeetable ? 'not all can be met' : 'not all met';
+}
+
+// Summary-table rows [key, label, value, flagged] of a precision report: the overall verdict,
+// a row per non-building target, one for the building targets (met of all, like the CLI's text).
+export function precisionRows(p) {
+  if (!p) return [];
+  const targets = p.targets || [];
+  const rows = [['precision', 'Precision targets', overallVerdict(p), !!p.any_unmeetable]];
+  for (const t of targets.filter((x) => !isBuildingTarget(x)))
+    rows.push([`target-${t.figure}`, `target: ${t.figure}`, targetLine(t), !!t.unmeetable]);
+  const b = targets.filter(isBuildingTarget);
+  if (b.length) {
+    const met = b.filter((t) => t.met).length;
+    const bad = b.filter((t) => t.unmeetable).length;
+    const text = `${met} of ${b.length} met${bad ? `, ${bad} UNMEETABLE` : ''}`;
+    rows.push(['target-buildings', 'target: building figures', text, bad > 0]);
+  }
+  return rows;
+}
+
+// One line for a running job: "0 of 1 targets met; hfd_half_band_m UNMEETABLE: <note>".
+export function precisionStatus(p) {
+  if (!p || !p.targets) return '';
+  const met = p.targets.filter((t) => t.met).length;
+  const bad = p.targets.filter((t) => t.unmeetable)
+    .map((t) => `${t.figure} UNMEETABLE${t.note ? `: ${t.note}` : ''}`);
+  return [`${met} of ${p.targets.length} targets met`, ...bad].join('; ');
+}
+
+// ---- summary table ------------------------------------------------------------------------------
+
+// "hazardous in 19 of 36 sectors (density there up to 0.0471 per m², 2.6 × the threshold)".
+function boundaryText(sb, thr) {
+  const cut = sb.hfd_sectors_cut || 0;
+  const edge = sb.max_boundary_density_per_m2;
+  const where = cut > 0 ? `hazardous in ${cut} of 36 sectors` : 'not reached';
+  if (!(edge > 0)) return `${where} (no hazardous density on its triangles)`;
+  return `${where} (density there up to ${sig(edge, 4)} per m², ${sig(edge / thr, 2)} × the threshold)`;
+}
+
+function leftSiteText(left) {
+  const n = left.histories || 0;
+  const tail = n > 0 ? ': where they land is not modelled' : '';
+  return `${plusMinus(left.fragments, left.fragments_std_error)} real fragments (${integer(n)} histories)${tail}`;
+}
+
+// The HFD rows: distance, band, and (newer summaries) the site boundary and the hazardous
+// fragments that left the site.
+function hfdRows(s) {
+  const band = s.hazardous_fragment_distance_band_m || [null, null];
+  const bb = s.hfd_band_bound || [];
+  const cut = isLower(s.hfd_bound);
+  const hfd = bounded(s.hazardous_fragment_distance_m, s.hfd_bound);
+  const rows = [
+    ['hfd', 'Hazardous fragment distance (m)', cut ? [hfd, LOWER_BOUND_NOTE] : hfd, cut],
+    ['hfd_band', 'HFD band, mean ∓ 1 se (m)', `${bounded(band[0], bb[0])} – ${bounded(band[1], bb[1])}`, bb.some(isLower)],
+  ];
+  const sb = s.site_boundary, left = sb && sb.left_site_hazardous;
+  if (sb) rows.push(['site_boundary', 'Site boundary', boundaryText(sb, s.hfd_threshold_per_m2), sb.hfd_sectors_cut > 0]);
+  if (left) rows.push(['left_site_hazardous', 'Left the site while hazardous', leftSiteText(left), left.histories > 0]);
+  return rows;
+}
+
+// Rows [key, label, value, flagged] of the job view's summary table.
+export function summaryRows(s, scene) {
+  const thr = s.hfd_threshold_per_m2;
+  const traj = scene.trajectories;
+  const rows = [
+    ...hfdRows(s),
+    ['hfd_origin', 'HFD origin x, y, z (m)', (s.hfd_origin_m || []).map((v) => fixed(v, 1)).join(', ')],
+    ['threshold', 'Density threshold (per m²)', `${sig(thr, 4)} (1 per ${sig(1 / thr, 4)} m²)`],
+    ['max_density', 'Max PTN density (per m²)', sig(s.max_ptn_density_per_m2, 4)],
+    ['buildings', 'Buildings', String((s.buildings || []).length)],
+    ['samples', 'Samples', integer(s.samples)],
+    ['histories', 'Histories simulated', integer(s.histories_done)],
+    ['batches', 'Batches', integer(s.batches)],
+    ['stop_reason', 'Stop reason', stopReasonText(s.stop_reason), s.stop_reason === 'targets_unmeetable'],
+    ...precisionRows(s.precision),
+    ['real_fragments', 'Real fragments', sig(s.real_fragments, 6)],
+    ['wall_time', 'Wall time (s)', fixed(s.timing && s.timing.wall_s, 2)],
+    ['seed', 'Seed', String(s.seed)],
+    ['triangles', 'Terrain triangles', integer(scene.arrays.terrain_triangles.length / 3)],
+  ];
+  if (traj) rows.push(['trajectories', 'Trajectories shown', `${integer(traj.sent)} of ${integer(traj.recorded)} recorded`]);
+  return rows;
+}
+
+// A table row: value is text, or [text, sub-line]; `flagged` rows (a lower bound, an unmeetable
+// target) are marked for the eye.
+export function summaryRow([key, label, value, flagged]) {
+  const [text, sub] = Array.isArray(value) ? value : [value, null];
+  const td = el('td', { class: 'value' }, [text, sub ? el('div', { class: 'small sub-line', text: sub }) : null]);
+  return el('tr', { dataset: { key }, class: flagged ? 'flagged' : null }, [el('th', { text: label }), td]);
+}
