@@ -24,28 +24,45 @@ Vec3 hfd_origin_input(const Scenario& sc, const scene::Site& site) {
   return sc.groups.empty() ? site.local_origin() : sc.groups[0].frame.origin_m;
 }
 
-HfdGeometry::HfdGeometry(const scene::Site& site, const Vec3& origin_local)
-    : distance_(site.terrain_triangle_count()),
-      sector_(site.terrain_triangle_count()),
-      boundary_(site.terrain_boundary_triangles()) {
-  for (std::uint32_t t = 0; t < distance_.size(); ++t) {
-    const Vec3 c = site.terrain_triangle_centroid(t);
-    const double dx = c.x() - origin_local.x(), dy = c.y() - origin_local.y();
-    distance_[t] = std::hypot(dx, dy);
-    sector_[t] = static_cast<std::uint8_t>(hfd_sector(dx, dy));
+HfdGeometry::HfdGeometry(const scene::Site& site, const Vec3& origin_local, bool keep_distances)
+    : site_(site), origin_(origin_local) {
+  if (keep_distances) {
+    distance_.resize(site.terrain_triangle_count());
+    for (std::uint32_t t = 0; t < distance_.size(); ++t) {
+      const Vec2 d = offset(t);
+      distance_[t] = std::hypot(d.x(), d.y());
+    }
   }
+  for (const std::uint32_t t : site.terrain_boundary_triangles()) {
+    const Vec2 d = offset(t);
+    boundary_sector_.push_back(static_cast<std::uint8_t>(hfd_sector(d.x(), d.y())));
+  }
+}
+
+Vec2 HfdGeometry::offset(std::uint32_t t) const {
+  const Vec3 c = site_.terrain_triangle_centroid(t);
+  return Vec2(c.x() - origin_.x(), c.y() - origin_.y());
+}
+
+// std::hypot, as the HFD has always been measured (Vec2::norm rounds differently).
+double HfdGeometry::distance(std::uint32_t t) const {
+  if (!distance_.empty()) return distance_[t];
+  const Vec2 d = offset(t);
+  return std::hypot(d.x(), d.y());
 }
 
 double HfdGeometry::hfd(const std::vector<double>& density, double threshold,
                         SectorFigures* by_sector) const {
   double best = 0.0;
   if (by_sector) by_sector->fill(0.0);
-  for (std::size_t t = 0; t < density.size(); ++t) {
+  for (std::uint32_t t = 0; t < density.size(); ++t) {
     if (!hazardous(density[t], threshold)) continue;
-    best = std::max(best, distance_[t]);
+    const double r = distance(t);
+    best = std::max(best, r);
     if (by_sector) {
-      double& s = (*by_sector)[sector_[t]];
-      s = std::max(s, distance_[t]);
+      const Vec2 d = offset(t);
+      double& s = (*by_sector)[static_cast<std::size_t>(hfd_sector(d.x(), d.y()))];
+      s = std::max(s, r);
     }
   }
   return best;
@@ -53,9 +70,11 @@ double HfdGeometry::hfd(const std::vector<double>& density, double threshold,
 
 BoundaryCut HfdGeometry::cut(const std::vector<double>& density, double threshold) const {
   BoundaryCut c;
-  for (const std::uint32_t t : boundary_) {
+  const auto& boundary = site_.terrain_boundary_triangles();
+  for (std::size_t k = 0; k < boundary.size(); ++k) {
+    const std::uint32_t t = boundary[k];
     if (t >= density.size() || !hazardous(density[t], threshold)) continue;
-    bool& flag = c.sectors[sector_[t]];
+    bool& flag = c.sectors[boundary_sector_[k]];
     c.sector_count += flag ? 0 : 1;
     flag = true;
   }
@@ -64,7 +83,7 @@ BoundaryCut HfdGeometry::cut(const std::vector<double>& density, double threshol
 
 double HfdGeometry::max_boundary_density(const std::vector<double>& density) const {
   double best = 0.0;
-  for (const std::uint32_t t : boundary_)
+  for (const std::uint32_t t : site_.terrain_boundary_triangles())
     if (t < density.size() && density[t] > best) best = density[t];
   return best;
 }

@@ -36,11 +36,14 @@ struct BoundaryCut {
   bool any() const { return sector_count > 0; }
 };
 
-// Per terrain triangle, its centroid's distance from the HFD origin and its sector; the
-// boundary triangles. Built once per run (or per result).
+// The geometry an HFD is measured on: the HFD origin, the site's triangles and the sectors of the
+// triangles touching the terrain's boundary. A triangle's distance and sector are computed when a
+// density makes it count (hazardous), as the HFD always did, unless `keep_distances` keeps the
+// distances of all triangles (precision checks, the importance learner: they look at many
+// fields of one run).
 class HfdGeometry {
  public:
-  HfdGeometry(const scene::Site& site, const Vec3& origin_local);
+  HfdGeometry(const scene::Site& site, const Vec3& origin_local, bool keep_distances = false);
 
   // The HFD of `density` (0 when no triangle is at or above the threshold), and per sector.
   double hfd(const std::vector<double>& density, double threshold,
@@ -50,13 +53,17 @@ class HfdGeometry {
   // The largest density on a triangle touching the boundary (0 without one).
   double max_boundary_density(const std::vector<double>& density) const;
 
+  // Every triangle's centroid distance (m); empty unless kept.
   const std::vector<double>& distances() const { return distance_; }
-  int sector_of(std::uint32_t triangle) const { return sector_[triangle]; }
 
  private:
-  std::vector<double> distance_;      // per triangle, m
-  std::vector<std::uint8_t> sector_;  // per triangle
-  const std::vector<std::uint32_t>& boundary_;
+  Vec2 offset(std::uint32_t triangle) const;  // centroid - origin, horizontal
+  double distance(std::uint32_t triangle) const;
+
+  const scene::Site& site_;
+  Vec3 origin_;
+  std::vector<double> distance_;               // per triangle when kept
+  std::vector<std::uint8_t> boundary_sector_;  // per boundary triangle
 };
 
 }  // namespace fragsim::run

@@ -251,7 +251,7 @@ class PrecisionControl {
     p_ = &*sc.settings.precision;
     if (p_->hfd_half_band_m || p_->hfd_half_band_rel || p_->ptn_rel_error_at_hfd ||
         p_->direction_importance)
-      geometry_.emplace(site, site.to_local(hfd_origin_input(sc, site)));
+      geometry_.emplace(site, site.to_local(hfd_origin_input(sc, site)), true);
   }
 
   // After batch `batches` (1-based) has been folded, `tallied` of them into the estimates (all

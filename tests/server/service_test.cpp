@@ -1394,10 +1394,12 @@ TEST_F(ServiceResults, ConcurrentFirstMapRequestsAgree) {
   // A site without a CRS: the maps are in local metres and the listing says what was left out.
   const Json m = body_of(answers[0]);
   EXPECT_TRUE(m["crs"].is_null());
-  // "local" is a label, not a CRS, so no GeoJSON or KML; and no trajectories were recorded.
-  ASSERT_EQ(m["notes"].size(), 3u);
-  EXPECT_NE(m["notes"][0].get<std::string>().find("\"local\" is not a CRS"), std::string::npos);
-  EXPECT_NE(m["notes"][2].get<std::string>().find("no CRS"), std::string::npos);
+  // The small plane cuts the HFD (said first); "local" is a label, not a CRS, so no GeoJSON or
+  // KML; and no trajectories were recorded.
+  ASSERT_EQ(m["notes"].size(), 4u);
+  EXPECT_EQ(m["notes"][0].get<std::string>().rfind("HFD ≥ ", 0), 0u);
+  EXPECT_NE(m["notes"][1].get<std::string>().find("\"local\" is not a CRS"), std::string::npos);
+  EXPECT_NE(m["notes"][3].get<std::string>().find("no CRS"), std::string::npos);
   EXPECT_EQ(m["files"].size(), 5u);  // the GeoTIFFs, the GeoPackage, terrain and buildings VTKHDF
 }
 
