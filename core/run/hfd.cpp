@@ -16,6 +16,7 @@ bool hazardous(double density, double threshold) {
 int hfd_sector(double dx, double dy) {
   double az = std::atan2(dy, dx) / kDegToRad;
   if (az < 0.0) az += 360.0;
+  if (!(az >= 0.0)) return 0;  // NaN (a position that is not a number): no cast of it (UB)
   return std::clamp(static_cast<int>(az / 10.0), 0, kHfdSectors - 1);
 }
 

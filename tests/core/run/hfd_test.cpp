@@ -37,6 +37,8 @@ TEST(HfdSector, AzimuthsFromEastTowardNorthInTenDegreeSectors) {
   EXPECT_EQ(hfd_sector(0.0, -1.0), 27);  // south
   EXPECT_EQ(hfd_sector(1.0, -1e-9), 35);
   EXPECT_EQ(hfd_sector(0.0, 0.0), 0);  // the origin itself
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(hfd_sector(nan, 1.0), 0);  // never a cast of NaN to int
 }
 
 // A 200 m plane of 10 m cells (20 x 20), the HFD measured from its centre.
