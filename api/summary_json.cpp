@@ -226,10 +226,9 @@ Json site_boundary_json(const run::RunResult& r) {
 std::string hfd_bound_note(const run::RunResult& r) {
   const run::SiteBoundary& b = r.site_boundary;
   if (!b.hfd_cut) return "";
-  char hfd[32];
-  std::snprintf(hfd, sizeof hfd, "%.1f", r.hazardous_fragment_distance_m);
-  return std::string("HFD ≥ ") + hfd + " m: hazardous density reaches the site boundary in " +
-         std::to_string(b.hfd_sectors_cut) + " of 36 sectors; extend the terrain";
+  return "HFD ≥ " + f1(r.hazardous_fragment_distance_m) +
+         " m: hazardous density reaches the site boundary in " + std::to_string(b.hfd_sectors_cut) +
+         " of 36 sectors; extend the terrain";
 }
 
 Provenance build_provenance() {

@@ -89,4 +89,20 @@ double HfdGeometry::max_boundary_density(const std::vector<double>& density) con
   return best;
 }
 
+HfdFigures HfdGeometry::figures(const std::vector<double>& density,
+                                const std::vector<double>& std_error, double threshold) const {
+  HfdFigures f;
+  f.hfd_m = hfd(density, threshold, &f.by_sector_m);
+  f.cut = cut(density, threshold);
+  f.max_boundary_density_per_m2 = max_boundary_density(density);
+  std::vector<double> shifted(density.size());
+  for (std::size_t t = 0; t < shifted.size(); ++t) shifted[t] = density[t] - std_error[t];
+  f.lower_m = hfd(shifted, threshold);
+  f.lower_cut = cut(shifted, threshold);
+  for (std::size_t t = 0; t < shifted.size(); ++t) shifted[t] = density[t] + std_error[t];
+  f.upper_m = hfd(shifted, threshold);
+  f.upper_cut = cut(shifted, threshold);
+  return f;
+}
+
 }  // namespace fragsim::run

@@ -36,6 +36,15 @@ struct BoundaryCut {
   bool any() const { return sector_count > 0; }
 };
 
+// The HFD of a density field and of the fields mean -+ 1 se (its band), each with the sectors the
+// terrain's boundary cuts.
+struct HfdFigures {
+  double hfd_m = 0.0, lower_m = 0.0, upper_m = 0.0;
+  SectorFigures by_sector_m{};
+  BoundaryCut cut, lower_cut, upper_cut;
+  double max_boundary_density_per_m2 = 0.0;
+};
+
 // The geometry an HFD is measured on: the HFD origin, the site's triangles and the sectors of the
 // triangles touching the terrain's boundary. A triangle's distance and sector are computed when a
 // density makes it count (hazardous), as the HFD always did, unless `keep_distances` keeps the
@@ -52,6 +61,9 @@ class HfdGeometry {
   BoundaryCut cut(const std::vector<double>& density, double threshold) const;
   // The largest density on a triangle touching the boundary (0 without one).
   double max_boundary_density(const std::vector<double>& density) const;
+  // All of the above for a density field and its standard errors.
+  HfdFigures figures(const std::vector<double>& density, const std::vector<double>& std_error,
+                     double threshold) const;
 
   // Every triangle's centroid distance (m); empty unless kept.
   const std::vector<double>& distances() const { return distance_; }

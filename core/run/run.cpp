@@ -332,17 +332,14 @@ class PrecisionControl {
       se[t] *= scale;
     }
     const HfdGeometry& g = *geometry_;
-    std::vector<double> shifted(n);
-    s.hfd_m = g.hfd(density, threshold);
-    s.hfd_cut = g.cut(density, threshold).any();
-    for (std::size_t t = 0; t < n; ++t) shifted[t] = density[t] - se[t];
-    s.hfd_lower_m = g.hfd(shifted, threshold);
-    const BoundaryCut lower_cut = g.cut(shifted, threshold);
-    s.hfd_lower_cut = lower_cut.any();
-    s.hfd_lower_sectors_cut = lower_cut.sector_count;
-    for (std::size_t t = 0; t < n; ++t) shifted[t] = density[t] + se[t];
-    s.hfd_upper_m = g.hfd(shifted, threshold);
-    s.hfd_upper_cut = g.cut(shifted, threshold).any();
+    const HfdFigures f = g.figures(density, se, threshold);
+    s.hfd_m = f.hfd_m;
+    s.hfd_lower_m = f.lower_m;
+    s.hfd_upper_m = f.upper_m;
+    s.hfd_cut = f.cut.any();
+    s.hfd_lower_cut = f.lower_cut.any();
+    s.hfd_lower_sectors_cut = f.lower_cut.sector_count;
+    s.hfd_upper_cut = f.upper_cut.any();
     s.ptn_rel_error_at_hfd = ptn_rel_error_near_hfd(density, se, g.distances(), threshold, s.hfd_m);
   }
 
@@ -426,26 +423,21 @@ void learn(DirectionLearner& learner, const ChunkOutput& c) {
 // The HFD, its band, its sectors and which of them the terrain's boundary cuts, from the
 // result's density field.
 void fill_hfd(const Scenario& sc, const scene::Site& site, RunResult& r) {
-  const double threshold = sc.settings.hfd_threshold_per_m2;
   r.hfd_origin_m = hfd_origin_input(sc, site);
-  const HfdGeometry g(site, site.to_local(r.hfd_origin_m));
-  const std::vector<double>& density = r.ptn_density_per_m2;
-  r.hazardous_fragment_distance_m = g.hfd(density, threshold, &r.hfd_by_sector_m);
+  const HfdFigures f =
+      HfdGeometry(site, site.to_local(r.hfd_origin_m))
+          .figures(r.ptn_density_per_m2, r.ptn_std_error_per_m2, sc.settings.hfd_threshold_per_m2);
+  r.hazardous_fragment_distance_m = f.hfd_m;
+  r.hfd_lower_m = f.lower_m;
+  r.hfd_upper_m = f.upper_m;
+  r.hfd_by_sector_m = f.by_sector_m;
   SiteBoundary& sb = r.site_boundary;
-  const BoundaryCut cut = g.cut(density, threshold);
-  sb.hfd_sector_cut = cut.sectors;
-  sb.hfd_sectors_cut = cut.sector_count;
-  sb.hfd_cut = cut.any();
-  sb.max_boundary_density_per_m2 = g.max_boundary_density(density);
-  std::vector<double> shifted(density.size());
-  for (std::size_t t = 0; t < shifted.size(); ++t)
-    shifted[t] = density[t] - r.ptn_std_error_per_m2[t];
-  r.hfd_lower_m = g.hfd(shifted, threshold);
-  sb.band_lower_cut = g.cut(shifted, threshold).any();
-  for (std::size_t t = 0; t < shifted.size(); ++t)
-    shifted[t] = density[t] + r.ptn_std_error_per_m2[t];
-  r.hfd_upper_m = g.hfd(shifted, threshold);
-  sb.band_upper_cut = g.cut(shifted, threshold).any();
+  sb.hfd_sector_cut = f.cut.sectors;
+  sb.hfd_sectors_cut = f.cut.sector_count;
+  sb.hfd_cut = f.cut.any();
+  sb.band_lower_cut = f.lower_cut.any();
+  sb.band_upper_cut = f.upper_cut.any();
+  sb.max_boundary_density_per_m2 = f.max_boundary_density_per_m2;
 }
 
 // Turns the folded tallies of `batches` batches into the result's figures.

@@ -41,6 +41,22 @@ inline fragments::FragmentGroupSpec sphere_group(const Vec3& origin, double mass
   return g;
 }
 
+// Steel spheres (0.1 kg, 60 m/s, Cd 0.47, 20,000 real fragments) fanned toward +x (azimuth
+// -20 ... 20 deg, 10-40 deg elevation: they land 100-360 m out) from 1 m above the centre of a
+// plane of half-width `half_m` in 10 m cells. On 200 m the hazardous area runs off the +x side
+// well above the HFD threshold; on 600 m nothing leaves (core/run/hfd_test.cpp).
+inline run::Scenario fan_scenario(double half_m, std::int64_t samples) {
+  run::Scenario sc = flat_site_scenario(half_m, 10.0);
+  auto g = sphere_group(Vec3(0, 0, 1.0), 0.1, 60.0, 20000.0, samples);
+  g.cd.constant = 0.47;
+  g.direction.elevation_min_deg = 10.0;
+  g.direction.elevation_max_deg = 40.0;
+  g.direction.azimuth_min_deg = -20.0;
+  g.direction.azimuth_max_deg = 20.0;
+  sc.groups = {g};
+  return sc;
+}
+
 // A footprint box building with the given materials.
 inline scene::BuildingSpec box_building(const std::string& id, double x0, double y0, double x1,
                                         double y1, double height_m) {

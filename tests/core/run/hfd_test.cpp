@@ -93,22 +93,8 @@ TEST_F(HfdGeometryTest, InteriorTrianglesAndNonNumbersNeverCut) {
   EXPECT_GT(g.hfd(density_, kThreshold), 80.0);
 }
 
-// Steel spheres fanned toward +x (azimuth -20 ... 20 deg from the origin, 10-40 deg elevation,
-// 60 m/s: they land 100-360 m out) over a plane of 10 m cells centred on the origin.
-Scenario fan_scenario(double half_m) {
-  Scenario sc = validation::flat_site_scenario(half_m, 10.0);
-  auto g = validation::sphere_group(Vec3(0, 0, 1.0), 0.1, 60.0, 20000.0, 2000);
-  g.cd.constant = 0.47;
-  g.direction.elevation_min_deg = 10.0;
-  g.direction.elevation_max_deg = 40.0;
-  g.direction.azimuth_min_deg = -20.0;
-  g.direction.azimuth_max_deg = 20.0;
-  sc.groups = {g};
-  return sc;
-}
-
 TEST(HfdCut, AFanLeavingASmallPlaneFlagsTheSectorsOnItsSideOnly) {
-  const Scenario small = fan_scenario(200.0);
+  const Scenario small = validation::fan_scenario(200.0, 2000);
   const RunResult r = run::run(small);
   const SiteBoundary& b = r.site_boundary;
   EXPECT_TRUE(b.hfd_cut);
@@ -142,7 +128,7 @@ TEST(HfdCut, AFanLeavingASmallPlaneFlagsTheSectorsOnItsSideOnly) {
 
   // On a 1.2 km plane about the same origin nothing leaves and nothing is cut; the triangles the
   // two planes share (the same cells, to the bit) carry the same densities.
-  const RunResult big = run::run(fan_scenario(600.0));
+  const RunResult big = run::run(validation::fan_scenario(600.0, 2000));
   EXPECT_FALSE(big.site_boundary.hfd_cut);
   EXPECT_FALSE(big.site_boundary.band_lower_cut);
   EXPECT_FALSE(big.site_boundary.band_upper_cut);

@@ -202,27 +202,13 @@ TEST(Precision, MinBatchesHoldsBackAnEarlyStop) {
   EXPECT_EQ(r.batches, 5);
 }
 
-// Steel spheres fanned toward +x over a plane of half-width `half_m` (10 m cells): on 200 m
-// the hazardous area runs off the +x side well above the threshold (core/run/hfd_test.cpp).
-Scenario fan_scenario(double half_m) {
-  Scenario sc = validation::flat_site_scenario(half_m, 10.0);
-  auto g = validation::sphere_group(Vec3(0, 0, 1.0), 0.1, 60.0, 20000.0, 500);
-  g.cd.constant = 0.47;
-  g.direction.elevation_min_deg = 10.0;
-  g.direction.elevation_max_deg = 40.0;
-  g.direction.azimuth_min_deg = -20.0;
-  g.direction.azimuth_max_deg = 20.0;
-  sc.groups = {g};
-  return sc;
-}
-
 // Issue 22: a bound cannot meet a precision target. With the HFD cut by the site boundary even
 // at the band's lower end, the HFD targets are unmeetable, say why, and the run stops at the
 // first boundary after min_batches where nothing else is left to meet: targets_unmeetable, not
 // max_batches 40 batches later, and never targets_met. On a plane large enough the same targets
 // are met or not, as before.
 TEST(Precision, AnHfdTargetOnAnHfdCutByTheSiteBoundaryIsUnmeetableAndStopsTheRun) {
-  Scenario sc = fan_scenario(200.0);
+  Scenario sc = validation::fan_scenario(200.0, 500);
   PrecisionSettings p;
   p.hfd_half_band_m = 1000.0;  // met by any band: only the boundary stands in the way
   p.ptn_rel_error_at_hfd = 1.0;
@@ -255,7 +241,7 @@ TEST(Precision, AnHfdTargetOnAnHfdCutByTheSiteBoundaryIsUnmeetableAndStopsTheRun
   sc.settings.precision = p;
   EXPECT_EQ(run(sc).stop_reason, StopReason::kMaxBatches);
 
-  Scenario big = fan_scenario(600.0);
+  Scenario big = validation::fan_scenario(600.0, 500);
   p = PrecisionSettings{};
   p.hfd_half_band_m = 1000.0;
   big.settings.precision = p;

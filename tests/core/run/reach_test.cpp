@@ -114,20 +114,28 @@ TEST(Reach, ManyGroupsShareTheBudget) {
   EXPECT_EQ(pilot_size(5000), 1);
 }
 
-TEST(Reach, TheMessageGivesTheEstimateInRoundFigures) {
+// A warning as groups_beyond_terrain makes it: `beyond` of 256 pilot fragments, 79 J.
+ReachWarning pilot_warning(std::uint32_t group, const std::string& name, double count,
+                           std::int64_t beyond, double farthest_m, double azimuth_deg,
+                           double edge_m) {
   ReachWarning w;
-  w.group = 0;
-  w.group_name = "steel spheres";
-  w.count = 1000.0;
+  w.group = group;
+  w.group_name = name;
+  w.count = count;
   w.pilot = 256;
-  w.beyond = 161;
-  w.fraction = 161.0 / 256.0;
+  w.beyond = beyond;
+  w.fraction = static_cast<double>(beyond) / 256.0;
   w.fraction_se = std::sqrt(w.fraction * (1 - w.fraction) / 256.0);
-  w.real_fragments = 1000.0 * w.fraction;
+  w.real_fragments = count * w.fraction;
   w.hazardous_ke_j = 79.0;
-  w.farthest_m = 1234.5;
-  w.farthest_azimuth_deg = 39.7;
-  w.terrain_edge_m = 283.2;
+  w.farthest_m = farthest_m;
+  w.farthest_azimuth_deg = azimuth_deg;
+  w.terrain_edge_m = edge_m;
+  return w;
+}
+
+TEST(Reach, TheMessageGivesTheEstimateInRoundFigures) {
+  const ReachWarning w = pilot_warning(0, "steel spheres", 1000.0, 161, 1234.5, 39.7, 283.2);
   EXPECT_EQ(reach_message(w),
             "fragment_groups[0] (\"steel spheres\"): about 63 % of its fragments (~630 real "
             "fragments) land beyond the terrain while still hazardous (>= 79 J); the farthest "
@@ -142,19 +150,7 @@ TEST(Reach, TheMessageGivesTheEstimateInRoundFigures) {
 // A single pilot fragment beyond (the demo's head closure, 1 of 256) says only that the tail of
 // the group can get there: a note, not a warning.
 TEST(Reach, ASinglePilotFragmentBeyondIsANote) {
-  ReachWarning w;
-  w.group = 1;
-  w.group_name = "head closure";
-  w.count = 200.0;
-  w.pilot = 256;
-  w.beyond = 1;
-  w.fraction = 1.0 / 256.0;
-  w.fraction_se = std::sqrt(w.fraction * (1 - w.fraction) / 256.0);
-  w.real_fragments = 200.0 * w.fraction;
-  w.hazardous_ke_j = 79.0;
-  w.farthest_m = 1110.0;
-  w.farthest_azimuth_deg = 17.0;
-  w.terrain_edge_m = 1050.0;
+  ReachWarning w = pilot_warning(1, "head closure", 200.0, 1, 1110.0, 17.0, 1050.0);
   EXPECT_FALSE(w.plain());
   EXPECT_STREQ(w.severity(), "note");
   const std::string m = reach_message(w);
