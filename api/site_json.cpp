@@ -66,6 +66,29 @@ scene::EmbedmentSpec parse_embedment(const Json& j, const std::string& path) {
   return e;
 }
 
+// Fast contact on deformable ground (scene::FastContactSpec; docs/physics.md, F1-F6). Only the
+// bulk density is required; the other constants default to the nominal values of docs/physics.md.
+scene::FastContactSpec parse_fast_contact(const Json& j, const std::string& path) {
+  const ObjectReader o(j, path, "fast_contact");
+  scene::FastContactSpec f;
+  f.bulk_density_kg_m3 = o.number("bulk_density_kg_m3");
+  check_ge_le(f.bulk_density_kg_m3, limits::kMinDensity_kg_m3, limits::kMaxDensity_kg_m3,
+              o.at("bulk_density_kg_m3"));
+  f.switch_speed_mps = o.number_or("switch_speed_mps", f.switch_speed_mps);
+  check_gt(f.switch_speed_mps, 0.0, o.at("switch_speed_mps"));
+  check_ge_le(f.switch_speed_mps, 0.0, limits::kMaxImpactSpeed_mps, o.at("switch_speed_mps"));
+  f.critical_angle_coefficient_deg =
+      o.number_or("critical_angle_coefficient_deg", f.critical_angle_coefficient_deg);
+  check_gt_le(f.critical_angle_coefficient_deg, 0.0, 90.0, o.at("critical_angle_coefficient_deg"));
+  f.drag_to_lift_ratio = o.number_or("drag_to_lift_ratio", f.drag_to_lift_ratio);
+  check_gt_le(f.drag_to_lift_ratio, 0.0, 100.0, o.at("drag_to_lift_ratio"));
+  f.roughness_deg = o.number_or("roughness_deg", f.roughness_deg);
+  check_ge_le(f.roughness_deg, 0.0, 45.0, o.at("roughness_deg"));
+  f.exit_angle_ratio = o.number_or("exit_angle_ratio", f.exit_angle_ratio);
+  check_ge_le(f.exit_angle_ratio, 0.0, 10.0, o.at("exit_angle_ratio"));
+  return f;
+}
+
 scene::MaterialSpec parse_material(const Json& j, const std::string& path, MaterialNotes& notes) {
   const ObjectReader o(j, path, "material");
   scene::MaterialSpec m;
@@ -82,6 +105,12 @@ scene::MaterialSpec parse_material(const Json& j, const std::string& path, Mater
     m.penetration_ke_per_area_j_per_m2 = ke;
   }
   if (const Json* e = o.find("embedment")) m.embedment = parse_embedment(*e, o.at("embedment"));
+  if (const Json* f = o.find("fast_contact")) {
+    if (m.embedment)
+      fail(o.at("fast_contact"),
+           "give embedment or fast_contact, not both (fast_contact has its own critical angle)");
+    m.fast_contact = parse_fast_contact(*f, o.at("fast_contact"));
+  }
   notes.illustrative = o.bool_or("illustrative", false);
   notes.source = o.string_or("source", "");
   return m;
@@ -373,6 +402,15 @@ Json site_to_json(const scene::SiteSpec& site, const std::map<std::string, Mater
                {"restitution", restitution_json(m.restitution)}};
     if (m.penetration_ke_per_area_j_per_m2)
       mj["penetration"] = {{"ke_per_area_j_per_m2", *m.penetration_ke_per_area_j_per_m2}};
+    if (m.fast_contact) {
+      const scene::FastContactSpec& f = *m.fast_contact;
+      mj["fast_contact"] = {{"bulk_density_kg_m3", f.bulk_density_kg_m3},
+                            {"switch_speed_mps", f.switch_speed_mps},
+                            {"critical_angle_coefficient_deg", f.critical_angle_coefficient_deg},
+                            {"drag_to_lift_ratio", f.drag_to_lift_ratio},
+                            {"roughness_deg", f.roughness_deg},
+                            {"exit_angle_ratio", f.exit_angle_ratio}};
+    }
     if (m.embedment)
       mj["embedment"] = {{"model", "johnson_reid_1975"},
                          {"bulk_density_kg_m3", m.embedment->bulk_density_kg_m3},

@@ -8,6 +8,7 @@
 #include "core/common/roots.h"
 #include "core/flight/dopri5.h"
 #include "core/impact/bounce.h"
+#include "core/impact/fast_contact.h"
 #include "core/impact/ground_forces.h"
 #include "core/impact/terrain_edges.h"
 
@@ -67,6 +68,9 @@ class GroundMotion {
  private:
   // Entering a contact.
   Next enter_face(std::uint32_t tri, const Vec3& p, const Vec3& v, const Vec3& omega);
+  Next settle_on_face(std::uint32_t tri, const Vec3& p, const Vec3& v, const Vec3& omega);
+  bool fast(const Vec3& v) const { return v.norm() >= material_.fast_contact_speed_mps(); }
+  Next fast_contact_on(std::uint32_t tri, const Vec3& p, const Vec3& v, const Vec3& omega);
   Next enter_crease(std::uint32_t tri, std::uint32_t other, std::uint32_t from_id,
                     std::uint32_t to_id, const Vec3& p, const Vec3& v, const Vec3& w);
   void restart_integrator(const Vec3& p, const Vec3& v, const Vec3& w);
@@ -204,7 +208,33 @@ void GroundMotion::turn_with_terrain(const Vec3& from, const Vec3& to) {
   if (!res_.round) q_ = (Quat::FromTwoVectors(from, to) * q_).normalized();
 }
 
+// Onto triangle tri: a fast contact if the material has that law and the body is at least its
+// switch speed fast (F6), else the body settles on the face.
 Next GroundMotion::enter_face(std::uint32_t tri, const Vec3& p, const Vec3& v, const Vec3& omega) {
+  if (fast(v)) return fast_contact_on(tri, p, v, omega);
+  return settle_on_face(tri, p, v, omega);
+}
+
+// F6: a contact at least v_s fast is no slide: it embeds, or it ricochets and leaves the ground
+// (F5 makes it leave while it keeps v_s), or, slowed below v_s, it goes on along the face.
+Next GroundMotion::fast_contact_on(std::uint32_t tri, const Vec3& p, const Vec3& v,
+                                   const Vec3& omega) {
+  const Vec3& n = site_.terrain_triangle_normal(tri);
+  const FastContactOutcome f = fast_contact(*material_.fast_contact, body_.density_kg_m3, v, omega,
+                                            n, set_.takeoff_speed_mps);
+  ++r_.fast_contacts;
+  p_ = p;
+  contact_.tri = tri;
+  if (f.end != FastContactEnd::kRicochet) return finish(GroundEnd::kEmbedded);
+  ++r_.impacts;
+  obs_.on_impact({t_, p, v, f.velocity_mps, omega, f.omega_radps, tri});
+  if (f.velocity_mps.dot(n) >= set_.takeoff_speed_mps)
+    return take_off(tri, f.velocity_mps, f.omega_radps);
+  return settle_on_face(tri, p, f.velocity_mps, f.omega_radps);
+}
+
+Next GroundMotion::settle_on_face(std::uint32_t tri, const Vec3& p, const Vec3& v,
+                                  const Vec3& omega) {
   const Vec3 n_before = contact_.n;
   contact_ = Contact{};
   contact_.tri = tri;
@@ -386,6 +416,7 @@ bool GroundMotion::emit(double ta, const Vec3& pa, const Vec3& va, double tb, co
   s.ha = pa.z() - site_.terrain_plane_height(tri, pa.x(), pa.y());
   s.hb = pb.z() - site_.terrain_plane_height(tri, pb.x(), pb.y());
   r_.path_m += (pb - pa).norm();
+  if (fast(va)) ++r_.fast_slides;  // F6 forbids it: counted, never expected
   return obs_.on_segment(s);
 }
 
@@ -504,6 +535,7 @@ Next GroundMotion::walk_crease_step() {
 // After a step that stayed on its contact: the air lifting the body off, a contact point that
 // stopped slipping, the centre stopping, the time limit.
 Next GroundMotion::after_step() {
+  if (fast(v_)) return fast_contact_on(contact_.tri, p_, v_, omega_of(w_));  // sped up (F6)
   const Vec3 a_ext = air_.acceleration(p_, v_);
   if (!contact_.crease) {
     if (a_ext.dot(contact_.n) > 0.0) return take_off(contact_.tri, v_, omega_of(w_));
@@ -685,6 +717,7 @@ Next GroundMotion::cross_edge(std::uint32_t next, std::uint32_t from_id, std::ui
 // An impulse on the plane of `next` at the current point (G12; bounce.h), then on.
 Next GroundMotion::edge_impact(std::uint32_t next, const Vec3& v_in, bool concave,
                                std::uint32_t from_id, std::uint32_t to_id) {
+  if (fast(v_in)) return fast_contact_on(next, p_, v_in, omega_of(w_));
   const Vec3& n2 = site_.terrain_triangle_normal(next);
   if (material_.embeds(v_in, n2, body_.density_kg_m3)) return finish(GroundEnd::kEmbedded);
   const Vec3 omega_in = omega_of(w_);

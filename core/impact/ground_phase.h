@@ -80,9 +80,11 @@ enum class GroundEnd {
 struct GroundResult {
   GroundEnd end = GroundEnd::kRest;
   GroundState state;
-  double path_m = 0.0;  // distance the centre travelled on the ground
-  long steps = 0;       // integrator steps and events
-  long impacts = 0;     // impulses at edges (concave edges, contracted hops)
+  double path_m = 0.0;     // distance the centre travelled on the ground
+  long steps = 0;          // integrator steps and events
+  long impacts = 0;        // impulses at edges (concave edges, contracted hops), fast contacts
+  long fast_contacts = 0;  // contacts resolved by the material's fast_contact law (F6)
+  long fast_slides = 0;    // pieces that started faster than its switch speed (expected 0)
 };
 
 // One piece of the ground path, over one terrain triangle (its xy-path stays inside that

@@ -4,6 +4,7 @@
 
 #include "core/impact/bounce.h"
 #include "core/impact/contacts.h"
+#include "core/impact/fast_contact.h"
 #include "core/run/hfd.h"
 #include "core/run/history_impl.h"
 
@@ -173,6 +174,7 @@ Phase History::flight_phase() {
 // phase when the rebound is slower than the floor (or the bounce cap is reached).
 Phase History::terrain_impact(const FlightEvent& ev) {
   const scene::Material& mat = site_.materials()[ev.material];
+  if (ev.v.norm() >= mat.fast_contact_speed_mps()) return fast_terrain_contact(ev, mat);
   if (mat.embeds(ev.v, ev.normal, density_kg_m3_)) {  // too fast and steep to ricochet
     end_as(Outcome::kEmbedded, ev.t, ev.p, ev.v);
     record_point(ev.t, ev.p, ev.v, TrajectoryEvent::kTerrainImpact);
@@ -192,6 +194,38 @@ Phase History::terrain_impact(const FlightEvent& ev) {
   end_as(Outcome::kGround, ev.t, ev.p, state_.v);
   const double rebound = state_.v.dot(ev.normal);
   if (rebound < st_.min_rebound_speed_mps || bounces_ >= st_.max_bounces) return Phase::kGround;
+  if (can_never_matter(ev.p, state_.v, rotational_ke(state_.q, state_.omega))) {
+    end_.outcome = Outcome::kHarmless;
+    return Phase::kDone;
+  }
+  record_point(ev.t, ev.p, state_.v, TrajectoryEvent::kTakeOff);
+  return Phase::kFlight;
+}
+
+// A terrain contact from flight at least the material's switch speed fast (F1-F6): embedded, or
+// a ricochet. A ricochet that keeps v_s always flies on (F6); one slowed below it goes on as
+// after an impulse. The bounce cap does not send a fast body to the ground: every fast contact
+// loses speed (F4), so their sequence ends.
+Phase History::fast_terrain_contact(const FlightEvent& ev, const scene::Material& mat) {
+  const impact::FastContactOutcome f = impact::fast_contact(
+      *mat.fast_contact, density_kg_m3_, ev.v, state_.omega, ev.normal, st_.min_rebound_speed_mps);
+  ++work_;
+  ++out_.stats.fast_contacts;
+  record_point(ev.t, ev.p, ev.v, TrajectoryEvent::kTerrainImpact);
+  if (f.end != impact::FastContactEnd::kRicochet) {
+    end_as(Outcome::kEmbedded, ev.t, ev.p, ev.v);
+    return Phase::kDone;
+  }
+  ++bounces_;
+  state_.t = ev.t;
+  state_.p = ev.p;
+  state_.v = f.velocity_mps;
+  state_.omega = f.omega_radps;
+  state_.triangle = ev.triangle;
+  end_as(Outcome::kGround, ev.t, ev.p, state_.v);
+  const bool fast = state_.v.norm() >= mat.fast_contact_speed_mps();
+  if (state_.v.dot(ev.normal) < st_.min_rebound_speed_mps || (!fast && bounces_ >= st_.max_bounces))
+    return Phase::kGround;
   if (can_never_matter(ev.p, state_.v, rotational_ke(state_.q, state_.omega))) {
     end_.outcome = Outcome::kHarmless;
     return Phase::kDone;

@@ -93,6 +93,8 @@ Phase History::after_ground_phase(const impact::GroundResult& r, const GroundTal
   ground_steps_ += r.steps;
   work_ += r.steps;
   out_.stats.ground_steps += r.steps;
+  out_.stats.fast_contacts += r.fast_contacts;
+  out_.stats.fast_slides += r.fast_slides;
   ground_path_m_ += r.path_m;
   end_as(Outcome::kGround, r.state.t_s, r.state.position_m, r.state.velocity_mps);
   if (tally.building) {

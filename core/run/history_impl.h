@@ -121,6 +121,7 @@ class History {
   Phase start_on_ground();
   Phase flight_phase();
   Phase terrain_impact(const FlightEvent& ev);
+  Phase fast_terrain_contact(const FlightEvent& ev, const scene::Material& mat);
   Phase ground_phase();
   Phase after_ground_phase(const impact::GroundResult& r, const GroundTally& tally);
   void building_hit(const FlightEvent& ev);

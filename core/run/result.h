@@ -151,6 +151,10 @@ struct RunStats {
   std::int64_t ground_impacts = 0;    // impulses at terrain edges on the ground
   std::int64_t takeoffs = 0;          // ground -> flight
   std::int64_t ground_step_caps = 0;  // histories stopped by max_ground_steps (expected 0)
+  std::int64_t fast_contacts = 0;     // terrain contacts resolved by a fast_contact law (F1-F6)
+  // Ground pieces that started faster than their material's fast_contact switch speed: slides
+  // the law forbids (expected 0; F6).
+  std::int64_t fast_slides = 0;
 
   // Every counter, in this order (sums, the partial file).
   static constexpr auto counters() {
@@ -158,7 +162,8 @@ struct RunStats {
         &RunStats::rhs_evaluations, &RunStats::integrator_steps, &RunStats::chords,
         &RunStats::scene_queries,   &RunStats::chords_skipped,   &RunStats::ptn_triangle_tests,
         &RunStats::bounces,         &RunStats::ground_steps,     &RunStats::ground_impacts,
-        &RunStats::takeoffs,        &RunStats::ground_step_caps};
+        &RunStats::takeoffs,        &RunStats::ground_step_caps, &RunStats::fast_contacts,
+        &RunStats::fast_slides};
   }
   RunStats& operator+=(const RunStats& o) {
     for (const auto m : counters()) this->*m += o.*m;

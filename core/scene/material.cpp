@@ -79,6 +79,25 @@ std::uint16_t material_id(const MaterialIds& ids, const std::string& name,
 
 namespace {
 
+// The law's constants (F1-F5). D/L > 0: every ricochet loses speed, so a sequence of them ends.
+void validate_fast_contact(const MaterialSpec& m, const std::string& field) {
+  const FastContactSpec& f = *m.fast_contact;
+  const std::string ff = field + ".fast_contact";
+  if (m.embedment)
+    detail::fail(ff,
+                 "give embedment or fast_contact, not both (fast_contact has its own "
+                 "critical angle)");
+  detail::require_positive(f.bulk_density_kg_m3, ff + ".bulk_density_kg_m3");
+  detail::require_positive(f.switch_speed_mps, ff + ".switch_speed_mps");
+  detail::require_in(f.critical_angle_coefficient_deg, 0.0, 90.0,
+                     ff + ".critical_angle_coefficient_deg");
+  detail::require_positive(f.critical_angle_coefficient_deg,
+                           ff + ".critical_angle_coefficient_deg");
+  detail::require_positive(f.drag_to_lift_ratio, ff + ".drag_to_lift_ratio");
+  detail::require_in(f.roughness_deg, 0.0, 45.0, ff + ".roughness_deg");
+  detail::require_in(f.exit_angle_ratio, 0.0, 10.0, ff + ".exit_angle_ratio");
+}
+
 void validate_material(const MaterialSpec& m, const std::string& field) {
   detail::require_at_least(m.friction, 0.0, field + ".friction");
   detail::require_at_least(m.rolling_resistance, 0.0, field + ".rolling_resistance");
@@ -108,6 +127,7 @@ void validate_material(const MaterialSpec& m, const std::string& field) {
     detail::require_positive(m.embedment->coefficient_deg, ef + ".coefficient_deg");
     detail::require_at_least(m.embedment->min_speed_mps, 0.0, ef + ".min_speed_mps");
   }
+  if (m.fast_contact) validate_fast_contact(m, field);
 }
 
 }  // namespace
@@ -130,6 +150,7 @@ MaterialIds SiteBuilder::build_materials(Site& site, const SiteSpec& spec) {
     if (m.penetration_ke_per_area_j_per_m2)
       out.penetration_ke_per_area_j_per_m2 = *m.penetration_ke_per_area_j_per_m2;
     out.embedment = m.embedment;
+    out.fast_contact = m.fast_contact;
     ids.emplace(name, static_cast<std::uint16_t>(site.materials_.size()));
     site.materials_.push_back(std::move(out));
   }

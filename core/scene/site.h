@@ -32,6 +32,11 @@ struct Material {
   RestitutionSpec restitution;
   double penetration_ke_per_area_j_per_m2 = std::numeric_limits<double>::infinity();
   std::optional<EmbedmentSpec> embedment;
+  std::optional<FastContactSpec> fast_contact;
+  // The speed from which a contact follows fast_contact (F1); infinite without it.
+  double fast_contact_speed_mps() const {
+    return fast_contact ? fast_contact->switch_speed_mps : std::numeric_limits<double>::infinity();
+  }
   // e at a given normal impact speed (constant or table, clamped).
   double restitution_at(double normal_speed_mps) const;
   // Does a fragment of density `density_kg_m3` arriving with `velocity` on a surface of unit

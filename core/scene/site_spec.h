@@ -36,6 +36,34 @@ struct EmbedmentSpec {
   double min_speed_mps = 20.0;         // below: rigid contact (docs/physics.md)
 };
 
+// Fast contact on a deformable ground (soil, sand): docs/physics.md, "Fast contact on soil"
+// (F1-F6); what data there are, and what they cover, in docs/validation.md. A terrain contact at
+// least `switch_speed_mps` fast is an impact on a deformable half-space, not a rigid one:
+// * F1: the soil resists a body moving through it with a Poncelet force A (s + c rho_s v^2);
+//   the switch speed v_s is where its inertial term equals its strength term (v_s^2 = s/(c rho_s)).
+//   Below v_s the rigid impulse and Coulomb friction apply (the regime of the block-drop and
+//   rockfall data, up to ~30 m/s);
+// * F2: at a grazing angle of at least theta_c = critical_angle_coefficient_deg / sqrt(sigma),
+//   sigma = fragment density / bulk density (Johnson & Reid 1975), the fragment embeds;
+// * F3-F4: more grazing, it ricochets: its path through the soil is an arc (the force keeps the
+//   ratio drag/lift = drag_to_lift_ratio), turned through 2 theta_e, theta_e = theta +
+//   roughness_deg, so (v_out^2 + v_s^2) = (v^2 + v_s^2) exp(-4 (D/L) theta_e) (stopped when
+//   that leaves nothing: embedded);
+// * F5: it leaves at theta_out = exit_angle_ratio * theta_e (1: the symmetric arc), its spin
+//   slowed with its speed;
+// * F6: a body on the ground faster than v_s is such a contact at its own approach angle: there
+//   is no Coulomb slide above v_s.
+// No measurement at fragment speeds could be read for any of these constants (docs/validation.md):
+// the defaults are the mechanics' nominal values, each with the range a study's bracket runs.
+struct FastContactSpec {
+  double bulk_density_kg_m3 = 1700.0;            // rho_s; no default is sourced: set it per site
+  double switch_speed_mps = 30.0;                // v_s (F1)
+  double critical_angle_coefficient_deg = 18.0;  // Johnson & Reid (1975) (F2)
+  double drag_to_lift_ratio = 1.0;               // D/L of the soil's force on the body (F4)
+  double roughness_deg = 2.0;                    // added to the approach angle (F4)
+  double exit_angle_ratio = 1.0;                 // theta_out / theta_e (F5)
+};
+
 struct MaterialSpec {
   double friction = 0.5;  // Coulomb coefficient, >= 0
   RestitutionSpec restitution;
@@ -48,6 +76,9 @@ struct MaterialSpec {
   std::optional<double> penetration_ke_per_area_j_per_m2;
   // Absent: every terrain impact is a rigid-body impulse.
   std::optional<EmbedmentSpec> embedment;
+  // Absent: no fast-contact law (rigid impulse and Coulomb friction at every speed). Not
+  // together with `embedment` (it has its own critical angle).
+  std::optional<FastContactSpec> fast_contact;
 };
 
 // The ground materials the paper uses (friction 0.5 hard surface, 0.9 soft ground), available to

@@ -117,11 +117,13 @@ def restitution_table(e):
 
 MATERIALS = {
     "soil": {"friction": 0.9, "restitution": 0.2,
-             "embedment": {"model": "johnson_reid_1975", "bulk_density_kg_m3": 1700},
+             "fast_contact": {"bulk_density_kg_m3": 1700},
              "illustrative": True,
              "source": "friction 0.9 for soft ground as used by Gan & Chrostowski (DDESB 2010); "
-                       "restitution illustrative; embedment: Johnson & Reid (1975) critical "
-                       "grazing angle, bulk density 1700 kg/m^3 a typical soil value, illustrative"},
+                       "restitution illustrative; fast_contact (docs/physics.md F1-F6): the "
+                       "nominal constants, Johnson & Reid (1975) critical grazing angle, bulk "
+                       "density 1700 kg/m^3 a typical soil value; not calibrated at fragment "
+                       "speeds (docs/validation.md), illustrative"},
     "rc_wall": {"friction": 0.5, "restitution": restitution_table([0.5, 0.3, 0.1]),
                 "penetration": {"ke_per_area_j_per_m2": 8.0e6},
                 "illustrative": True, "source": ILLUSTRATIVE},
@@ -312,7 +314,7 @@ SETTINGS = {
     "bounce": False,
     "threads": 0,
     "record_fragments": True,
-    "record_trajectories": False,
+    "record_trajectories": True,
 }
 
 DESCRIPTION = (
