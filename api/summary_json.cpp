@@ -324,7 +324,8 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
                   {"ground_steps", s.ground_steps},
                   {"ground_impacts", s.ground_impacts},
                   {"takeoffs", s.takeoffs},
-                  {"ground_step_caps", s.ground_step_caps}};
+                  {"ground_step_caps", s.ground_step_caps},
+                  {"energy_rises", s.energy_rises}};
 
   Json prov = {{"version", provenance.version}, {"git_sha", provenance.git_sha}};
   if (provenance.scenario_sha256) prov["scenario_sha256"] = *provenance.scenario_sha256;
