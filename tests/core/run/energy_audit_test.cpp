@@ -1,8 +1,8 @@
 // The impact energy audit's trigger (core/run/energy_audit.h): the stress tests assert that it
 // never fires over random scenarios, so it must be shown to fire on a rise.
-#include <gtest/gtest.h>
-
 #include "core/run/energy_audit.h"
+
+#include <gtest/gtest.h>
 
 namespace fragsim::run {
 namespace {
