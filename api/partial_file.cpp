@@ -21,7 +21,9 @@ namespace {
 constexpr std::string_view kMagic = "FSPART01";
 // 2: the hazardous fragments that left the site (a count and kLeftSiteBins more tally bins), a
 // precision target's `unmeetable` and `note`, stop reason targets_unmeetable.
-constexpr std::uint32_t kVersion = 2;
+// 3: outcome ground_step_cap (one more outcome count and tally bin, before the left-site bins),
+// stats.energy_rises (one more counter) (issue 23).
+constexpr std::uint32_t kVersion = 3;
 constexpr std::size_t kTrailer = kPartialTrailerBytes;
 
 static_assert(std::endian::native == std::endian::little, "partial files are little-endian");

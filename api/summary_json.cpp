@@ -325,6 +325,7 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
                   {"ground_impacts", s.ground_impacts},
                   {"takeoffs", s.takeoffs},
                   {"ground_step_caps", s.ground_step_caps},
+                  {"energy_rises", s.energy_rises},
                   {"fast_contacts", s.fast_contacts},
                   {"fast_slides", s.fast_slides}};
 

@@ -227,7 +227,7 @@ Next GroundMotion::fast_contact_on(std::uint32_t tri, const Vec3& p, const Vec3&
   contact_.tri = tri;
   if (f.end != FastContactEnd::kRicochet) return finish(GroundEnd::kEmbedded);
   ++r_.impacts;
-  obs_.on_impact({t_, p, v, f.velocity_mps, omega, f.omega_radps, tri});
+  obs_.on_impact({t_, p, v, f.velocity_mps, omega, f.omega_radps, tri, q_});
   if (f.velocity_mps.dot(n) >= set_.takeoff_speed_mps)
     return take_off(tri, f.velocity_mps, f.omega_radps);
   return settle_on_face(tri, p, f.velocity_mps, f.omega_radps);
@@ -726,7 +726,7 @@ Next GroundMotion::edge_impact(std::uint32_t next, const Vec3& v_in, bool concav
   const Vec3 v_out = b.collision.impact ? b.collision.velocity_mps : v_in;
   const Vec3 w_out = b.collision.impact ? b.collision.omega_radps : omega_in;
   ++r_.impacts;
-  obs_.on_impact({t_, p_, v_in, v_out, omega_in, w_out, next});
+  obs_.on_impact({t_, p_, v_in, v_out, omega_in, w_out, next, q_});
   if (v_out.dot(n2) >= set_.takeoff_speed_mps) return take_off(next, v_out, w_out);
   const Vec3 v2 = v_out - v_out.dot(n2) * n2;
   const Vec3 w2 = res_.round ? w_out : Vec3::Zero();

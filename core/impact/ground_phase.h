@@ -106,7 +106,8 @@ struct GroundImpact {
   Vec3 position_m{0, 0, 0};
   Vec3 velocity_before_mps{0, 0, 0}, velocity_after_mps{0, 0, 0};
   Vec3 omega_before_radps{0, 0, 0}, omega_after_radps{0, 0, 0};
-  std::uint32_t triangle = 0;  // the plane hit
+  std::uint32_t triangle = 0;        // the plane hit
+  Quat attitude = Quat::Identity();  // body -> site at the impact (the spins' rotational energy)
 };
 
 // What the caller does along the way (tallies, building queries, records).

@@ -182,6 +182,10 @@ Phase History::terrain_impact(const FlightEvent& ev) {
   }
   const impact::TerrainBounce b = impact::bounce_on_terrain(
       body_, mass_, state_.q, ev.v, state_.omega, ev.normal, mat, flat_tol_m_);
+  if (b.collision.impact) {
+    audit_impact(energy(ev.p.z(), ev.v, state_.q, state_.omega),
+                 energy(ev.p.z(), b.collision.velocity_mps, state_.q, b.collision.omega_radps));
+  }
   ++bounces_;
   ++work_;
   ++out_.stats.bounces;
@@ -216,6 +220,8 @@ Phase History::fast_terrain_contact(const FlightEvent& ev, const scene::Material
     end_as(Outcome::kEmbedded, ev.t, ev.p, ev.v);
     return Phase::kDone;
   }
+  audit_impact(energy(ev.p.z(), ev.v, state_.q, state_.omega),
+               energy(ev.p.z(), f.velocity_mps, state_.q, f.omega_radps));
   ++bounces_;
   state_.t = ev.t;
   state_.p = ev.p;
@@ -281,6 +287,16 @@ double History::rotational_ke(const Quat& q, const Vec3& omega_site) const {
   if (!st_.bounce || omega_site.squaredNorm() == 0.0) return 0.0;
   const Vec3 wb = q.conjugate() * omega_site;
   return 0.5 * wb.dot(body_.inertia_kg_m2.cwiseProduct(wb));
+}
+
+BodyEnergy History::energy(double z_m, const Vec3& v, const Quat& q, const Vec3& omega_site) const {
+  return {0.5 * mass_ * v.squaredNorm() + rotational_ke(q, omega_site), mass_ * g_ * z_m};
+}
+
+// An impact changes no position, so only the kinetic part can differ; an instantaneous impulse
+// does no work against the air, so this holds in wind too.
+void History::audit_impact(const BodyEnergy& before, const BodyEnergy& after) {
+  if (energy_rose(before, after)) ++out_.stats.energy_rises;
 }
 
 void History::note_first_impact(double t, const Vec3& p, const Vec3& v, const Vec3& normal) {

@@ -31,6 +31,9 @@ class GroundTally final : public impact::GroundObserver {
   void on_impact(const impact::GroundImpact& i) override {
     ++h_.ground_impacts_;
     ++h_.out_.stats.ground_impacts;
+    const double z = i.position_m.z();
+    h_.audit_impact(h_.energy(z, i.velocity_before_mps, i.attitude, i.omega_before_radps),
+                    h_.energy(z, i.velocity_after_mps, i.attitude, i.omega_after_radps));
     h_.record_point(i.t_s, i.position_m, i.velocity_before_mps, TrajectoryEvent::kTerrainImpact);
   }
 
@@ -115,7 +118,9 @@ Phase History::after_ground_phase(const impact::GroundResult& r, const GroundTal
         end_.outcome = Outcome::kWorkLimit;
         return Phase::kDone;
       }
-      ++out_.stats.ground_step_caps;  // counted in stats; not expected on a valid site
+      // Still moving where the safety cap stopped it: not at rest. Not expected on a valid site.
+      end_.outcome = Outcome::kGroundStepCap;
+      ++out_.stats.ground_step_caps;
       return Phase::kDone;
     case impact::GroundEnd::kEmbedded: end_.outcome = Outcome::kEmbedded; return Phase::kDone;
     case impact::GroundEnd::kTakeOff: break;

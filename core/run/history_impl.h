@@ -18,6 +18,7 @@
 #include "core/flight/trajectory.h"
 #include "core/fragments/support.h"
 #include "core/impact/ground_phase.h"
+#include "core/run/energy_audit.h"
 #include "core/run/history.h"
 #include "core/scene/building_proximity.h"
 
@@ -171,6 +172,9 @@ class History {
   flight::RotationState rotation(double t) const { return rot_.at(t); }
   Quat attitude(double t) const { return rot_.attitude(t); }
   double rotational_ke(const Quat& q, const Vec3& omega_site) const;
+  // The body's energy at height z (energy_audit.h); counts an impact after which it rose.
+  BodyEnergy energy(double z_m, const Vec3& v, const Quat& q, const Vec3& omega_site) const;
+  void audit_impact(const BodyEnergy& before, const BodyEnergy& after);
 
   // Private Members
   const RunContext& ctx_;

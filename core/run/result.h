@@ -47,8 +47,11 @@ enum class Outcome : std::uint8_t {
   kIntegrationFailed = 6,  // step size underflow (counted, never silently dropped)
   kEmbedded = 7,   // stopped in the ground at an impact too fast and steep to ricochet (bounce)
   kWorkLimit = 8,  // stopped at Settings::max_history_work steps and events (never on real input)
+  // Still moving on the ground at Settings::max_ground_steps (a safety cap, not expected on a
+  // valid site): not at rest, so not `ground`.
+  kGroundStepCap = 9,
 };
-inline constexpr int kOutcomeCount = 9;
+inline constexpr int kOutcomeCount = 10;
 const char* outcome_name(Outcome o);
 
 // The figures the terrain's boundary makes lower bounds, and what left the site while hazardous.
@@ -151,6 +154,10 @@ struct RunStats {
   std::int64_t ground_impacts = 0;    // impulses at terrain edges on the ground
   std::int64_t takeoffs = 0;          // ground -> flight
   std::int64_t ground_step_caps = 0;  // histories stopped by max_ground_steps (expected 0)
+  // Impacts (from flight or on the ground) after which the body's energy, translational and
+  // rotational kinetic plus m g z, exceeded the energy before beyond rounding (energy_rose):
+  // an impulse can only remove energy, so this is 0 unless the impact model is wrong.
+  std::int64_t energy_rises = 0;
   std::int64_t fast_contacts = 0;     // terrain contacts resolved by a fast_contact law (F1-F6)
   // Ground pieces that started faster than their material's fast_contact switch speed: slides
   // the law forbids (expected 0; F6).
@@ -162,8 +169,8 @@ struct RunStats {
         &RunStats::rhs_evaluations, &RunStats::integrator_steps, &RunStats::chords,
         &RunStats::scene_queries,   &RunStats::chords_skipped,   &RunStats::ptn_triangle_tests,
         &RunStats::bounces,         &RunStats::ground_steps,     &RunStats::ground_impacts,
-        &RunStats::takeoffs,        &RunStats::ground_step_caps, &RunStats::fast_contacts,
-        &RunStats::fast_slides};
+        &RunStats::takeoffs,        &RunStats::ground_step_caps, &RunStats::energy_rises,
+        &RunStats::fast_contacts,   &RunStats::fast_slides};
   }
   RunStats& operator+=(const RunStats& o) {
     for (const auto m : counters()) this->*m += o.*m;

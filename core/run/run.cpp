@@ -38,6 +38,7 @@ const char* outcome_name(Outcome o) {
     case Outcome::kIntegrationFailed: return "integration_failed";
     case Outcome::kEmbedded: return "embedded";
     case Outcome::kWorkLimit: return "work_limit";
+    case Outcome::kGroundStepCap: return "ground_step_cap";
   }
   return "unknown";
 }

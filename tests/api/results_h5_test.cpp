@@ -206,11 +206,11 @@ TEST_F(ResultsH5, PtnHfdBuildingsOutcomes) {
   EXPECT_EQ(read_dataset_strings(f, "/outcomes/name"),
             (std::vector<std::string>{"ground", "building", "max_flight_time", "left_site",
                                       "started_inside", "harmless", "integration_failed",
-                                      "embedded", "work_limit"}));
+                                      "embedded", "work_limit", "ground_step_cap"}));
   EXPECT_EQ(read_dataset_int64(f, "/outcomes/histories"),
-            (std::vector<std::int64_t>{48, 10, 0, 1942, 0, 0, 0, 3, 0}));
+            (std::vector<std::int64_t>{48, 10, 0, 1942, 0, 0, 0, 3, 0, 0}));
   EXPECT_EQ(read_dataset_double(f, "/outcomes/fragments"),
-            (std::vector<double>{24.0, 5.0, 0, 971.0, 0, 0, 0, 0, 0}));
+            (std::vector<double>{24.0, 5.0, 0, 971.0, 0, 0, 0, 0, 0, 0}));
   EXPECT_EQ(read_dataset_double(f, "/outcomes/fragments_std_error")[3], 3.75);
 }
 
@@ -276,7 +276,7 @@ TEST_F(ResultsH5, FragmentAndTrajectoryRecords) {
   EXPECT_EQ(read_dataset_double(f, "/fragments/end_time_s"), (std::vector<double>{0, 1.5, 3.0}));
   EXPECT_EQ(read_attribute_string(f, "/fragments/outcome", "names"),
             "ground,building,max_flight_time,left_site,started_inside,harmless,integration_failed,"
-            "embedded,work_limit");
+            "embedded,work_limit,ground_step_cap");
 
   EXPECT_EQ(read_dataset_int64(f, "/trajectories/history"), (std::vector<std::int64_t>{0, 5}));
   EXPECT_EQ(read_dataset_int64(f, "/trajectories/offsets"), (std::vector<std::int64_t>{0, 3, 5}));

@@ -7,8 +7,10 @@
 #include <limits>
 #include <memory>
 
+#include "core/run/run.h"
 #include "fragsim/version.h"
 #include "test_support.h"
+#include "validation/scenario_fixtures.h"
 
 namespace fragsim::api {
 namespace {
@@ -193,6 +195,28 @@ TEST(SummaryJson, OutcomesInEnumOrder) {
   EXPECT_EQ(s["outcomes"]["left_site"]["histories"], 1952);
   EXPECT_EQ(s["outcomes"]["integration_failed"]["histories"], 0);
   EXPECT_EQ(s["outcomes"]["work_limit"]["histories"], 0);
+  EXPECT_EQ(s["outcomes"]["ground_step_cap"]["histories"], 0);
+}
+
+// A real run whose histories all stop at the ground step cap: summary.json counts them under
+// their own outcome (not `ground`) and in stats.ground_step_caps. With bounce and no restitution
+// a sphere thrown low lands, then rolls on the plane for many steps; the cap is 2 of them.
+TEST(SummaryJson, GroundStepCappedHistoriesAreCountedUnderTheirOwnOutcome) {
+  run::Scenario sc = validation::flat_site_scenario(1000.0, 10.0);
+  auto g = validation::sphere_group(Vec3(0, 0, 0.5), 0.05, 20.0, 1.0, 3);
+  g.direction.elevation_min_deg = 5.0;
+  g.direction.elevation_max_deg = 10.0;
+  sc.groups = {g};
+  sc.settings.bounce = true;
+  sc.settings.harmless_cutoff = false;
+  sc.settings.max_ground_steps = 2;
+  const Json s = summary_to_json(run::run(sc), sc, build_provenance());
+  EXPECT_EQ(s["outcomes"]["ground_step_cap"]["histories"], 3);
+  EXPECT_DOUBLE_EQ(s["outcomes"]["ground_step_cap"]["fragments"].get<double>(), 1.0);
+  EXPECT_EQ(s["outcomes"]["ground"]["histories"], 0);
+  EXPECT_EQ(s["stats"]["ground_step_caps"], 3);
+  EXPECT_EQ(s["stats"]["energy_rises"], 0);
+  EXPECT_NE(render_summary_text(s).find("ground_step_cap"), std::string::npos);
 }
 
 TEST(SummaryJson, TimingStatsAndProfile) {

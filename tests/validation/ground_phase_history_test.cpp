@@ -445,6 +445,42 @@ TEST(GroundPhaseHistory, BlockSlidesDownASteepSlopeAtTheCoulombAcceleration) {
   }
 }
 
+// The ground step cap (settings.max_ground_steps, a safety cap): the same block sliding down
+// the 35 deg slope, stopped after 3 ground steps while still sliding, ends as ground_step_cap
+// (not `ground`, which means at rest), is counted in stats.ground_step_caps, and ends where it
+// was stopped: moving, on the slope, short of where the uncapped slide is at T.
+TEST(GroundPhaseHistory, AHistoryStoppedByTheGroundStepCapHasItsOwnOutcome) {
+  const double mu = 0.5, deg = 35.0;
+  const double th = deg * kDegToRad;
+  const std::array<double, 3> dims{0.1, 0.06, 0.02};
+  run::Scenario sc = ground_scenario(100.0, 10.0, mu, 0.1, 0.3);
+  sc.site.terrain.geometry = slope_grid(th);
+  sc.settings.max_flight_time_s = 3.0;
+  sc.settings.max_ground_steps = 3;
+  const Vec3 n(-std::sin(th), 0.0, std::cos(th));
+  const double x0 = 43.3;
+  const Vec3 centre = Vec3(x0, 0.0, std::tan(th) * x0) + 0.5 * dims[2] * n;
+  fragments::FragmentGroupSpec grp = block_group(centre, dims, Vec3::Zero(), {}, 5);
+  grp.frame.pitch_deg = deg;
+  sc.groups = {grp};
+  const run::RunResult r = run::run(sc);
+  const auto count = [&](run::Outcome o) {
+    return r.outcome_histories[static_cast<std::size_t>(o)];
+  };
+  EXPECT_EQ(count(run::Outcome::kGroundStepCap), 5);
+  EXPECT_EQ(count(run::Outcome::kGround), 0);
+  EXPECT_EQ(r.stats.ground_step_caps, 5);
+  EXPECT_GT(r.outcome_fragments[static_cast<std::size_t>(run::Outcome::kGroundStepCap)].mean, 0.0);
+  ASSERT_EQ(r.fragments.size(), 5u);
+  for (const auto& f : r.fragments) {
+    EXPECT_EQ(f.outcome, run::Outcome::kGroundStepCap);
+    EXPECT_STREQ(run::outcome_name(f.outcome), "ground_step_cap");
+    EXPECT_GT(f.end_velocity_mps.norm(), 0.0);  // still sliding
+    EXPECT_LT(f.end_time_s, 3.0);
+    EXPECT_NEAR((f.end_position_m - centre).dot(n), 0.0, 1e-6);
+  }
+}
+
 // Just above the friction angle the same law holds, only the acceleration is small: from rest on
 // slopes with tan(theta) = mu (1 + eps), eps = 5 %, 2 %, 1 %, 0.1 % (mu 0.5, vacuum), after T = 3 s
 // the block has slid 1/2 g (sin - mu cos) T^2 (0.98 m ... 2.0 cm) down the fall line (1 %), within

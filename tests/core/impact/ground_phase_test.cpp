@@ -316,8 +316,17 @@ TEST(GroundPhase, SlidingUphillFollowsTheClosedFormAndStays) {
 
 // ---- edges ----
 
-// A plateau ending in a 30 degree downslope along x = 0. Sliding at 40 m/s over the crest the
+// A plateau ending in a 30 degree downslope along x = 0. Rolling at 40 m/s over the crest the
 // body takes off at the edge (it would need a pulling normal force to follow it).
+//
+// Its speed there, closed form: the solid sphere (I = 2/5 m R^2) starts rolling without slip
+// (omega R = v0) 30 m before the edge on the level plateau, in vacuum (Cd 0: no drag). Rolling,
+// the resistance mu_r N = mu_r m g at the contact decelerates the centre at k mu_r g with
+// k = 1 / (1 + I / (m R^2)) = 5/7 (ground_forces.h, G5), so at the edge
+//   v = sqrt(v0^2 - 2 k mu_r g L) = sqrt(1600 - 2 (5/7) 0.1 g 30) = 39.4712 m/s,
+// and it still rolls: omega R = v. Tolerance 1e-4 m/s: the integrator runs at rtol 1e-9 and the
+// edge is found to 1e-6 m. With k = 1 (the spin's inertia ignored) v would be 39.2577 m/s,
+// 0.21 m/s (2000 tolerances) lower, so this fails if the rolling inertia is lost.
 TEST(GroundPhase, TakesOffAtAConvexEdge) {
   const double drop = std::tan(30.0 * kDegToRad);
   const auto site = mesh_site(
@@ -333,7 +342,10 @@ TEST(GroundPhase, TakesOffAtAConvexEdge) {
   ASSERT_EQ(r.end, GroundEnd::kTakeOff);
   EXPECT_NEAR(r.state.position_m.x(), 0.0, 1e-6);    // at the edge
   EXPECT_NEAR(r.state.velocity_mps.z(), 0.0, 1e-9);  // still along the plateau
-  EXPECT_GT(r.state.velocity_mps.x(), 39.0);         // rolling resistance over 30 m only
+  const double v0 = 40.0, L = 30.0, mu_r = 0.1, k = 1.0 / (1.0 + 2.0 / 5.0);
+  const double v_edge = std::sqrt(v0 * v0 - 2.0 * k * mu_r * g * L);  // 39.4712 m/s
+  EXPECT_NEAR(r.state.velocity_mps.x(), v_edge, 1e-4);
+  EXPECT_NEAR(r.state.omega_radps.y() * R, v_edge, 1e-4);  // still rolling
   EXPECT_TRUE(rec.impacts.empty());
 }
 

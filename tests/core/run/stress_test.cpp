@@ -212,16 +212,13 @@ TEST(Stress, RandomScenariosTerminateWithFiniteResults) {
   }
 }
 
-// Kinetic plus potential energy of a history never exceeds its launch value: drag, impacts and
-// sliding only take energy away (relative slack for rounding).
-void expect_energy_never_rises(const Scenario& sc, const RunResult& r) {
-  const double g = sc.gravity_mps2;
-  for (const auto& f : r.fragments) {
-    const double e0 = 0.5 * f.launch_velocity_mps.squaredNorm() + g * f.launch_position_m.z();
-    const double e1 = 0.5 * f.end_velocity_mps.squaredNorm() + g * f.end_position_m.z();
-    ASSERT_LE(e1, e0 + 1e-9 * std::abs(e0) + 1e-9)
-        << "group " << f.group << " history " << f.history << " bounces " << f.bounces;
-  }
+// No impact added energy: the run's audit (stats.energy_rises, core/run/energy_audit.h) compares
+// the body's energy, translational and rotational kinetic plus m g z, just after every impulse
+// (from flight and on the ground) with just before. The audit's own trigger is tested in
+// energy_audit_test.cpp; here it must have had impacts to look at.
+void expect_no_energy_rise(const RunResult& r) {
+  EXPECT_GT(r.stats.bounces + r.stats.ground_impacts, 0);
+  EXPECT_EQ(r.stats.energy_rises, 0);
 }
 
 // The same random scenarios with bounce, slide and roll, random restitution and friction:
@@ -245,7 +242,7 @@ TEST(Stress, RandomScenariosWithBounceTerminateWithFiniteResults) {
     const RunResult r = run(sc);
     SCOPED_TRACE("trial " + std::to_string(trial));
     expect_all_finite(r);
-    expect_energy_never_rises(sc, r);
+    expect_no_energy_rise(r);
     EXPECT_GT(r.stats.bounces, 0);
     EXPECT_EQ(r.stats.ground_step_caps, 0);
   }
@@ -265,7 +262,7 @@ TEST(Stress, PerfectlyElasticBouncingEndsAtTheBounceCap) {
   sc.groups = {g};
   const RunResult r = run(sc);
   expect_all_finite(r);
-  expect_energy_never_rises(sc, r);
+  expect_no_energy_rise(r);
   for (const auto& f : r.fragments) {
     EXPECT_EQ(f.bounces, 40u);
     EXPECT_EQ(f.outcome, Outcome::kGround);
@@ -293,7 +290,7 @@ TEST(Stress, GroundPhaseEdgeCasesTerminate) {
     sc.groups = {g};
     const RunResult r = run(sc);
     expect_all_finite(r);
-    expect_energy_never_rises(sc, r);
+    expect_no_energy_rise(r);
     for (const auto& f : r.fragments) {
       EXPECT_EQ(f.outcome, Outcome::kMaxFlightTime);
       EXPECT_GT(f.ground_path_m, 100.0);  // slid on, slower and slower
@@ -331,7 +328,7 @@ TEST(Stress, GroundPhaseEdgeCasesTerminate) {
     const RunResult r = run(sc);
     SCOPED_TRACE("x0 " + std::to_string(x0));
     expect_all_finite(r);
-    expect_energy_never_rises(sc, r);
+    expect_no_energy_rise(r);
     EXPECT_EQ(r.stats.ground_step_caps, 0);
     for (const auto& f : r.fragments) {
       EXPECT_NE(f.outcome, Outcome::kMaxFlightTime);

@@ -84,10 +84,11 @@ TEST(WorkLimit, TheGroundPhaseStopsAtTheHistorysCapNotTheGroundStepCap) {
   EXPECT_GT(f.ground_path_m, 0.0);
   EXPECT_LT(f.ground_path_m, full.fragments.at(0).ground_path_m);
 
-  // The ground step cap, when it comes first, still ends the history as `ground`.
+  // The ground step cap, when it comes first, ends the history as ground_step_cap.
   sc.settings.max_ground_steps = full.stats.ground_steps / 4;
   const RunResult ground_capped = run(sc);
-  EXPECT_EQ(outcome_count(ground_capped, Outcome::kGround), 1);
+  EXPECT_EQ(outcome_count(ground_capped, Outcome::kGroundStepCap), 1);
+  EXPECT_EQ(outcome_count(ground_capped, Outcome::kWorkLimit), 0);
   EXPECT_EQ(ground_capped.stats.ground_step_caps, 1);
 }
 
@@ -119,7 +120,8 @@ TEST(WorkLimit, AbsurdPhysicsPassedToCoreDirectlyIsBounded) {
 
 TEST(WorkLimit, OutcomeName) {
   EXPECT_STREQ(outcome_name(Outcome::kWorkLimit), "work_limit");
-  EXPECT_EQ(static_cast<int>(Outcome::kWorkLimit), kOutcomeCount - 1);
+  EXPECT_STREQ(outcome_name(Outcome::kGroundStepCap), "ground_step_cap");
+  EXPECT_EQ(static_cast<int>(Outcome::kGroundStepCap), kOutcomeCount - 1);
 }
 
 }  // namespace
