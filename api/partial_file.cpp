@@ -21,7 +21,9 @@ namespace {
 constexpr std::string_view kMagic = "FSPART01";
 // 2: the hazardous fragments that left the site (a count and kLeftSiteBins more tally bins), a
 // precision target's `unmeetable` and `note`, stop reason targets_unmeetable.
-constexpr std::uint32_t kVersion = 2;
+// 3: the density fields per PTN mechanism and per fragment group (core/run/attribution.h):
+// 3 x triangles + kept groups x triangles more tally bins, the layout otherwise unchanged.
+constexpr std::uint32_t kVersion = 3;
 constexpr std::size_t kTrailer = kPartialTrailerBytes;
 
 static_assert(std::endian::native == std::endian::little, "partial files are little-endian");
