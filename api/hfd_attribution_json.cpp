@@ -70,10 +70,15 @@ std::string shares_text(std::vector<std::pair<double, std::string>> shares, std:
   return out;
 }
 
-// "ground 498.0 m, after_ricochet ≥ 310.2 m": each field's HFD alone.
-std::string alone_text(const std::vector<std::pair<std::string, Json>>& fields) {
+// "ground 498.0 m, after_ricochet ≥ 310.2 m": each field's HFD alone, the farthest `limit`.
+std::string alone_text(std::vector<std::pair<std::string, Json>> fields, std::size_t limit) {
+  std::stable_sort(fields.begin(), fields.end(), [](const auto& a, const auto& b) {
+    return a.second.value("hfd_m", 0.0) > b.second.value("hfd_m", 0.0);
+  });
   std::string out;
-  for (const auto& [name, f] : fields) {
+  for (std::size_t k = 0; k < fields.size(); ++k) {
+    if (k == limit) return out + ", ... (" + std::to_string(fields.size()) + " in summary.json)";
+    const auto& [name, f] = fields[k];
     const bool lower = f.value("hfd_bound", std::string()) == "lower";
     out += (out.empty() ? "" : ", ") + name + " " + (lower ? "≥ " : "") +
            f1(f.value("hfd_m", 0.0)) + " m";
@@ -94,7 +99,7 @@ nlohmann::ordered_json hfd_attribution_json(const run::HfdAttribution& a,
   Json groups = Json::array(), by_group = Json::array();
   for (const auto& g : scenario.groups) groups.push_back(g.name);
   for (std::size_t g = 0; g < a.by_group.size(); ++g) {
-    Json j = {{"group", scenario.groups[g].name}};
+    Json j = {{"group", g < scenario.groups.size() ? scenario.groups[g].name : std::string()}};
     j.update(figures_json(a.by_group[g]));
     by_group.push_back(std::move(j));
   }
@@ -104,9 +109,8 @@ nlohmann::ordered_json hfd_attribution_json(const run::HfdAttribution& a,
           {"groups", std::move(groups)},
           {"by_mechanism", std::move(by_mechanism)},
           {"by_group", std::move(by_group)},
-          {"by_group_omitted_reason", a.by_group_omitted_reason.empty()
-                                          ? Json(nullptr)
-                                          : Json(a.by_group_omitted_reason)},
+          {"by_group_omitted_reason",
+           a.by_group_omitted_reason.empty() ? Json(nullptr) : Json(a.by_group_omitted_reason)},
           {"at_hfd", shares_json(a.at_hfd)},
           {"at_sector_hfd", std::move(at_sector)}};
 }
@@ -135,11 +139,11 @@ std::vector<std::pair<std::string, std::string>> hfd_attribution_text(
   const Json by_mechanism = a.value("by_mechanism", Json::object());
   const Json by_group = a.value("by_group", Json::array());
   for (const auto& [name, f] : by_mechanism.items()) mechanisms.emplace_back(name, f);
-  for (const auto& g : by_group)
-    groups.emplace_back(quoted(g.value("group", std::string())), g);
-  if (!mechanisms.empty()) lines.emplace_back("  HFD by mechanism alone", alone_text(mechanisms));
+  for (const auto& g : by_group) groups.emplace_back(quoted(g.value("group", std::string())), g);
+  if (!mechanisms.empty())
+    lines.emplace_back("  HFD by mechanism alone", alone_text(mechanisms, 3));
   if (names.size() > 1 && !groups.empty())
-    lines.emplace_back("  HFD by group alone", alone_text(groups));
+    lines.emplace_back("  HFD by group alone", alone_text(groups, 4));
   if (const Json reason = a.value("by_group_omitted_reason", Json()); reason.is_string())
     lines.emplace_back("  HFD by group alone", "omitted: " + reason.get<std::string>());
   return lines;

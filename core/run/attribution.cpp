@@ -15,8 +15,9 @@ GroupFieldsPlan plan_group_fields(std::size_t groups, std::size_t triangles) {
   GroupFieldsPlan plan;
   if (groups <= 1) return plan;  // the whole field is the group's
   if (groups > kMaxAttributedGroups) {
-    plan.omitted_reason = std::to_string(groups) + " fragment groups: per-group fields are kept for " +
-                          "at most " + std::to_string(kMaxAttributedGroups) + " groups";
+    plan.omitted_reason = std::to_string(groups) +
+                          " fragment groups: per-group fields are kept for " + "at most " +
+                          std::to_string(kMaxAttributedGroups) + " groups";
   } else if (groups * triangles > kMaxGroupFieldBins) {
     plan.omitted_reason = std::to_string(groups) + " fragment groups x " +
                           std::to_string(triangles) + " terrain triangles: per-group fields are " +
@@ -31,8 +32,7 @@ namespace {
 
 // The HFD figures of the field in bins [first, first + triangles).
 HfdFigures field_figures(const HfdGeometry& geometry, const tally::StratifiedTally& tally,
-                         std::size_t first, std::size_t triangles, double scale,
-                         double threshold) {
+                         std::size_t first, std::size_t triangles, double scale, double threshold) {
   std::vector<double> density = tally.means(first, triangles),
                       se = tally.std_errors(first, triangles);
   for (std::size_t t = 0; t < triangles; ++t) {
@@ -68,8 +68,8 @@ HfdAttribution attribute_hfd(const HfdGeometry& geometry, const tally::Stratifie
   HfdAttribution a;
   for (int m = 0; m < kPtnMechanismCount; ++m)
     a.by_mechanism[static_cast<std::size_t>(m)] =
-        field_figures(geometry, tally, bins.mechanism(static_cast<PtnMechanism>(m)),
-                      bins.triangles, scale, threshold);
+        field_figures(geometry, tally, bins.mechanism(static_cast<PtnMechanism>(m)), bins.triangles,
+                      scale, threshold);
   if (groups == 1) a.by_group = {whole};
   for (std::uint32_t g = 0; g < bins.group_fields; ++g)
     a.by_group.push_back(
