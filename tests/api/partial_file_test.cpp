@@ -440,7 +440,8 @@ TEST_P(PartialFile, WrongMagicVersionOrShapeIsRefused) {
   expect_refused("PK\x03\x04" + bytes.substr(4), bins, "no FSPART01 header");
   std::string body = body_of(bytes);
   std::string version = body;
-  for (const std::uint32_t v : {1u, 3u}) {  // 1: before the site-boundary tallies
+  // 1: before the site-boundary tallies; 2: before the fields per mechanism and group.
+  for (const std::uint32_t v : {1u, 2u, 4u}) {
     write_at<std::uint32_t>(version, 8, v);
     expect_refused(with_trailer(version), bins, "an unknown version");
   }
