@@ -21,8 +21,10 @@ namespace {
 constexpr std::string_view kMagic = "FSPART01";
 // 2: the hazardous fragments that left the site (a count and kLeftSiteBins more tally bins), a
 // precision target's `unmeetable` and `note`, stop reason targets_unmeetable.
-// 3: outcome ground_step_cap (one more outcome count and tally bin, before the left-site bins),
-// stats.energy_rises (one more counter) (issue 23).
+// 3 (issue 23): outcome ground_step_cap (one more outcome count and tally bin, before the
+// left-site bins); stats energy_rises, fast_contacts and fast_slides (three more counters); the
+// density fields per PTN mechanism and per fragment group (core/run/attribution.h: 3 x
+// triangles + kept groups x triangles more tally bins).
 constexpr std::uint32_t kVersion = 3;
 constexpr std::size_t kTrailer = kPartialTrailerBytes;
 

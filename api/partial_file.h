@@ -32,7 +32,8 @@ std::string partial_trailer(std::string_view body);
 
 std::string encode_partial(const run::PartialRun& partial, const PartialIdentity& identity);
 // Throws InputError(`what`, ...) for bytes that are not a whole, intact partial, or a partial
-// whose tally has not `tally_bins` bins (run::tally_bins(site).total of the scenario's site).
+// whose tally has not `tally_bins` bins (run::tally_bins(scenario, site).total of the scenario and
+// its site).
 run::PartialRun decode_partial(std::string_view bytes, std::size_t tally_bins,
                                PartialIdentity& identity, const std::string& what);
 

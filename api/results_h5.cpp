@@ -254,6 +254,73 @@ void write_hfd(Writer& w, const run::RunResult& r, const scene::Site& site,
   w.dataset("/hfd/left_site_hazardous_by_sector_std_error", by_sector_se);
 }
 
+// /hfd/attribution: each mechanism's and group's field alone (rows in the order of the names),
+// and the shares at the triangles that set the HFD (row 0) and sector k's HFD (row 1 + k).
+void write_attribution_figures(Writer& w, const std::string& path,
+                               const std::vector<run::HfdFigures>& fields) {
+  const std::size_t n = fields.size();
+  std::vector<double> hfd, band, by_sector;
+  std::vector<std::uint8_t> bound, band_bound, by_sector_bound;
+  for (const run::HfdFigures& f : fields) {
+    hfd.push_back(f.hfd_m);
+    band.insert(band.end(), {f.lower_m, f.upper_m});
+    by_sector.insert(by_sector.end(), f.by_sector_m.begin(), f.by_sector_m.end());
+    bound.push_back(f.cut.any() ? 1 : 0);
+    band_bound.insert(band_bound.end(),
+                      {std::uint8_t{f.lower_cut.any()}, std::uint8_t{f.upper_cut.any()}});
+    for (const bool cut : f.cut.sectors) by_sector_bound.push_back(cut ? 1 : 0);
+  }
+  w.group(path);
+  w.dataset(path + "/hfd_m", hfd);
+  w.dataset(path + "/band_m", band.data(), n, 2);
+  w.dataset(path + "/by_sector_m", by_sector.data(), n, run::kHfdSectors);
+  w.dataset(path + "/bound", bound);
+  w.dataset(path + "/band_bound", band_bound.data(), n, 2);
+  w.dataset(path + "/by_sector_bound", by_sector_bound.data(), n, run::kHfdSectors);
+}
+
+void write_attribution_shares(Writer& w, const run::HfdAttribution& a, std::size_t groups) {
+  std::vector<const run::DensityShares*> rows = {&a.at_hfd};
+  for (const auto& s : a.at_sector_hfd) rows.push_back(&s);
+  std::vector<std::int64_t> triangle;
+  std::vector<double> distance, density, by_mechanism, by_group;
+  for (const run::DensityShares* s : rows) {
+    triangle.push_back(s->triangle);
+    distance.push_back(s->distance_m);
+    density.push_back(s->density_per_m2);
+    by_mechanism.insert(by_mechanism.end(), s->by_mechanism.begin(), s->by_mechanism.end());
+    if (!a.by_group.empty()) {
+      const bool known = s->by_group.size() == groups;
+      for (std::size_t g = 0; g < groups; ++g) by_group.push_back(known ? s->by_group[g] : 0.0);
+    }
+  }
+  const std::string at = "/hfd/attribution/at_hfd";
+  const Handle h = w.group(at);
+  w.attribute(h, "rows", "0: the HFD's triangle; 1 + k: sector k's (triangle -1: none)");
+  w.dataset(at + "/triangle", triangle);
+  w.dataset(at + "/distance_m", distance);
+  w.dataset(at + "/density_per_m2", density);
+  w.dataset(at + "/share_by_mechanism", by_mechanism.data(), rows.size(),
+            static_cast<std::size_t>(run::kPtnMechanismCount));
+  if (!a.by_group.empty()) w.dataset(at + "/share_by_group", by_group.data(), rows.size(), groups);
+}
+
+void write_hfd_attribution(Writer& w, const run::RunResult& r, const run::Scenario& scenario) {
+  const run::HfdAttribution& a = r.hfd_attribution;
+  const Handle h = w.group("/hfd/attribution");
+  w.attribute(h, "by_group_omitted_reason", a.by_group_omitted_reason);
+  std::vector<std::string> mechanisms, groups;
+  for (int m = 0; m < run::kPtnMechanismCount; ++m)
+    mechanisms.emplace_back(run::ptn_mechanism_name(static_cast<run::PtnMechanism>(m)));
+  for (const auto& g : scenario.groups) groups.push_back(g.name);
+  w.strings("/hfd/attribution/mechanism_names", mechanisms);
+  w.strings("/hfd/attribution/group_names", groups);
+  write_attribution_figures(w, "/hfd/attribution/by_mechanism",
+                            {a.by_mechanism.begin(), a.by_mechanism.end()});
+  if (!a.by_group.empty()) write_attribution_figures(w, "/hfd/attribution/by_group", a.by_group);
+  write_attribution_shares(w, a, scenario.groups.size());
+}
+
 }  // namespace
 
 void write_results_h5(const std::filesystem::path& path, const run::RunResult& r,
@@ -302,6 +369,7 @@ void write_results_h5(const std::filesystem::path& path, const run::RunResult& r
     w.attribute(ptn, "max_triangle", std::int64_t{r.max_ptn_triangle});
   }
   write_hfd(w, r, site, scenario);
+  write_hfd_attribution(w, r, scenario);
 
   write_buildings(w, r, site);
 

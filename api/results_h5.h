@@ -9,6 +9,12 @@
 //   /ptn/                  density_per_m2 (m), std_error_per_m2 (m)
 //   /hfd/                  hazardous_fragment_distance_m, band_m (2), by_sector_m (36),
 //                          origin_m (3), threshold_per_m2
+//   /hfd/attribution/      what sets the HFD (core/run/attribution.h): mechanism_names (3),
+//                          group_names (g); by_mechanism/ and by_group/ (omitted when the
+//                          attribute by_group_omitted_reason says why): hfd_m (k), band_m
+//                          (k x 2), by_sector_m (k x 36), bound, band_bound, by_sector_bound;
+//                          at_hfd/: triangle, distance_m, density_per_m2 (37: the HFD's, then
+//                          sector k's), share_by_mechanism (37 x 3), share_by_group (37 x g)
 //   /buildings/            id (strings), expected_impacts, impacts_std_error,
 //                          expected_penetrations, penetrations_std_error (n),
 //                          *_by_surface (n x 4: terrain, wall, roof, window), residual_ke_j,
@@ -37,7 +43,8 @@ namespace fragsim::api {
 inline constexpr const char* kResultsFileType = "fragsim.results";
 // 2: /hfd/bound, band_bound, by_sector_bound, boundary_* and left_site_hazardous_* (where the
 // terrain's boundary cuts the HFD), the root attribute hfd_bound.
-inline constexpr int kResultsFormatVersion = 2;
+// 3: /hfd/attribution (what sets the HFD: by mechanism, by group, shares at its triangles).
+inline constexpr int kResultsFormatVersion = 3;
 
 // Writes a new file at `path` (fails if it exists). Throws std::runtime_error on HDF5 errors and
 // std::logic_error when the result does not fit the site (PTN values != terrain triangles).

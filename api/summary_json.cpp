@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "api/hfd_attribution_json.h"
 #include "core/run/precision.h"
 #include "fragsim/version.h"
 
@@ -181,6 +182,7 @@ void hfd_text(const Json& s, const Line& line) {
   const double threshold = num(s, "hfd_threshold_per_m2");
   line("  threshold", g4(threshold) + " per m² (1 per " + f1(1.0 / threshold) + " m²), from " +
                           vec3_text(s.value("hfd_origin_m", Json())));
+  for (const auto& [label, value] : hfd_attribution_text(s)) line(label, value);
   const Json* sb = object_at(s, "site_boundary");
   if (sb == nullptr) return;
   const double edge = num(*sb, "max_boundary_density_per_m2");
@@ -261,6 +263,7 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
   for (const bool cut : r.site_boundary.hfd_sector_cut) sector_bounds.push_back(bound_name(cut));
   out["hfd_by_sector_bound"] = std::move(sector_bounds);
   out["site_boundary"] = site_boundary_json(r);
+  out["hfd_attribution"] = hfd_attribution_json(r.hfd_attribution, scenario);
   out["max_ptn_density_per_m2"] = r.max_ptn_density_per_m2;
   if (r.max_ptn_triangle >= 0) {
     out["max_ptn_triangle"] = r.max_ptn_triangle;

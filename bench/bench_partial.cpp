@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
         1, static_cast<std::int64_t>(static_cast<double>(g.samples) * scale));
   sc.settings.threads = 0;
   const auto site = scene::Site::build(sc.site);
-  const run::TallyBins bins = run::tally_bins(*site);
+  const run::TallyBins bins = run::tally_bins(sc, *site);
   std::printf("%s: %zu tally bins (%zu terrain triangles), %lld shards\n", path.c_str(), bins.total,
               site->terrain_triangle_count(), static_cast<long long>(shards));
 

@@ -238,7 +238,7 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
 int merge_command(const Options& o, const std::atomic<bool>& cancel) {
   const PreparedRun p = prepare(o);
   const api::PartialIdentity expected = identity_of(o, p);
-  const std::size_t bins = run::tally_bins(*p.site).total;
+  const std::size_t bins = run::tally_bins(p.doc.scenario, *p.site).total;
   std::optional<run::PartialRun> merged;
   for (const std::string& path : o.parts) {
     api::PartialIdentity id;

@@ -67,7 +67,7 @@ const Tiny& tiny() {
     auto* n = new Tiny;  // never destroyed: libFuzzer exits without running destructors
     n->scenario = api::parse_scenario_document_text(kScenario).scenario;
     n->site = api::validate_scenario(n->scenario);
-    n->bins = run::tally_bins(*n->site).total;
+    n->bins = run::tally_bins(n->scenario, *n->site).total;
     return n;
   }();
   return *t;

@@ -56,7 +56,7 @@ std::optional<run::PartialRun> reduce_partials(run::PartialRun mine, const cli::
                                                const cli::PreparedRun& p, int rank, int size,
                                                MPI_Comm comm) {
   const api::PartialIdentity id = cli::identity_of(o, p);
-  const std::size_t bins = run::tally_bins(*p.site).total;
+  const std::size_t bins = run::tally_bins(p.doc.scenario, *p.site).total;
   for (int step = 1; step < size; step *= 2) {
     if (rank % (2 * step) == step) {
       send_bytes(api::encode_partial(mine, id), rank - step, comm);

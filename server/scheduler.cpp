@@ -57,7 +57,7 @@ run::RunResult merge_partials(const run::Scenario& scenario, const scene::Site& 
                               const BackendJob& job) {
   api::PartialIdentity expected;
   expected.scenario_sha256 = api::sha256_hex(read_text_file(job.scenario_file()));
-  const std::size_t bins = run::tally_bins(site).total;
+  const std::size_t bins = run::tally_bins(scenario, site).total;
   std::optional<run::PartialRun> merged;
   for (int k = 0; k < job.shards(); ++k) {
     const auto file = job.partial_file(k);

@@ -53,16 +53,22 @@ double HfdGeometry::distance(std::uint32_t t) const {
 }
 
 double HfdGeometry::hfd(const std::vector<double>& density, double threshold,
-                        SectorFigures* by_sector) const {
+                        SectorFigures* by_sector, HfdTriangles* set_by) const {
+  SectorFigures sectors;
+  if (set_by != nullptr && by_sector == nullptr) by_sector = &sectors;
+  if (set_by != nullptr) *set_by = HfdTriangles{};
   double best = 0.0;
   if (by_sector) by_sector->fill(0.0);
   for (std::uint32_t t = 0; t < density.size(); ++t) {
     if (!hazardous(density[t], threshold)) continue;
     const double r = distance(t);
+    if (set_by != nullptr && (set_by->overall < 0 || r > best)) set_by->overall = t;
     best = std::max(best, r);
     if (by_sector) {
       const Vec2 d = offset(t);
-      double& s = (*by_sector)[static_cast<std::size_t>(hfd_sector(d.x(), d.y()))];
+      const auto k = static_cast<std::size_t>(hfd_sector(d.x(), d.y()));
+      double& s = (*by_sector)[k];
+      if (set_by != nullptr && (set_by->by_sector[k] < 0 || r > s)) set_by->by_sector[k] = t;
       s = std::max(s, r);
     }
   }
@@ -92,7 +98,7 @@ double HfdGeometry::max_boundary_density(const std::vector<double>& density) con
 HfdFigures HfdGeometry::figures(const std::vector<double>& density,
                                 const std::vector<double>& std_error, double threshold) const {
   HfdFigures f;
-  f.hfd_m = hfd(density, threshold, &f.by_sector_m);
+  f.hfd_m = hfd(density, threshold, &f.by_sector_m, &f.set_by);
   f.cut = cut(density, threshold);
   f.max_boundary_density_per_m2 = max_boundary_density(density);
   std::vector<double> shifted(density.size());

@@ -36,13 +36,22 @@ struct BoundaryCut {
   bool any() const { return sector_count > 0; }
 };
 
+// The triangles whose centroids set an HFD, overall and per sector (-1: no triangle at or above
+// the threshold). Of triangles at the same distance, the first (lowest index) sets it.
+struct HfdTriangles {
+  std::int64_t overall = -1;
+  std::array<std::int64_t, kHfdSectors> by_sector;
+  HfdTriangles() { by_sector.fill(-1); }
+};
+
 // The HFD of a density field and of the fields mean -+ 1 se (its band), each with the sectors the
-// terrain's boundary cuts.
+// terrain's boundary cuts, and the triangles that set the HFD and the sectors' HFDs.
 struct HfdFigures {
   double hfd_m = 0.0, lower_m = 0.0, upper_m = 0.0;
   SectorFigures by_sector_m{};
   BoundaryCut cut, lower_cut, upper_cut;
   double max_boundary_density_per_m2 = 0.0;
+  HfdTriangles set_by;
 };
 
 // The geometry an HFD is measured on: the HFD origin, the site's triangles and the sectors of the
@@ -54,9 +63,10 @@ class HfdGeometry {
  public:
   HfdGeometry(const scene::Site& site, const Vec3& origin_local, bool keep_distances = false);
 
-  // The HFD of `density` (0 when no triangle is at or above the threshold), and per sector.
+  // The HFD of `density` (0 when no triangle is at or above the threshold), per sector, and the
+  // triangles that set them.
   double hfd(const std::vector<double>& density, double threshold,
-             SectorFigures* by_sector = nullptr) const;
+             SectorFigures* by_sector = nullptr, HfdTriangles* set_by = nullptr) const;
   // The sectors whose HFD of `density` the terrain's boundary cuts.
   BoundaryCut cut(const std::vector<double>& density, double threshold) const;
   // The largest density on a triangle touching the boundary (0 without one).

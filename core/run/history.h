@@ -16,7 +16,8 @@ namespace fragsim::run {
 
 struct PtnContribution {
   std::uint32_t triangle;
-  double value;  // weight / A_PTN
+  double value;                                          // weight / A_PTN
+  PtnMechanism mechanism = PtnMechanism::kDirectFlight;  // in the padding: no larger
 };
 
 struct BuildingContribution {

@@ -149,8 +149,9 @@ bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const Fli
   const bool may_be_hazardous =
       !ctx_.still_air || !ctx_.step_min_at_ends || e_step - mass_ * g_ * zlo >= st_.hazardous_ke_j;
   if (may_be_hazardous) {
-    add_ptn_segment(pa, pa + s_end * (pb - pa),
-                    [&](double u) { return integ.velocity(ta + u * s_end * (tb - ta)); });
+    add_ptn_segment(
+        pa, pa + s_end * (pb - pa),
+        [&](double u) { return integ.velocity(ta + u * s_end * (tb - ta)); }, flight_mechanism());
   }
   return touch || hit;
 }

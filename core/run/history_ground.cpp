@@ -152,7 +152,9 @@ void History::add_ptn_ground_step(const impact::GroundSegment& sg, double s_end)
   const double ha = sg.ha, hb = sg.ha + s_end * (sg.hb - sg.ha);  // linear along the chord
   const double top = ctx_.prisms.person_height_m();
   if (!(ha >= 0.0 && ha <= top && hb >= 0.0 && hb <= top)) {
-    add_ptn_segment(sg.a, b, [&](double s) { return sg.va + s * s_end * (sg.vb - sg.va); });
+    add_ptn_segment(
+        sg.a, b, [&](double s) { return sg.va + s * s_end * (sg.vb - sg.va); },
+        PtnMechanism::kGround);
     return;
   }
   // A later piece over the same triangle would only add a contribution that the
@@ -164,7 +166,7 @@ void History::add_ptn_ground_step(const impact::GroundSegment& sg, double s_end)
   if (0.5 * mass_ * speed2 < st_.hazardous_ke_j || !(speed2 > 0.0)) return;
   const double area = ctx_.prisms.projected_area(sg.triangle, sg.va / std::sqrt(speed2));
   if (area > 0.0) {
-    scratch_.ptn.push_back({sg.triangle, weight_ / area});
+    scratch_.ptn.push_back({sg.triangle, weight_ / area, PtnMechanism::kGround});
     last_ground_prism_ = sg.triangle;
   }
 }

@@ -158,7 +158,12 @@ class History {
 
   // ---- tallies ----
   template <class VelocityFn>
-  void add_ptn_segment(const Vec3& a, const Vec3& b, const VelocityFn& velocity_at);
+  void add_ptn_segment(const Vec3& a, const Vec3& b, const VelocityFn& velocity_at,
+                       PtnMechanism mechanism);
+  // A flight's contributions: direct until the history's first terrain contact.
+  PtnMechanism flight_mechanism() const {
+    return bounces_ + takeoffs_ > 0 ? PtnMechanism::kAfterRicochet : PtnMechanism::kDirectFlight;
+  }
   void add_ptn_ground_step(const impact::GroundSegment& sg, double s_end);
   bool can_never_matter(const Vec3& p, const Vec3& v, double rotational_ke_j) const;
 
@@ -209,9 +214,10 @@ class History {
 
 // PTN contributions of the straight piece a -> b; velocity_at(s) gives the velocity at chord
 // parameter s in [0, 1]. A hazardous path (kinetic energy >= threshold where it enters a prism)
-// adds w / A_PTN (paper eqs. 37-39).
+// adds w / A_PTN (paper eqs. 37-39), tagged with the mechanism that made it.
 template <class VelocityFn>
-void History::add_ptn_segment(const Vec3& a, const Vec3& b, const VelocityFn& velocity_at) {
+void History::add_ptn_segment(const Vec3& a, const Vec3& b, const VelocityFn& velocity_at,
+                              PtnMechanism mechanism) {
   if (std::min(a.z(), b.z()) > ctx_.prisms.top_z()) return;
   SectionTimer timer(prof_, out_.tally_s);
   site_.terrain_index().for_each_candidate(
@@ -223,7 +229,7 @@ void History::add_ptn_segment(const Vec3& a, const Vec3& b, const VelocityFn& ve
         const double speed2 = v.squaredNorm();
         if (0.5 * mass_ * speed2 < st_.hazardous_ke_j || !(speed2 > 0.0)) return;
         const double area = ctx_.prisms.projected_area(tri, v / std::sqrt(speed2));
-        if (area > 0.0) scratch_.ptn.push_back({tri, weight_ / area});
+        if (area > 0.0) scratch_.ptn.push_back({tri, weight_ / area, mechanism});
       });
 }
 

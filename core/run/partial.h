@@ -36,7 +36,8 @@ struct PartialRun {
   std::int64_t shard_count = 1;
   std::vector<std::int64_t> shards;  // the shards merged in, ascending
   // Bins: terrain triangles, then building figures (kBuildingFigures per building), then
-  // outcomes, then the hazardous fragments that left the site (see tally_bins()).
+  // outcomes, then the hazardous fragments that left the site, then the terrain triangles per
+  // mechanism and per group (see tally_bins()).
   tally::StratifiedTally tally;
   std::array<std::int64_t, kOutcomeCount> outcome_histories{};
   std::int64_t left_hazardous_histories = 0;  // left the site while hazardous (SiteBoundary)
@@ -67,13 +68,22 @@ enum BuildingFigure : int {
 // Real fragments that left the site while hazardous: in all, then per HFD sector.
 inline constexpr std::size_t kLeftSiteBins = 1 + 36;
 struct TallyBins {
-  std::size_t terrain = 0;    // first bin of the terrain triangles
-  std::size_t buildings = 0;  // first bin of the building figures
-  std::size_t outcomes = 0;   // first bin of the outcomes
-  std::size_t left_site = 0;  // first of the kLeftSiteBins bins
+  std::size_t terrain = 0;       // first bin of the terrain triangles
+  std::size_t buildings = 0;     // first bin of the building figures
+  std::size_t outcomes = 0;      // first bin of the outcomes
+  std::size_t left_site = 0;     // first of the kLeftSiteBins bins
+  std::size_t triangles = 0;     // terrain triangles (the length of one density field)
+  std::size_t mechanisms = 0;    // first bin of the fields per mechanism (kPtnMechanismCount)
+  std::size_t groups = 0;        // first bin of the fields per group
+  std::size_t group_fields = 0;  // of them (core/run/attribution.h: 0 when not kept)
   std::size_t total = 0;
+  // The first bin of mechanism m's field and of group g's.
+  std::size_t mechanism(PtnMechanism m) const {
+    return mechanisms + static_cast<std::size_t>(m) * triangles;
+  }
+  std::size_t group(std::uint32_t g) const { return groups + g * triangles; }
 };
-TallyBins tally_bins(const scene::Site& site);
+TallyBins tally_bins(const Scenario& scenario, const scene::Site& site);
 
 // Runs shard `shard` of the scenario on a built site. Throws InputError for a shard that is not
 // one of 0..count-1, or a split scenario with settings.precision (its batch-boundary checks need

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/common/types.h"
+#include "core/run/hfd.h"
 #include "core/scene/site_spec.h"
 
 namespace fragsim::run {
@@ -53,6 +54,36 @@ enum class Outcome : std::uint8_t {
 };
 inline constexpr int kOutcomeCount = 10;
 const char* outcome_name(Outcome o);
+
+// The physics that made a PTN contribution (docs/precision.md, "What sets the HFD").
+enum class PtnMechanism : std::uint8_t {
+  kDirectFlight = 0,   // flight before the history's first terrain contact
+  kAfterRicochet = 1,  // flight after a terrain impact or a take-off from the ground
+  kGround = 2,         // the ground phase: sliding, rolling, ploughing on the terrain
+};
+inline constexpr int kPtnMechanismCount = 3;
+const char* ptn_mechanism_name(PtnMechanism m);
+
+// The density at one triangle that sets an HFD, and the shares of it (fractions, summing to 1
+// up to rounding) made by each mechanism and each group.
+struct DensityShares {
+  std::int64_t triangle = -1;  // -1: no triangle at or above the threshold (no HFD)
+  double distance_m = 0.0;     // of its centroid from the HFD origin
+  double density_per_m2 = 0.0;
+  std::array<double, kPtnMechanismCount> by_mechanism{};
+  std::vector<double> by_group;  // per scenario group; empty when by_group is omitted
+};
+
+// What sets the HFD (docs/precision.md, "What sets the HFD"): the HFD figures of the density
+// field each mechanism and each group makes alone, and the shares at the triangles that set the
+// HFD and each sector's HFD.
+struct HfdAttribution {
+  std::array<HfdFigures, kPtnMechanismCount> by_mechanism;
+  std::vector<HfdFigures> by_group;     // per scenario group; empty when omitted
+  std::string by_group_omitted_reason;  // why by_group is empty ("" when it is not)
+  DensityShares at_hfd;
+  std::array<DensityShares, kHfdSectors> at_sector_hfd;  // sector k's (triangle -1 when none)
+};
 
 // The figures the terrain's boundary makes lower bounds, and what left the site while hazardous.
 struct SiteBoundary {
@@ -158,7 +189,7 @@ struct RunStats {
   // rotational kinetic plus m g z, exceeded the energy before beyond rounding (energy_rose):
   // an impulse can only remove energy, so this is 0 unless the impact model is wrong.
   std::int64_t energy_rises = 0;
-  std::int64_t fast_contacts = 0;     // terrain contacts resolved by a fast_contact law (F1-F6)
+  std::int64_t fast_contacts = 0;  // terrain contacts resolved by a fast_contact law (F1-F6)
   // Ground pieces that started faster than their material's fast_contact switch speed: slides
   // the law forbids (expected 0; F6).
   std::int64_t fast_slides = 0;
@@ -214,6 +245,8 @@ struct RunResult {
   // boundary in the sector has a density (of the field the figure comes from) at or above the
   // threshold, so the figure is only a lower bound. The HFD is cut when any sector is.
   SiteBoundary site_boundary;
+
+  HfdAttribution hfd_attribution;  // what sets the HFD, by mechanism and group
 
   std::vector<BuildingResult> buildings;
 

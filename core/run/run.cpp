@@ -17,6 +17,7 @@
 #include <tuple>
 
 #include "core/common/error.h"
+#include "core/run/attribution.h"
 #include "core/run/hfd.h"
 #include "core/run/history.h"
 #include "core/run/importance.h"
@@ -123,7 +124,7 @@ class LaunchStrata {
 class Reducer {
  public:
   Reducer(const Scenario& sc, const scene::Site& site, const LaunchStrata& strata, PartialRun& out)
-      : out_(out), bins_(tally_bins(site)), strata_(strata) {
+      : out_(out), bins_(tally_bins(sc, site)), strata_(strata) {
     out_.tally = tally::StratifiedTally(bins_.total, strata.on() ? 2 : 1);
     for (const auto& g : sc.groups) samples_.push_back(g.samples);
   }
@@ -137,8 +138,7 @@ class Reducer {
     for (std::int64_t i = 0; i < c.count; ++i) {
       start_strata(c.group, batch, first + i, i == 0);
       const std::uint32_t end = c.ptn_end[static_cast<std::size_t>(i)];
-      for (std::uint32_t k = begin; k < end; ++k)
-        t.add(bins_.terrain + c.ptn[k].triangle, c.ptn[k].value);
+      for (std::uint32_t k = begin; k < end; ++k) add_ptn(c.ptn[k], c.group);
       begin = end;
       const auto h = static_cast<std::size_t>(i);
       const double w = c.weights[h];  // with the likelihood ratio
@@ -166,6 +166,14 @@ class Reducer {
       t.flush(k);
       t.start(k, tally::StratumKey{static_cast<std::uint32_t>(k), g, batch, v.index}, v.size);
     }
+  }
+
+  // A contribution to the whole field, to its mechanism's and to its group's (when kept).
+  void add_ptn(const PtnContribution& c, std::uint32_t group) {
+    tally::StratifiedTally& t = out_.tally;
+    t.add(bins_.terrain + c.triangle, c.value);
+    t.add(bins_.mechanism(c.mechanism) + c.triangle, c.value);
+    if (bins_.group_fields > 0) t.add(bins_.group(group) + c.triangle, c.value);
   }
 
   void add_building(const BuildingContribution& b, double w) {
@@ -247,7 +255,7 @@ class PrecisionControl {
  public:
   PrecisionControl(const Scenario& sc, const scene::Site& site, const PartialRun& tallies,
                    Clock::time_point t_start)
-      : sc_(sc), site_(site), tallies_(tallies), bins_(tally_bins(site)), t_start_(t_start) {
+      : sc_(sc), site_(site), tallies_(tallies), bins_(tally_bins(sc, site)), t_start_(t_start) {
     if (!sc.settings.precision) return;
     p_ = &*sc.settings.precision;
     if (p_->hfd_half_band_m || p_->hfd_half_band_rel || p_->ptn_rel_error_at_hfd ||
@@ -422,12 +430,13 @@ void learn(DirectionLearner& learner, const ChunkOutput& c) {
 }
 
 // The HFD, its band, its sectors and which of them the terrain's boundary cuts, from the
-// result's density field.
-void fill_hfd(const Scenario& sc, const scene::Site& site, RunResult& r) {
+// result's density field; what sets them (core/run/attribution.h) from the tally's fields.
+void fill_hfd(const Scenario& sc, const scene::Site& site, const PartialRun& p,
+              const TallyBins& bins, double scale, RunResult& r) {
   r.hfd_origin_m = hfd_origin_input(sc, site);
-  const HfdFigures f =
-      HfdGeometry(site, site.to_local(r.hfd_origin_m))
-          .figures(r.ptn_density_per_m2, r.ptn_std_error_per_m2, sc.settings.hfd_threshold_per_m2);
+  const double threshold = sc.settings.hfd_threshold_per_m2;
+  const HfdGeometry geometry(site, site.to_local(r.hfd_origin_m));
+  const HfdFigures f = geometry.figures(r.ptn_density_per_m2, r.ptn_std_error_per_m2, threshold);
   r.hazardous_fragment_distance_m = f.hfd_m;
   r.hfd_lower_m = f.lower_m;
   r.hfd_upper_m = f.upper_m;
@@ -439,13 +448,15 @@ void fill_hfd(const Scenario& sc, const scene::Site& site, RunResult& r) {
   sb.band_lower_cut = f.lower_cut.any();
   sb.band_upper_cut = f.upper_cut.any();
   sb.max_boundary_density_per_m2 = f.max_boundary_density_per_m2;
+  r.hfd_attribution = attribute_hfd(geometry, p.tally, bins, sc.groups.size(), scale, threshold,
+                                    r.ptn_density_per_m2, f);
 }
 
 // Turns the folded tallies of `batches` batches into the result's figures.
 void fill_figures(const Scenario& sc, const scene::Site& site, const PartialRun& p,
                   std::int64_t batches, RunResult& r) {
   const double scale = 1.0 / static_cast<double>(std::max<std::int64_t>(1, batches));
-  const TallyBins bins = tally_bins(site);
+  const TallyBins bins = tally_bins(sc, site);
   r.ptn_density_per_m2 = p.tally.means(bins.terrain, site.terrain_triangle_count());
   r.ptn_std_error_per_m2 = p.tally.std_errors(bins.terrain, site.terrain_triangle_count());
   for (std::size_t t = 0; t < r.ptn_density_per_m2.size(); ++t) {
@@ -461,7 +472,7 @@ void fill_figures(const Scenario& sc, const scene::Site& site, const PartialRun&
         site.terrain_triangle_centroid(static_cast<std::uint32_t>(r.max_ptn_triangle)));
   }
 
-  fill_hfd(sc, site, r);
+  fill_hfd(sc, site, p, bins, scale, r);
   auto est = [&](std::size_t bin) {
     return Estimate{p.tally.mean(bin) * scale, p.tally.std_error(bin) * scale};
   };
@@ -504,13 +515,17 @@ const char* stop_reason_name(StopReason s) {
   return "unknown";
 }
 
-TallyBins tally_bins(const scene::Site& site) {
+TallyBins tally_bins(const Scenario& sc, const scene::Site& site) {
   TallyBins b;
   b.terrain = 0;
-  b.buildings = site.terrain_triangle_count();
+  b.triangles = site.terrain_triangle_count();
+  b.buildings = b.triangles;
   b.outcomes = b.buildings + site.buildings().size() * kBuildingFigures;
   b.left_site = b.outcomes + kOutcomeCount;
-  b.total = b.left_site + kLeftSiteBins;
+  b.mechanisms = b.left_site + kLeftSiteBins;
+  b.groups = b.mechanisms + kPtnMechanismCount * b.triangles;
+  b.group_fields = plan_group_fields(sc.groups.size(), b.triangles).fields;
+  b.total = b.groups + b.group_fields * b.triangles;
   return b;
 }
 

@@ -118,7 +118,7 @@ const Case& make_case(bool stratified) {
   if (c.site) return c;
   c.sc = small_scenario(stratified);
   c.site = scene::Site::build(c.sc.site);
-  c.bins = run::tally_bins(*c.site).total;
+  c.bins = run::tally_bins(c.sc, *c.site).total;
   for (std::int64_t i = 0; i < 3; ++i) {
     c.sc.settings.threads = 1 + static_cast<int>(i % 2);
     c.shards.push_back(run::run_partial(c.sc, c.site, run::Shard{i, 3}));
@@ -440,7 +440,7 @@ TEST_P(PartialFile, WrongMagicVersionOrShapeIsRefused) {
   expect_refused("PK\x03\x04" + bytes.substr(4), bins, "no FSPART01 header");
   std::string body = body_of(bytes);
   std::string version = body;
-  // 1: before the site-boundary tallies; 2: before outcome ground_step_cap and energy_rises.
+  // 1: before the site-boundary tallies; 2: before issue 23's outcome, counters and fields.
   for (const std::uint32_t v : {1u, 2u, 4u}) {
     write_at<std::uint32_t>(version, 8, v);
     expect_refused(with_trailer(version), bins, "an unknown version");
@@ -463,7 +463,7 @@ TEST_P(PartialFile, APartialOfAnotherSiteIsRefused) {
   const std::string bytes = encode_partial(c().middle(), kIdentity);
   run::Scenario other = c().sc;
   std::get<scene::PlaneTerrainSpec>(other.site.terrain.geometry).cell_m = 30.0;
-  const std::size_t other_bins = run::tally_bins(*scene::Site::build(other.site)).total;
+  const std::size_t other_bins = run::tally_bins(other, *scene::Site::build(other.site)).total;
   ASSERT_NE(other_bins, c().bins);
   expect_refused(bytes, other_bins, "a partial of another site");
   expect_refused(bytes, c().bins + 1, "a partial of another site");

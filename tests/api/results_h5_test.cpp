@@ -114,7 +114,7 @@ class ResultsH5 : public ::testing::Test {
 TEST_F(ResultsH5, RootAttributes) {
   const fs::path f = write("r.h5", result_);
   EXPECT_EQ(read_attribute_string(f, "/", "file_type"), "fragsim.results");
-  EXPECT_EQ(read_attribute_int64(f, "/", "format_version"), 2);
+  EXPECT_EQ(read_attribute_int64(f, "/", "format_version"), 3);
   EXPECT_EQ(read_attribute_string(f, "/", "hfd_bound"), "none");
   EXPECT_EQ(read_attribute_string(f, "/", "fragsim_version"), kVersion);
   EXPECT_EQ(read_attribute_string(f, "/", "git_sha"), kGitSha);
@@ -215,6 +215,70 @@ TEST_F(ResultsH5, PtnHfdBuildingsOutcomes) {
 }
 
 // Issue 22: where the terrain's boundary cuts the HFD, and the hazardous fragments that left.
+// What sets the HFD (issue 23): per mechanism and group, rows in the order of the names; the
+// shares at the HFD's triangle (row 0) and each sector's (row 1 + k).
+TEST_F(ResultsH5, HfdAttribution) {
+  scenario_.groups.resize(2);
+  scenario_.groups[0].name = "case";
+  scenario_.groups[1].name = "rear closure";
+  run::RunResult r = result_;
+  run::HfdAttribution& a = r.hfd_attribution;
+  a.by_mechanism[2].hfd_m = 150.0;
+  a.by_mechanism[2].lower_m = 140.0;
+  a.by_mechanism[2].by_sector_m[7] = 150.0;
+  a.by_mechanism[1].cut.sectors[4] = true;
+  a.by_mechanism[1].cut.sector_count = 1;
+  a.by_group.resize(2);
+  a.by_group[1].hfd_m = 150.0;
+  a.at_hfd.triangle = 3;
+  a.at_hfd.distance_m = 150.0;
+  a.at_hfd.density_per_m2 = 0.5;
+  a.at_hfd.by_mechanism = {0.25, 0.0, 0.75};
+  a.at_hfd.by_group = {0.0, 1.0};
+  a.at_sector_hfd[7] = a.at_hfd;
+  const fs::path f = write("attribution.h5", r);
+  EXPECT_EQ(read_dataset_strings(f, "/hfd/attribution/mechanism_names"),
+            (std::vector<std::string>{"direct_flight", "after_ricochet", "ground"}));
+  EXPECT_EQ(read_dataset_strings(f, "/hfd/attribution/group_names"),
+            (std::vector<std::string>{"case", "rear closure"}));
+  EXPECT_EQ(read_dataset_double(f, "/hfd/attribution/by_mechanism/hfd_m"),
+            (std::vector<double>{0.0, 0.0, 150.0}));
+  EXPECT_EQ(dataset_shape(f, "/hfd/attribution/by_mechanism/by_sector_m"),
+            (std::vector<std::uint64_t>{3, 36}));
+  EXPECT_EQ(read_dataset_double(f, "/hfd/attribution/by_mechanism/by_sector_m")[2 * 36 + 7], 150.0);
+  EXPECT_EQ(read_dataset_double(f, "/hfd/attribution/by_mechanism/band_m")[4], 140.0);
+  EXPECT_EQ(read_dataset_double(f, "/hfd/attribution/by_mechanism/bound"),
+            (std::vector<double>{0.0, 1.0, 0.0}));
+  EXPECT_EQ(read_dataset_double(f, "/hfd/attribution/by_mechanism/by_sector_bound")[36 + 4], 1.0);
+  EXPECT_EQ(read_dataset_double(f, "/hfd/attribution/by_group/hfd_m"),
+            (std::vector<double>{0.0, 150.0}));
+  EXPECT_EQ(read_attribute_string(f, "/hfd/attribution", "by_group_omitted_reason"), "");
+  const auto triangle = read_dataset_int64(f, "/hfd/attribution/at_hfd/triangle");
+  ASSERT_EQ(triangle.size(), 37u);
+  EXPECT_EQ(triangle[0], 3);
+  EXPECT_EQ(triangle[1 + 7], 3);
+  EXPECT_EQ(triangle[1], -1);
+  EXPECT_EQ(read_dataset_double(f, "/hfd/attribution/at_hfd/distance_m")[0], 150.0);
+  EXPECT_EQ(dataset_shape(f, "/hfd/attribution/at_hfd/share_by_mechanism"),
+            (std::vector<std::uint64_t>{37, 3}));
+  const auto mech = read_dataset_double(f, "/hfd/attribution/at_hfd/share_by_mechanism");
+  EXPECT_EQ(std::vector<double>(mech.begin(), mech.begin() + 3),
+            (std::vector<double>{0.25, 0.0, 0.75}));
+  const auto group = read_dataset_double(f, "/hfd/attribution/at_hfd/share_by_group");
+  EXPECT_EQ(dataset_shape(f, "/hfd/attribution/at_hfd/share_by_group"),
+            (std::vector<std::uint64_t>{37, 2}));
+  EXPECT_EQ(group[1], 1.0);
+
+  r.hfd_attribution.by_group.clear();
+  r.hfd_attribution.by_group_omitted_reason = "too many groups";
+  const fs::path omitted = write("omitted.h5", r);
+  EXPECT_EQ(read_attribute_string(omitted, "/hfd/attribution", "by_group_omitted_reason"),
+            "too many groups");
+  EXPECT_THROW(read_dataset_double(omitted, "/hfd/attribution/by_group/hfd_m"), std::runtime_error);
+  EXPECT_THROW(read_dataset_double(omitted, "/hfd/attribution/at_hfd/share_by_group"),
+               std::runtime_error);
+}
+
 TEST_F(ResultsH5, SiteBoundaryFlagsAndLeavers) {
   const fs::path none = write("none.h5", result_);
   EXPECT_EQ(read_dataset_double(none, "/hfd/bound"), std::vector<double>{0.0});

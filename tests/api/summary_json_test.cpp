@@ -356,3 +356,96 @@ TEST(SummaryJson, PrecisionStopAndTargets) {
 
 }  // namespace
 }  // namespace fragsim::api
+
+namespace fragsim::api {
+namespace {
+
+// What sets the HFD (issue 23): two groups, the HFD's triangle mostly the ground phase's.
+run::RunResult attributed_result(run::Scenario& sc) {
+  run::RunResult r = synthetic_result();
+  sc.groups.resize(2);
+  sc.groups[0].name = "case";
+  sc.groups[1].name = "rear closure";
+  run::HfdAttribution& a = r.hfd_attribution;
+  a.by_mechanism[0].hfd_m = 120.0;
+  a.by_mechanism[1].hfd_m = 80.5;
+  a.by_mechanism[2].hfd_m = 266.5;
+  a.by_mechanism[2].cut.sectors[3] = true;
+  a.by_mechanism[2].cut.sector_count = 1;
+  a.by_group.resize(2);
+  a.by_group[0].hfd_m = 150.0;
+  a.by_group[1].hfd_m = 266.5;
+  a.at_hfd.triangle = 17;
+  a.at_hfd.distance_m = 266.5;
+  a.at_hfd.density_per_m2 = 0.02;
+  a.at_hfd.by_mechanism = {0.0, 0.08, 0.92};
+  a.at_hfd.by_group = {0.05, 0.95};
+  a.at_sector_hfd[7] = a.at_hfd;
+  return r;
+}
+
+TEST(SummaryJson, HfdAttributionByMechanismGroupAndAtTheHfd) {
+  run::Scenario sc;
+  const Json s = summary_to_json(attributed_result(sc), sc, build_provenance());
+  const Json& a = s["hfd_attribution"];
+  EXPECT_EQ(a["mechanisms"], Json({"direct_flight", "after_ricochet", "ground"}));
+  EXPECT_EQ(a["groups"], Json({"case", "rear closure"}));
+  EXPECT_EQ(a["by_mechanism"]["ground"]["hfd_m"], 266.5);
+  EXPECT_EQ(a["by_mechanism"]["ground"]["hfd_bound"], "lower");
+  EXPECT_EQ(a["by_mechanism"]["ground"]["hfd_by_sector_bound"][3], "lower");
+  EXPECT_EQ(a["by_mechanism"]["direct_flight"]["hfd_bound"], "none");
+  EXPECT_EQ(a["by_mechanism"]["after_ricochet"]["hfd_by_sector_m"].size(), 36u);
+  EXPECT_EQ(a["by_mechanism"]["after_ricochet"]["hfd_band_m"].size(), 2u);
+  ASSERT_EQ(a["by_group"].size(), 2u);
+  EXPECT_EQ(a["by_group"][1]["group"], "rear closure");
+  EXPECT_EQ(a["by_group"][1]["hfd_m"], 266.5);
+  EXPECT_TRUE(a["by_group_omitted_reason"].is_null());
+  EXPECT_EQ(a["at_hfd"]["triangle"], 17);
+  EXPECT_EQ(a["at_hfd"]["distance_m"], 266.5);
+  EXPECT_EQ(a["at_hfd"]["share_by_mechanism"]["ground"], 0.92);
+  EXPECT_EQ(a["at_hfd"]["share_by_group"], Json({0.05, 0.95}));
+  ASSERT_EQ(a["at_sector_hfd"].size(), 36u);
+  EXPECT_TRUE(a["at_sector_hfd"][0].is_null());  // no HFD in that sector
+  EXPECT_EQ(a["at_sector_hfd"][7]["triangle"], 17);
+}
+
+TEST(SummaryJson, OmittedGroupFiguresSayWhy) {
+  run::Scenario sc;
+  run::RunResult r = attributed_result(sc);
+  r.hfd_attribution.by_group.clear();
+  r.hfd_attribution.at_hfd.by_group.clear();
+  r.hfd_attribution.by_group_omitted_reason =
+      "70 fragment groups: per-group fields are kept for at most 64 groups";
+  const Json s = summary_to_json(r, sc, build_provenance());
+  const Json& a = s["hfd_attribution"];
+  EXPECT_EQ(a["by_group"], Json::array());
+  EXPECT_TRUE(a["at_hfd"]["share_by_group"].is_null());
+  EXPECT_EQ(a["by_group_omitted_reason"], r.hfd_attribution.by_group_omitted_reason);
+  const std::string text = render_summary_text(s);
+  EXPECT_NE(text.find("HFD by group alone          omitted: 70 fragment groups"), std::string::npos)
+      << text;
+}
+
+TEST(SummaryText, SaysWhatSetsTheHfd) {
+  run::Scenario sc;
+  const std::string text =
+      render_summary_text(summary_to_json(attributed_result(sc), sc, build_provenance()));
+  const auto has = [&](const std::string& part) {
+    EXPECT_NE(text.find(part), std::string::npos) << "missing \"" << part << "\" in\n" << text;
+  };
+  has("  set by (at its triangle)    ground 92 %, after_ricochet 8 %; group \"rear closure\" 95 %, "
+      "\"case\" 5 %\n");
+  has("  HFD by mechanism alone      ground ≥ 266.5 m, direct_flight 120.0 m, after_ricochet "
+      "80.5 m\n");
+  has("  HFD by group alone          \"rear closure\" 266.5 m, \"case\" 150.0 m\n");
+}
+
+TEST(SummaryText, NoHfdNoSetByLine) {
+  const Json s = summary_to_json(run::RunResult{}, run::Scenario{}, build_provenance());
+  EXPECT_TRUE(s["hfd_attribution"]["at_hfd"].is_null());
+  const std::string text = render_summary_text(s);
+  EXPECT_EQ(text.find("set by"), std::string::npos) << text;
+}
+
+}  // namespace
+}  // namespace fragsim::api

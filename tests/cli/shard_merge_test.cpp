@@ -310,7 +310,8 @@ TEST_F(ShardMerge, ForgedPartialsWithAValidChecksumAreRefused) {
   namespace run = fragsim::run;
   const auto& p = three_shards();
   const auto doc = api::parse_scenario_document_text(read_text(kDemo));
-  const std::size_t bins = run::tally_bins(*api::validate_scenario(doc.scenario)).total;
+  const std::size_t bins =
+      run::tally_bins(doc.scenario, *api::validate_scenario(doc.scenario)).total;
   auto forge = [&](std::size_t k, const std::string& name, auto&& alter) {
     api::PartialIdentity id;
     run::PartialRun part = api::read_partial_file(p[k], bins, id);

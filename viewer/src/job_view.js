@@ -10,7 +10,7 @@ import * as meshes from './meshes.js';
 import { densityProfiles, drawDensityPlot } from './plot.js';
 import { parseScene } from './scene_format.js';
 import { SceneView } from './scene3d.js';
-import { boundaryNote, isLower, precisionStatus, sectorLowerBounds, summaryRow, summaryRows } from './summary_text.js';
+import { attributionRow, attributionRows, boundaryNote, isLower, precisionStatus, sectorLowerBounds, summaryRow, summaryRows } from './summary_text.js';
 
 const $ = (id) => document.getElementById(id);
 const COLORS = { contour: '#111111', hfd: '#d6001c', sectors: '#ff7f0e', launch: '#d6001c' };
@@ -72,6 +72,7 @@ function resetPage(id) {
   showError($('job-error'), '');
   renderBoundaryWarning({});
   $('summary-table').tBodies[0].replaceChildren();
+  $('hfd-attribution-table').tBodies[0].replaceChildren();
   $('buildings-table').tBodies[0].replaceChildren();
   $('downloads').replaceChildren();
   $('legend').replaceChildren();
@@ -295,6 +296,9 @@ function hideRowHighlight() {
 
 function renderSummary(s, scene) {
   $('summary-table').tBodies[0].replaceChildren(...summaryRows(s, scene).map(summaryRow));
+  const rows = attributionRows(s);
+  $('hfd-attribution').hidden = rows.length === 0;
+  $('hfd-attribution-table').tBodies[0].replaceChildren(...rows.map(attributionRow));
 }
 
 // A cut HFD changes what the whole study means, so its note heads the page, not a table row.

@@ -152,6 +152,49 @@ export function summaryRows(s, scene) {
   return rows;
 }
 
+// ---- what sets the HFD (issue 23) --------------------------------------------------------------
+
+const MECHANISMS = {
+  direct_flight: 'direct flight',
+  after_ricochet: 'flight after a ricochet',
+  ground: 'ground phase (slide, roll)',
+};
+
+// "92 %", "<1 %" for a share above 0 that would read as 0, "—" when there is none.
+export function percent(x) {
+  if (typeof x !== 'number') return '—';
+  if (x > 0 && x < 0.005) return '<1 %';
+  return `${Math.round(100 * x)} %`;
+}
+
+// Rows [key, label, HFD alone, share at the HFD's triangle] of the attribution table: a row per
+// mechanism and per group, and the reason when per-group figures were omitted. None for
+// summaries that predate hfd_attribution.
+export function attributionRows(s) {
+  const a = s.hfd_attribution;
+  if (!a) return [];
+  const at = a.at_hfd || null;
+  const rows = [];
+  for (const m of a.mechanisms || []) {
+    const f = (a.by_mechanism || {})[m] || {};
+    rows.push([`mechanism-${m}`, MECHANISMS[m] || m, bounded(f.hfd_m, f.hfd_bound),
+      percent(at && at.share_by_mechanism ? at.share_by_mechanism[m] : null)]);
+  }
+  (a.by_group || []).forEach((g, i) => {
+    rows.push([`group-${i}`, `group ${g.group}`, bounded(g.hfd_m, g.hfd_bound),
+      percent(at && at.share_by_group ? at.share_by_group[i] : null)]);
+  });
+  if (typeof a.by_group_omitted_reason === 'string' && a.by_group_omitted_reason)
+    rows.push(['groups-omitted', 'groups', `omitted: ${a.by_group_omitted_reason}`, '—']);
+  return rows;
+}
+
+export function attributionRow([key, label, hfd, share]) {
+  return el('tr', { dataset: { key } }, [
+    el('th', { text: label }), el('td', { class: 'num', text: hfd }), el('td', { class: 'num', text: share }),
+  ]);
+}
+
 // A table row: value is text, or [text, sub-line]; `flagged` rows (a lower bound, an unmeetable
 // target) are marked for the eye.
 export function summaryRow([key, label, value, flagged]) {

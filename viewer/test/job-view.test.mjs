@@ -92,6 +92,25 @@ test('summary table matches GET /v1/jobs/{id}/summary', async () => {
   assert.equal(await page.locator('#buildings-table tr[data-building]').count(), sum.buildings.length);
 });
 
+test('what sets the HFD: a row per mechanism and group, as in the summary', async () => {
+  const a = run.summary.hfd_attribution;
+  assert.ok(a, 'summary has no hfd_attribution');
+  assert.ok(await page.locator('#hfd-attribution').isVisible(), '#hfd-attribution hidden');
+  const rows = await page.$$eval('#hfd-attribution-table tbody tr', (trs) =>
+    trs.map((tr) => [tr.dataset.key, ...[...tr.cells].map((c) => c.textContent)]));
+  assert.equal(rows.length, a.mechanisms.length + a.by_group.length, JSON.stringify(rows));
+  for (const m of a.mechanisms) {
+    const row = rows.find((r) => r[0] === `mechanism-${m}`);
+    assert.ok(row, `no row for ${m}: ${JSON.stringify(rows)}`);
+    assert.equal(row[2], a.by_mechanism[m].hfd_m.toFixed(1), `HFD alone of ${m}`);
+    assert.equal(row[3], `${Math.round(100 * a.at_hfd.share_by_mechanism[m])} %`, `share of ${m}`);
+  }
+  // The minimal example: one group, no bounce: all direct flight, the group's HFD the HFD.
+  assert.equal(rows.find((r) => r[0] === 'mechanism-direct_flight')[3], '100 %');
+  assert.equal(rows.find((r) => r[0] === 'group-0')[2], run.summary.hazardous_fragment_distance_m.toFixed(1));
+  await h.screenshot(page.locator('#hfd-attribution'), 'job-4b-hfd-attribution');
+});
+
 test('density plot, legend and downloads', { timeout: 30000 }, async () => {
   await page.locator('#density-plot').scrollIntoViewIfNeeded();
   assert.ok(await page.locator('#density-plot').isVisible(), '#density-plot not visible');
