@@ -9,7 +9,8 @@
 //
 // With --bounce the scenario runs with settings.bounce on (bounce, slide and roll); with
 // --samples-scale X every group's samples are multiplied by X (quick looks); --rigid-ground
-// removes every material's embedment model (every terrain impact a rigid-body impulse).
+// removes every material's embedment and fast-contact models (every terrain impact a rigid-body
+// impulse).
 // --bounce-ratio runs bounce off and on in alternation on 1 thread (N rounds) and prints the
 // ratio of the best throughputs: the figure of the ground-phase issue (bounce-on throughput at
 // least half the bounce-off one, measured in the same run).
@@ -190,7 +191,10 @@ int main(int argc, char** argv) {
     g.samples =
         std::max<std::int64_t>(1, std::llround(static_cast<double>(g.samples) * samples_scale));
   if (rigid_ground)
-    for (auto& [name, m] : sc.site.materials) m.embedment.reset();
+    for (auto& [name, m] : sc.site.materials) {
+      m.embedment.reset();
+      m.fast_contact.reset();
+    }
   auto site = scene::Site::build(sc.site);
   std::printf("# %s%s%s\n# terrain triangles %zu, buildings %zu, hardware threads %u\n",
               path.c_str(), bounce ? " (bounce on)" : "", rigid_ground ? " (rigid ground)" : "",
