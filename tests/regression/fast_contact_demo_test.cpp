@@ -11,7 +11,7 @@ namespace {
 
 // 5 % of the demo's samples (4,000 histories, under a second): thousands of fast contacts,
 // so a count of 0 is a failure, not chance. Measured (seed of the file): 3,085 fast contacts, 0
-// fast slides, 0.2 s on 2 threads.
+// fast slides, 0.2 s on this machine's threads.
 TEST(FastContactDemo, BounceRunHasFastContactsAndNoFastSlides) {
   const Case c{"demo-bounce-5pct", "examples/demo/scenario.json", true, 0.05,
                "settings.bounce = true, samples x 0.05"};

@@ -6,7 +6,8 @@
 // speed u and angle phi and comes back to it at the same speed and angle after
 //   range R = u^2 sin(2 phi) / g,  time T = 2 u sin(phi) / g.
 // At each contact (speed v_k, grazing angle theta_k) the law gives
-//   v_{k+1}^2 = (v_k^2 + v_s^2) exp(-4 (D/L) (theta_k + r)) - v_s^2,  theta_{k+1} = ratio (theta_k + r)
+//   v_{k+1}^2 = (v_k^2 + v_s^2) exp(-4 (D/L) (theta_k + r)) - v_s^2,  theta_{k+1} = ratio (theta_k
+//   + r)
 // (here the F6 floor asin(0.5 / v) < 0.1 deg never binds), until theta_k >= theta_c (embedded) or
 // v < v_s (then the rigid bounce takes over and the comparison ends). The launch is h above the
 // contact height, so the first contact is the parabola's: t_1 = (v_z0 + sqrt(v_z0^2 + 2 g h)) / g.
@@ -38,10 +39,11 @@ struct HopSequence {
 // and steel (theta_c = 18 deg / sqrt(7850 / 1700)).
 HopSequence closed_form_hops(double v0, double theta0_deg) {
   const scene::FastContactSpec law;
-  const double theta_c = law.critical_angle_coefficient_deg * kDegToRad /
-                         std::sqrt(kSteel / law.bulk_density_kg_m3);
+  const double theta_c =
+      law.critical_angle_coefficient_deg * kDegToRad / std::sqrt(kSteel / law.bulk_density_kg_m3);
   const double vs2 = law.switch_speed_mps * law.switch_speed_mps;
-  const double vx = v0 * std::cos(theta0_deg * kDegToRad), vz0 = v0 * std::sin(theta0_deg * kDegToRad);
+  const double vx = v0 * std::cos(theta0_deg * kDegToRad),
+               vz0 = v0 * std::sin(theta0_deg * kDegToRad);
   const double vz1 = std::sqrt(vz0 * vz0 + 2 * kG * kLift);  // downward speed at contact height
   HopSequence s;
   Contact c{(vz1 - vz0) / kG, 0.0, std::hypot(vx, vz1), std::atan2(vz1, vx)};
@@ -116,8 +118,12 @@ Recorded recorded_contacts(const run::TrajectoryRecord& tr) {
   return r;
 }
 
-double grazing_rad(const Vec3& v) { return std::atan2(-v.z(), v.head<2>().norm()); }
-double elevation_rad(const Vec3& v) { return std::atan2(v.z(), v.head<2>().norm()); }
+double grazing_rad(const Vec3& v) {
+  return std::atan2(-v.z(), v.head<2>().norm());
+}
+double elevation_rad(const Vec3& v) {
+  return std::atan2(v.z(), v.head<2>().norm());
+}
 
 // Vacuum, sphere and plate, 300-700 m/s at 2-8 deg: every contact's time, position, speed and
 // angle against the closed form, and the end (embedded at the last contact).
@@ -134,11 +140,11 @@ TEST(FastContactHistory, VacuumHopsFollowTheClosedForm) {
     bool plate;
     double v0, theta0_deg;
   };
-  for (const Case& k : {Case{false, 300, 2}, Case{false, 700, 2}, Case{false, 500, 5},
-                        Case{false, 300, 8}, Case{true, 300, 2}, Case{true, 700, 2},
-                        Case{true, 500, 5}}) {
-    SCOPED_TRACE(testing::Message() << (k.plate ? "plate " : "sphere ") << k.v0 << " m/s, "
-                                    << k.theta0_deg << " deg");
+  for (const Case& k :
+       {Case{false, 300, 2}, Case{false, 700, 2}, Case{false, 500, 5}, Case{false, 300, 8},
+        Case{true, 300, 2}, Case{true, 700, 2}, Case{true, 500, 5}}) {
+    SCOPED_TRACE(testing::Message()
+                 << (k.plate ? "plate " : "sphere ") << k.v0 << " m/s, " << k.theta0_deg << " deg");
     const HopSequence expect = closed_form_hops(k.v0, k.theta0_deg);
     ASSERT_TRUE(expect.embedded);  // on this soil every case ends embedded, not slowed
     const run::RunResult res = run::run(skipping_scenario(k.plate, k.v0, k.theta0_deg, 0.0));

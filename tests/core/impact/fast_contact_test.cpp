@@ -19,9 +19,14 @@ namespace {
 constexpr double kSteel = 7850.0;
 constexpr double kFloor = 0.5;  // bounce_limits.min_rebound_speed_mps default
 
-scene::FastContactSpec soil() { return scene::FastContactSpec{}; }  // 1700, 30, 18, 1, 2, 1
+// The defaults: rho_s 1700, v_s 30 m/s, C 18 deg, D/L 1, roughness 2 deg, exit ratio 1.
+scene::FastContactSpec soil() {
+  return scene::FastContactSpec{};
+}
 
-double rad(double deg) { return deg * kDegToRad; }
+double rad(double deg) {
+  return deg * kDegToRad;
+}
 
 // A velocity of `speed` along +x (turned by `azimuth_deg` about z) going down at `theta_deg`.
 Vec3 incoming(double speed, double theta_deg, double azimuth_deg = 0.0) {
@@ -31,8 +36,8 @@ Vec3 incoming(double speed, double theta_deg, double azimuth_deg = 0.0) {
 
 // The closed form of F4 (site_spec.h), written independently of ricochet_speed2.
 double closed_form_speed(double v, double theta_deg, double vs, double dl, double rough_deg) {
-  const double out2 = (v * v + vs * vs) * std::exp(-4.0 * dl * rad(theta_deg + rough_deg)) -
-                      vs * vs;
+  const double out2 =
+      (v * v + vs * vs) * std::exp(-4.0 * dl * rad(theta_deg + rough_deg)) - vs * vs;
   return out2 > 0.0 ? std::sqrt(out2) : 0.0;
 }
 
@@ -155,7 +160,7 @@ TEST(FastContact, ExitLiesInThePlaneOfVelocityAndNormal) {
   const Vec3& u = f.velocity_mps;
   EXPECT_NEAR(u.dot(v.cross(n).normalized()), 0.0, 1e-12 * u.norm());  // in the plane
   const Vec3 vt = v - v.dot(n) * n, ut = u - u.dot(n) * n;
-  EXPECT_NEAR(ut.normalized().dot(vt.normalized()), 1.0, 1e-14);        // same tangent side
+  EXPECT_NEAR(ut.normalized().dot(vt.normalized()), 1.0, 1e-14);  // same tangent side
   EXPECT_NEAR(std::asin(u.dot(n) / u.norm()) / kDegToRad, theta_deg + 2.0, 1e-10);
   EXPECT_NEAR(f.incidence_deg, theta_deg, 1e-10);
 }
