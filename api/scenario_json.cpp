@@ -12,6 +12,7 @@
 #include "api/json_fields.h"
 #include "api/limits.h"
 #include "api/site_json.h"
+#include "core/run/bracket.h"
 #include "core/run/importance.h"
 
 namespace fragsim::api {
@@ -191,6 +192,13 @@ run::Settings parse_settings(const Json& j, const std::string& path) {
         r.integer_or("histories_per_stratum", sl.histories_per_stratum, 2, kMaxSamplesPerGroup);
     sl.speed = r.bool_or("speed", sl.speed);
     s.stratified_launch = sl;
+  }
+  if (const Json* b = o.find("ground_bracket")) {
+    const ObjectReader r(*b, o.at("ground_bracket"), "ground_bracket");
+    run::GroundBracketSettings gb;
+    gb.samples_scale = r.number_or("samples_scale", gb.samples_scale);
+    check_gt_le(gb.samples_scale, 0.0, 1.0, r.at("samples_scale"));
+    s.ground_bracket = gb;
   }
   return s;
 }
@@ -391,6 +399,7 @@ ScenarioDocument parse_scenario_document(const nlohmann::json& j, const SiteReso
 
   if (const Json* s = o.find("settings")) sc.settings = parse_settings(*s, "settings");
   if (sc.settings.precision) check_precision(sc, total_samples);
+  run::check_ground_bracket(sc);
   if (sc.settings.stratified_launch) check_stratified_launch(sc);
   if (sc.settings.record_fragments && total_samples > kMaxRecordedFragments)
     fail("settings.record_fragments",
@@ -487,6 +496,8 @@ Json scenario_json(const run::Scenario& sc, const std::string& description,
   if (const auto& l = s.stratified_launch)
     settings["stratified_launch"] = {{"histories_per_stratum", l->histories_per_stratum},
                                      {"speed", l->speed}};
+  if (const auto& b = s.ground_bracket)
+    settings["ground_bracket"] = {{"samples_scale", b->samples_scale}};
   out["settings"] = std::move(settings);
   return out;
 }

@@ -89,6 +89,20 @@ scene::FastContactSpec parse_fast_contact(const Json& j, const std::string& path
   return f;
 }
 
+// Ranges of uncertain constants (settings.ground_bracket): {"name": [low, high]}. Which names a
+// material accepts, and the values at both ends, scene::SiteBuilder checks (material.cpp).
+std::map<std::string, std::array<double, 2>> parse_ranges(const Json& j, const std::string& path) {
+  const ObjectReader o(j, path, "material_ranges");
+  std::map<std::string, std::array<double, 2>> out;
+  for (const std::string& name : scene::material_constant_names()) {
+    if (!o.has(name)) continue;
+    const std::array<double, 2> r = read_vec2(o.require(name), o.at(name));
+    if (!(r[0] <= r[1])) fail(o.at(name), "low end above the high end");
+    out.emplace(name, r);
+  }
+  return out;
+}
+
 scene::MaterialSpec parse_material(const Json& j, const std::string& path, MaterialNotes& notes) {
   const ObjectReader o(j, path, "material");
   scene::MaterialSpec m;
@@ -111,6 +125,7 @@ scene::MaterialSpec parse_material(const Json& j, const std::string& path, Mater
            "give embedment or fast_contact, not both (fast_contact has its own critical angle)");
     m.fast_contact = parse_fast_contact(*f, o.at("fast_contact"));
   }
+  if (const Json* r = o.find("ranges")) m.ranges = parse_ranges(*r, o.at("ranges"));
   notes.illustrative = o.bool_or("illustrative", false);
   notes.source = o.string_or("source", "");
   return m;
@@ -410,6 +425,11 @@ Json site_to_json(const scene::SiteSpec& site, const std::map<std::string, Mater
                             {"drag_to_lift_ratio", f.drag_to_lift_ratio},
                             {"roughness_deg", f.roughness_deg},
                             {"exit_angle_ratio", f.exit_angle_ratio}};
+    }
+    if (!m.ranges.empty()) {
+      Json r = Json::object();
+      for (const auto& [constant, range] : m.ranges) r[constant] = {range[0], range[1]};
+      mj["ranges"] = std::move(r);
     }
     if (m.embedment)
       mj["embedment"] = {{"model", "johnson_reid_1975"},

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "api/ground_bracket_json.h"
 #include "api/hfd_attribution_json.h"
 #include "core/run/precision.h"
 #include "fragsim/version.h"
@@ -183,6 +184,7 @@ void hfd_text(const Json& s, const Line& line) {
   line("  threshold", g4(threshold) + " per m² (1 per " + f1(1.0 / threshold) + " m²), from " +
                           vec3_text(s.value("hfd_origin_m", Json())));
   for (const auto& [label, value] : hfd_attribution_text(s)) line(label, value);
+  for (const auto& [label, value] : ground_bracket_text(s)) line(label, value);
   const Json* sb = object_at(s, "site_boundary");
   if (sb == nullptr) return;
   const double edge = num(*sb, "max_boundary_density_per_m2");
@@ -264,6 +266,7 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
   out["hfd_by_sector_bound"] = std::move(sector_bounds);
   out["site_boundary"] = site_boundary_json(r);
   out["hfd_attribution"] = hfd_attribution_json(r.hfd_attribution, scenario);
+  out["ground_bracket"] = ground_bracket_json(r.ground_bracket.get());
   out["max_ptn_density_per_m2"] = r.max_ptn_density_per_m2;
   if (r.max_ptn_triangle >= 0) {
     out["max_ptn_triangle"] = r.max_ptn_triangle;
@@ -341,7 +344,7 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
 std::string render_summary_text(const nlohmann::ordered_json& s) {
   std::string out;
   const auto line = [&](const std::string& label, const std::string& value) {
-    out += pad_right(label, 30) + value + "\n";
+    out += pad_right(label + " ", 30) + value + "\n";  // a space after a long label
   };
   if (s.value("cancelled", false))
     out += "CANCELLED: partial result of " + std::to_string(s.value("histories_done", 0)) +

@@ -224,7 +224,17 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
     if (o.shard) {
       code = write_partial(o, p, part, *out);
     } else {
-      run::RunResult result = run::finish(p.doc.scenario, *p.site, std::move(part));
+      if (p.doc.scenario.settings.ground_bracket && !o.quiet)
+        std::cerr << "settings.ground_bracket: running the bracket of the ground constants\n";
+      run::RunControl bracket_control;
+      bracket_control.cancel = &cancel;
+      run::RunResult result =
+          run::finish(p.doc.scenario, *p.site, std::move(part), bracket_control);
+      if ((result.ground_bracket && result.ground_bracket->cancelled) || cancel.load()) {
+        std::cerr << "cancelled: no output written\n";
+        progress_file.finish("cancelled");
+        return kExitCancelled;
+      }
       code = write_outputs(o, p, result, cancel, *out);
     }
     progress_file.finish(code == kExitOk ? "done" : "cancelled");

@@ -97,6 +97,11 @@ void merge(PartialRun& into, PartialRun&& other);
 
 // The result of the merged shards (taken by value: their memory is freed on return). Throws
 // InputError when a shard is missing (unless cancelled).
-RunResult finish(const Scenario& scenario, const scene::Site& site, PartialRun partial);
+// With settings.ground_bracket it then runs the bracket (core/run/bracket.h; `control.cancel`
+// stops it).
+RunResult finish(const Scenario& scenario, const scene::Site& site, PartialRun partial,
+                 const RunControl& control = {});
+// The figures of the partial alone (no bracket runs).
+RunResult finish_tally(const Scenario& scenario, const scene::Site& site, PartialRun partial);
 
 }  // namespace fragsim::run

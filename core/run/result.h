@@ -209,6 +209,30 @@ struct RunStats {
   }
 };
 
+// settings.ground_bracket (core/run/bracket.h): the study's figures at each end of each uncertain
+// ground constant's range, one at a time.
+struct BracketFigures {
+  double value = 0.0;  // the constant's value in this run (the nominal run: its own)
+  double hfd_m = 0.0;
+  bool hfd_lower_bound = false;                 // the site boundary cuts it (site_boundary.hfd_cut)
+  double hfd_lower_m = 0.0, hfd_upper_m = 0.0;  // its band
+  double building_impacts = 0.0;                // expected, summed over the buildings
+  double building_penetrations = 0.0;
+};
+struct BracketRow {
+  std::string constant;
+  double nominal = 0.0;
+  BracketFigures low, high;  // at the low and high end of the range
+};
+struct GroundBracket {
+  std::string material;  // the terrain material whose constants are varied
+  double samples_scale = 1.0;
+  std::int64_t histories_per_run = 0;
+  BracketFigures nominal;        // the nominal constants at the same samples (paired)
+  std::vector<BracketRow> rows;  // widest HFD swing first
+  bool cancelled = false;        // stopped before every run was done: rows are incomplete
+};
+
 struct RunResult {
   std::int64_t samples = 0;
   double real_fragments = 0.0;
@@ -247,6 +271,9 @@ struct RunResult {
   SiteBoundary site_boundary;
 
   HfdAttribution hfd_attribution;  // what sets the HFD, by mechanism and group
+  // settings.ground_bracket: the figures at the ends of the ground constants' ranges (null
+  // without it, and for a cancelled run).
+  std::shared_ptr<const GroundBracket> ground_bracket;
 
   std::vector<BuildingResult> buildings;
 

@@ -18,6 +18,7 @@
 
 #include "core/common/error.h"
 #include "core/run/attribution.h"
+#include "core/run/bracket.h"
 #include "core/run/hfd.h"
 #include "core/run/history.h"
 #include "core/run/importance.h"
@@ -872,7 +873,16 @@ void merge(PartialRun& into, PartialRun&& other) {
   into = std::move(sum);
 }
 
-RunResult finish(const Scenario& sc, const scene::Site& site, PartialRun p) {
+RunResult finish(const Scenario& sc, const scene::Site& site, PartialRun p,
+                 const RunControl& control) {
+  RunResult r = finish_tally(sc, site, std::move(p));
+  // settings.ground_bracket: the whole study is done; its variants are runs of their own.
+  if (sc.settings.ground_bracket && !r.cancelled)
+    r.ground_bracket = run_ground_bracket(sc, control);
+  return r;
+}
+
+RunResult finish_tally(const Scenario& sc, const scene::Site& site, PartialRun p) {
   if (!p.cancelled && static_cast<std::int64_t>(p.shards.size()) != p.shard_count)
     throw InputError("shards", missing_shards(p));
   try {
@@ -922,7 +932,7 @@ RunResult finish(const Scenario& sc, const scene::Site& site, PartialRun p) {
 RunResult run(const Scenario& sc, std::shared_ptr<const scene::Site> site,
               const RunControl& control) {
   PartialRun p = run_partial(sc, site, Shard{}, control);
-  return finish(sc, *site, std::move(p));
+  return finish(sc, *site, std::move(p), control);
 }
 
 RunResult run(const Scenario& sc, const RunControl& control) {

@@ -58,6 +58,13 @@ struct StratifiedLaunchSettings {
   bool speed = false;  // equal cells across speed too (only without importance sampling)
 };
 
+// settings.ground_bracket (docs/physics.md, "The bracket"): after the study, the terrain
+// material's uncertain constants (scene::effective_ranges) are run at each end of their range,
+// one at a time, with the same seed, each run with the groups' samples x samples_scale.
+struct GroundBracketSettings {
+  double samples_scale = 1.0;  // (0, 1]
+};
+
 struct Settings {
   std::uint64_t seed = 1;
   double person_height_m = 1.8;  // H_r of the PTN prisms (paper eq. 37)
@@ -91,6 +98,7 @@ struct Settings {
   std::int64_t max_history_work = 1'000'000;
   std::optional<PrecisionSettings> precision;  // absent: one batch (the groups' samples)
   std::optional<StratifiedLaunchSettings> stratified_launch;  // absent: independent histories
+  std::optional<GroundBracketSettings> ground_bracket;        // absent: no bracket runs
 };
 
 struct Scenario {

@@ -98,6 +98,27 @@ void validate_fast_contact(const MaterialSpec& m, const std::string& field) {
   detail::require_in(f.exit_angle_ratio, 0.0, 10.0, ff + ".exit_angle_ratio");
 }
 
+void validate_material(const MaterialSpec& m, const std::string& field);
+
+// Every range names a constant the material has, low <= high, and the material is valid at
+// both ends (the checks of the constant itself).
+void validate_ranges(const MaterialSpec& m, const std::string& field) {
+  for (const auto& [name, range] : m.ranges) {
+    const std::string rf = field + ".ranges." + name;
+    if (!material_constant(m, name))
+      detail::fail(rf,
+                   "the material has no such constant (a range is for friction, "
+                   "rolling_resistance, a constant restitution, or a fast_contact constant)");
+    if (!(range[0] <= range[1])) detail::fail(rf, "low end above the high end");
+    for (const double end : range) {
+      MaterialSpec copy = m;
+      copy.ranges.clear();
+      set_material_constant(copy, name, end);
+      validate_material(copy, rf);
+    }
+  }
+}
+
 void validate_material(const MaterialSpec& m, const std::string& field) {
   detail::require_at_least(m.friction, 0.0, field + ".friction");
   detail::require_at_least(m.rolling_resistance, 0.0, field + ".rolling_resistance");
@@ -128,6 +149,7 @@ void validate_material(const MaterialSpec& m, const std::string& field) {
     detail::require_at_least(m.embedment->min_speed_mps, 0.0, ef + ".min_speed_mps");
   }
   if (m.fast_contact) validate_fast_contact(m, field);
+  validate_ranges(m, field);
 }
 
 }  // namespace
@@ -155,6 +177,80 @@ MaterialIds SiteBuilder::build_materials(Site& site, const SiteSpec& spec) {
     site.materials_.push_back(std::move(out));
   }
   return ids;
+}
+
+// ---- named constants and their ranges (settings.ground_bracket) ----
+
+namespace {
+
+// Where each fast_contact constant lives in the spec.
+double FastContactSpec::*fast_member(const std::string& name) {
+  if (name == "switch_speed_mps") return &FastContactSpec::switch_speed_mps;
+  if (name == "critical_angle_coefficient_deg")
+    return &FastContactSpec::critical_angle_coefficient_deg;
+  if (name == "drag_to_lift_ratio") return &FastContactSpec::drag_to_lift_ratio;
+  if (name == "roughness_deg") return &FastContactSpec::roughness_deg;
+  if (name == "exit_angle_ratio") return &FastContactSpec::exit_angle_ratio;
+  return nullptr;
+}
+
+bool constant_restitution(const MaterialSpec& m) {
+  return m.restitution.normal_speed_mps.empty();
+}
+
+}  // namespace
+
+const std::vector<std::string>& material_constant_names() {
+  static const std::vector<std::string> kNames = {"friction",
+                                                  "rolling_resistance",
+                                                  "restitution",
+                                                  "switch_speed_mps",
+                                                  "critical_angle_coefficient_deg",
+                                                  "drag_to_lift_ratio",
+                                                  "roughness_deg",
+                                                  "exit_angle_ratio"};
+  return kNames;
+}
+
+std::optional<double> material_constant(const MaterialSpec& m, const std::string& name) {
+  if (name == "friction") return m.friction;
+  if (name == "rolling_resistance") return m.rolling_resistance;
+  if (name == "restitution")
+    return constant_restitution(m) ? std::optional<double>(m.restitution.constant) : std::nullopt;
+  const auto member = fast_member(name);
+  if (member == nullptr || !m.fast_contact) return std::nullopt;
+  return (*m.fast_contact).*member;
+}
+
+void set_material_constant(MaterialSpec& m, const std::string& name, double value) {
+  if (name == "friction") {
+    m.friction = value;
+  } else if (name == "rolling_resistance") {
+    m.rolling_resistance = value;
+  } else if (name == "restitution") {
+    m.restitution.constant = value;
+  } else if (const auto member = fast_member(name); member != nullptr && m.fast_contact) {
+    (*m.fast_contact).*member = value;
+  } else {
+    detail::fail("ranges." + name, "the material has no such constant");
+  }
+}
+
+const std::map<std::string, std::array<double, 2>>& default_fast_contact_ranges() {
+  static const std::map<std::string, std::array<double, 2>> kRanges = {
+      {"switch_speed_mps", {20.0, 50.0}},
+      {"critical_angle_coefficient_deg", {14.4, 21.6}},
+      {"drag_to_lift_ratio", {0.5, 2.0}},
+      {"roughness_deg", {0.0, 5.0}},
+      {"exit_angle_ratio", {0.5, 2.0}}};
+  return kRanges;
+}
+
+std::map<std::string, std::array<double, 2>> effective_ranges(const MaterialSpec& m) {
+  std::map<std::string, std::array<double, 2>> out = m.ranges;
+  if (m.fast_contact)
+    for (const auto& [name, range] : default_fast_contact_ranges()) out.emplace(name, range);
+  return out;
 }
 
 }  // namespace fragsim::scene

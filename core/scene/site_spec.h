@@ -1,6 +1,7 @@
 #pragma once
 // The site as the user describes it (input coordinates, before validation and meshing).
 // Field names follow the scenario contract (docs/scenario.md); InputError paths use them too.
+#include <array>
 #include <map>
 #include <optional>
 #include <string>
@@ -79,7 +80,24 @@ struct MaterialSpec {
   // Absent: no fast-contact law (rigid impulse and Coulomb friction at every speed). Not
   // together with `embedment` (it has its own critical angle).
   std::optional<FastContactSpec> fast_contact;
+  // The range of each uncertain constant, {low, high}, by name (material_constant_names()): what
+  // settings.ground_bracket runs (docs/physics.md, "The bracket"). fast_contact's constants have
+  // default ranges (default_fast_contact_ranges) unless given here.
+  std::map<std::string, std::array<double, 2>> ranges;
 };
+
+// The constants of a material a range may be given for: friction, rolling_resistance,
+// restitution (a constant restitution only) and fast_contact's.
+const std::vector<std::string>& material_constant_names();
+// The constant's value in m (nullopt: the material has no such constant, e.g. no fast_contact,
+// or a restitution table).
+std::optional<double> material_constant(const MaterialSpec& m, const std::string& name);
+// Sets it (the material must have it).
+void set_material_constant(MaterialSpec& m, const std::string& name, double value);
+// The ranges docs/physics.md documents for fast_contact's constants (none is measured).
+const std::map<std::string, std::array<double, 2>>& default_fast_contact_ranges();
+// m's ranges: its own, then fast_contact's defaults for the constants it has no range for.
+std::map<std::string, std::array<double, 2>> effective_ranges(const MaterialSpec& m);
 
 // The ground materials the paper uses (friction 0.5 hard surface, 0.9 soft ground), available to
 // every site under the names "hard" and "soft" unless the site defines a material of that name.

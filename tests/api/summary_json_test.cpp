@@ -219,6 +219,45 @@ TEST(SummaryJson, GroundStepCappedHistoriesAreCountedUnderTheirOwnOutcome) {
   EXPECT_NE(render_summary_text(s).find("ground_step_cap"), std::string::npos);
 }
 
+// settings.ground_bracket: the tornado table (rows widest HFD swing first, each end's figures),
+// the HFD's range over every run, and the text summary's lines; null without the setting.
+TEST(SummaryJson, GroundBracketIsATornadoTable) {
+  run::Scenario sc = validation::flat_site_scenario(1000.0, 20.0);
+  auto g = validation::sphere_group(Vec3(0, 0, 1.0), 0.2, 300.0, 2000.0, 40);
+  g.cd.constant = 0.47;
+  g.direction.elevation_min_deg = -4.0;
+  g.direction.elevation_max_deg = 4.0;
+  sc.groups = {g};
+  sc.settings.bounce = true;
+  sc.site.materials.at("soil").fast_contact = scene::FastContactSpec{};
+  const Json without = summary_to_json(run::run(sc), sc, build_provenance());
+  EXPECT_TRUE(without["ground_bracket"].is_null());
+  sc.settings.ground_bracket = run::GroundBracketSettings{0.5};
+  const Json s = summary_to_json(run::run(sc), sc, build_provenance());
+  const Json& b = s["ground_bracket"];
+  ASSERT_TRUE(b.is_object());
+  EXPECT_EQ(b["material"], "soil");
+  EXPECT_EQ(b["histories_per_run"], 20);
+  ASSERT_EQ(b["rows"].size(), 5u);  // fast_contact's five constants
+  double previous = std::numeric_limits<double>::infinity();
+  double lo = b["nominal"]["hfd_m"].get<double>(), hi = lo;
+  for (const Json& row : b["rows"]) {
+    EXPECT_LE(row["hfd_swing_m"].get<double>(), previous);
+    previous = row["hfd_swing_m"].get<double>();
+    for (const char* end : {"low", "high"}) {
+      EXPECT_TRUE(row[end].contains("value"));
+      EXPECT_EQ(row[end]["hfd_band_m"].size(), 2u);
+      lo = std::min(lo, row[end]["hfd_m"].get<double>());
+      hi = std::max(hi, row[end]["hfd_m"].get<double>());
+    }
+  }
+  EXPECT_EQ(b["hfd_range_m"][0].get<double>(), lo);
+  EXPECT_EQ(b["hfd_range_m"][1].get<double>(), hi);
+  const std::string text = render_summary_text(s);
+  EXPECT_NE(text.find("ground-model bracket"), std::string::npos);
+  EXPECT_NE(text.find("roughness_deg"), std::string::npos);
+}
+
 TEST(SummaryJson, TimingStatsAndProfile) {
   run::Scenario sc;
   Json s = summary_to_json(synthetic_result(), sc, build_provenance());
