@@ -1,4 +1,4 @@
-// The ground phase (ground_phase.h; equations G1-G12 in docs/physics.md, "Ground phase").
+// The ground phase (ground_phase.h; equations G1-G13 in docs/physics.md, "Ground phase").
 #include "core/impact/ground_phase.h"
 
 #include <algorithm>
@@ -241,6 +241,9 @@ Next GroundMotion::settle_on_face(std::uint32_t tri, const Vec3& p, const Vec3& 
   contact_.n = site_.terrain_triangle_normal(tri);
   const Vec3& n = contact_.n;
   turn_with_terrain(n_before, n);
+  // A slider topples onto the face it stands over (G13). Its centre drops (the potential energy
+  // is dissipated, not turned into speed) or, on a slope, may rise: lift_to pays that.
+  if (!res_.round) q_ = fragments::toppled_attitude(body_.shape, q_, n);
   v_ = v - v.dot(n) * n;
   w_ = res_.round ? Vec3(radius_m_ * omega) : Vec3::Zero();
   p_ = lift_to(p, place_on_plane(p, tri, n));
