@@ -159,4 +159,24 @@ Quat toppled_attitude(const ContactBody& b, const Quat& q, const Vec3& n) {
   return (Quat::FromTwoVectors(q * f, -n) * q).normalized();
 }
 
+double projected_area(const ContactBody& b, const Quat& q, const Vec3& d) {
+  const Vec3 db = q.conjugate() * d;  // body axes
+  const Vec3& h = b.half_m;
+  switch (b.type) {
+    case ShapeType::kCuboid:
+      // Full sizes 2h: |d_x| (2h_y)(2h_z) + ...
+      return 4.0 * (std::abs(db.x()) * h.y() * h.z() + std::abs(db.y()) * h.x() * h.z() +
+                    std::abs(db.z()) * h.x() * h.y());
+    case ShapeType::kEllipsoid: return kPi * h.x() * h.y() * h.z() * db.cwiseQuotient(h).norm();
+    case ShapeType::kCylinder: {
+      // sqrt(1 - d_z^2) as |(d_x, d_y)|: exact for a flow along the axis (1 - d_z^2 is not).
+      const double r = h.x(), len = 2.0 * h.z();
+      return kPi * r * r * std::abs(db.z()) + 2.0 * r * len * std::hypot(db.x(), db.y());
+    }
+    case ShapeType::kSphere:
+    case ShapeType::kPoint: break;
+  }
+  return kPi * h.x() * h.x();
+}
+
 }  // namespace fragsim::fragments

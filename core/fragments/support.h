@@ -53,4 +53,11 @@ Vec3 contact_point(const ContactBody& b, const Quat& q, const Vec3& n, double fl
 // a body whose face is already flat (tilted less than ~5e-8 rad), keeps q exactly.
 Quat toppled_attitude(const ContactBody& b, const Quat& q, const Vec3& n);
 
+// Area of the body's projection along unit direction d (site axes) at attitude q: the frontal
+// area a flow along d meets. Cuboid (full sizes A, B, C): |d_x| B C + |d_y| A C + |d_z| A B;
+// ellipsoid (semi-axes a, b, c): pi a b c sqrt((d_x/a)^2 + (d_y/b)^2 + (d_z/c)^2); cylinder:
+// pi R^2 |d_z| + 2 R L sqrt(1 - d_z^2); sphere pi r^2 (d in body axes). Averaged over
+// directions it is the surface / 4 (Cauchy).
+double projected_area(const ContactBody& b, const Quat& q, const Vec3& d);
+
 }  // namespace fragsim::fragments
