@@ -243,7 +243,8 @@ Next GroundMotion::settle_on_face(std::uint32_t tri, const Vec3& p, const Vec3& 
   const Vec3& n = contact_.n;
   turn_with_terrain(n_before, n);
   // A slider topples onto the face it stands over (G13). Its centre drops (the potential energy
-  // is dissipated, not turned into speed) or, on a slope, may rise: lift_to pays that.
+  // is dissipated, not turned into speed); that rule never raises it, and lift_to would pay a
+  // rise from the kinetic energy if it did.
   if (!res_.round) q_ = fragments::toppled_attitude(body_.shape, q_, n);
   v_ = v - v.dot(n) * n;
   w_ = res_.round ? Vec3(radius_m_ * omega) : Vec3::Zero();
