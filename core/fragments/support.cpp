@@ -100,4 +100,83 @@ Vec3 contact_point(const ContactBody& b, const Quat& q, const Vec3& n, double fl
   return q * xb;
 }
 
+namespace {
+
+// 1 - cos of the largest tilt taken as lying flat already (toppled_attitude).
+constexpr double kFlatCos = 1e-15;
+
+// The unit direction, in body axes, that is to point along -n once the body has toppled: the
+// projection of db (= -n in body axes) onto the span of the resting face's normal(s).
+Vec3 resting_direction(const ContactBody& b, const Vec3& db) {
+  const Vec3& a = b.half_m;
+  Vec3 keep = Vec3::Zero();  // 1 for the body axes the direction keeps
+  switch (b.type) {
+    case ShapeType::kCuboid: {
+      // The face the line from the centre along db leaves through: the first face plane it
+      // meets, at distance a_i / |db_i|; ties go to the thinner axis (the lower rest).
+      int best = 0;
+      for (int i = 1; i < 3; ++i) {
+        const double lhs = std::abs(db[i]) * a[best], rhs = std::abs(db[best]) * a[i];
+        if (lhs > rhs || (lhs == rhs && a[i] < a[best])) best = i;
+      }
+      keep[best] = 1.0;
+      break;
+    }
+    case ShapeType::kCylinder: {
+      const double c = std::abs(db.z()), s = std::sqrt(std::max(0.0, 1.0 - c * c));
+      if (c * a.x() > s * a.z()) {
+        keep.z() = 1.0;  // on an end disk
+      } else {
+        keep.x() = keep.y() = 1.0;  // on its side: the axis perpendicular to n
+      }
+      break;
+    }
+    case ShapeType::kEllipsoid: {
+      const double shortest = a.minCoeff();  // stable only on the shortest axis (or axes)
+      for (int i = 0; i < 3; ++i) keep[i] = a[i] == shortest ? 1.0 : 0.0;
+      break;
+    }
+    case ShapeType::kSphere:
+    case ShapeType::kPoint: return db;
+  }
+  const Vec3 f = keep.cwiseProduct(db);
+  const double fn = f.norm();
+  if (fn > 0.0) return f / fn;
+  // db perpendicular to every resting normal (a tie of measure zero): the first kept axis.
+  for (int i = 0; i < 3; ++i)
+    if (keep[i] > 0.0) return Vec3::Unit(i);
+  return db;
+}
+
+}  // namespace
+
+Quat toppled_attitude(const ContactBody& b, const Quat& q, const Vec3& n) {
+  const Vec3 db = -(q.conjugate() * n);
+  const Vec3 f = resting_direction(b, db);
+  // Already resting on that face (tilted by less than ~5e-8 rad, what rounding leaves in an
+  // attitude turned with the terrain): q exactly, not a near-identity rotation of it.
+  if (f.dot(db) >= 1.0 - kFlatCos) return q;
+  return (Quat::FromTwoVectors(q * f, -n) * q).normalized();
+}
+
+double projected_area(const ContactBody& b, const Quat& q, const Vec3& d) {
+  const Vec3 db = q.conjugate() * d;  // body axes
+  const Vec3& h = b.half_m;
+  switch (b.type) {
+    case ShapeType::kCuboid:
+      // Full sizes 2h: |d_x| (2h_y)(2h_z) + ...
+      return 4.0 * (std::abs(db.x()) * h.y() * h.z() + std::abs(db.y()) * h.x() * h.z() +
+                    std::abs(db.z()) * h.x() * h.y());
+    case ShapeType::kEllipsoid: return kPi * h.x() * h.y() * h.z() * db.cwiseQuotient(h).norm();
+    case ShapeType::kCylinder: {
+      // sqrt(1 - d_z^2) as |(d_x, d_y)|: exact for a flow along the axis (1 - d_z^2 is not).
+      const double r = h.x(), len = 2.0 * h.z();
+      return kPi * r * r * std::abs(db.z()) + 2.0 * r * len * std::hypot(db.x(), db.y());
+    }
+    case ShapeType::kSphere:
+    case ShapeType::kPoint: break;
+  }
+  return kPi * h.x() * h.x();
+}
+
 }  // namespace fragsim::fragments

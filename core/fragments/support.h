@@ -41,4 +41,23 @@ double support_extent(const ContactBody& b, const Quat& q, const Vec3& d);
 // impulse under its centre of mass and no spin, whatever the order in which corners are listed.
 Vec3 contact_point(const ContactBody& b, const Quat& q, const Vec3& n, double flat_tol_m);
 
+// The attitude a body lying on a plane with unit normal n (from the plane toward the body)
+// topples into: the least rotation of q that brings the face the body falls onto flat on the
+// plane (its outward normal exactly -n). The face is the one the line from the centre of mass
+// along -n leaves the body through (the quasi-static fall about the contact point: a body tips
+// toward the face its centre stands over), i.e. for a cuboid the axis i with the largest
+// |d_i| / a_i (d = -n in body axes, a the half sizes; ties to the smaller a_i, so a plate
+// balanced exactly on an edge falls flat); for a cylinder an end disk when |d_z| / (L/2) >
+// sqrt(1 - d_z^2) / R, else its side (the axis made perpendicular to n). An ellipsoid rests only
+// on the ends of its shortest axis (or, with two shortest, on the circle they span). A sphere, and
+// a body whose face is already flat (tilted less than ~5e-8 rad), keeps q exactly.
+Quat toppled_attitude(const ContactBody& b, const Quat& q, const Vec3& n);
+
+// Area of the body's projection along unit direction d (site axes) at attitude q: the frontal
+// area a flow along d meets. Cuboid (full sizes A, B, C): |d_x| B C + |d_y| A C + |d_z| A B;
+// ellipsoid (semi-axes a, b, c): pi a b c sqrt((d_x/a)^2 + (d_y/b)^2 + (d_z/c)^2); cylinder:
+// pi R^2 |d_z| + 2 R L sqrt(1 - d_z^2); sphere pi r^2 (d in body axes). Averaged over
+// directions it is the surface / 4 (Cauchy).
+double projected_area(const ContactBody& b, const Quat& q, const Vec3& d);
+
 }  // namespace fragsim::fragments

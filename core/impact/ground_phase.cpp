@@ -1,4 +1,4 @@
-// The ground phase (ground_phase.h; equations G1-G12 in docs/physics.md, "Ground phase").
+// The ground phase (ground_phase.h; equations G1-G14 in docs/physics.md, "Ground phase").
 #include "core/impact/ground_phase.h"
 
 #include <algorithm>
@@ -74,6 +74,7 @@ class GroundMotion {
   Next enter_crease(std::uint32_t tri, std::uint32_t other, std::uint32_t from_id,
                     std::uint32_t to_id, const Vec3& p, const Vec3& v, const Vec3& w);
   void restart_integrator(const Vec3& p, const Vec3& v, const Vec3& w);
+  void set_presented_area(const Vec3& v);
   void choose_line();
   void settle_rolling_or_slipping(bool stick = false);
   // One integrator step and the events within it.
@@ -241,6 +242,10 @@ Next GroundMotion::settle_on_face(std::uint32_t tri, const Vec3& p, const Vec3& 
   contact_.n = site_.terrain_triangle_normal(tri);
   const Vec3& n = contact_.n;
   turn_with_terrain(n_before, n);
+  // A slider topples onto the face it stands over (G13). Its centre drops (the potential energy
+  // is dissipated, not turned into speed); that rule never raises it, and lift_to would pay a
+  // rise from the kinetic energy if it did.
+  if (!res_.round) q_ = fragments::toppled_attitude(body_.shape, q_, n);
   v_ = v - v.dot(n) * n;
   w_ = res_.round ? Vec3(radius_m_ * omega) : Vec3::Zero();
   p_ = lift_to(p, place_on_plane(p, tri, n));
@@ -306,11 +311,22 @@ void GroundMotion::choose_line() {
 }
 
 void GroundMotion::restart_integrator(const Vec3& p, const Vec3& v, const Vec3& w) {
+  set_presented_area(v);
   choose_line();
   origin_ = p;
   GVec y;
   y << Vec3::Zero(), v, w;
   ode_.reset(t_, y, h_next_);
+}
+
+// A slider does not tumble on the ground: the air meets its projection along the air-relative
+// velocity at its ground attitude (G14), held until the next restart. Spheres keep the flight's
+// area (the same pi r^2, or a given area_m2); a body at rest relative to the air keeps its area.
+void GroundMotion::set_presented_area(const Vec3& v) {
+  if (res_.round || air_.area_m2 == 0.0) return;  // vacuum stays vacuum
+  const Vec3 v_rel = air_.atmosphere == nullptr ? v : Vec3(v - air_.atmosphere->wind());
+  const double s = v_rel.norm();
+  if (s > 0.0) air_.area_m2 = fragments::projected_area(body_.shape, q_, v_rel / s);
 }
 
 Next GroundMotion::enter_crease(std::uint32_t tri, std::uint32_t other, std::uint32_t from_id,

@@ -1,15 +1,16 @@
 #pragma once
 // The ground phase: what a fragment does while it is in contact with the terrain after its
 // bounces have died out: slide, roll (a sphere slips first, then rolls), rest, and leaving the
-// ground again at a crest (docs/physics.md, "Ground phase", eqs. G1-G12). The paper gives no model
+// ground again at a crest (docs/physics.md, "Ground phase", eqs. G1-G14). The paper gives no model
 // for this phase; this one is a rigid body in unilateral contact with the piecewise-planar
 // terrain:
 //
 // * on one triangle (face mode) the centre moves in the triangle's plane under gravity, the same
-//   aerodynamic drag as in flight (Cd(Mach), presented area, atmosphere, wind) and Coulomb
-//   friction mu N opposing the velocity (sliders: cuboid, ellipsoid, cylinder), or, for a sphere
-//   (and a point mass as a sphere), slipping friction at the contact point until the contact
-//   point's velocity vanishes, then rolling with rolling resistance mu_r N;
+//   aerodynamic drag as in flight (Cd(Mach), atmosphere, wind; a slider's presented area is its
+//   frontal area along the motion at its ground attitude) and Coulomb friction mu N opposing the
+//   velocity (sliders: cuboid, ellipsoid, cylinder, toppled onto a stable face as they enter
+//   one), or, for a sphere (and a point mass as a sphere), slipping friction at the contact point
+//   until the contact point's velocity vanishes, then rolling with rolling resistance mu_r N;
 // * at a triangle edge the velocity meets the next plane: moving away from it (a convex edge)
 //   the body takes off and flies if it leaves at >= the take-off speed (the caller flies it with
 //   the full flight model), and below that speed the short hop is contracted into an impact at
@@ -38,8 +39,10 @@ namespace fragsim::impact {
 struct GroundBody {
   fragments::ContactBody shape;  // contact geometry and principal moments of inertia
   double mass_kg = 0.0;
-  // Body -> site at the start. A slider keeps its attitude relative to the terrain under it: at
-  // an edge it is turned with the terrain (the least rotation taking the old normal to the new).
+  // Body -> site at the start. A slider first topples onto the face it stands over (G13), then
+  // keeps its attitude relative to the terrain under it: at an edge it is turned with the terrain
+  // (the least rotation taking the old normal to the new), and it topples again whenever it
+  // enters a face anew (after an edge impact, a ricochet, or off a crease).
   Quat attitude = Quat::Identity();
   double flat_tol_m = 0.0;     // contact_point's tolerance (bounce.h)
   double density_kg_m3 = 0.0;  // mass / volume (the terrain's embedment test)

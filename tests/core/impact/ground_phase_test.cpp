@@ -1,7 +1,7 @@
 // The ground phase (core/impact/ground_phase.h) against closed forms: Coulomb sliding with and
 // without drag, slip-then-roll, rest below and sliding above the friction angle, edges (take-off,
-// impacts, creases), pits, and the energy that never rises. Tolerances are stated per test; the
-// integrator runs at rtol 1e-9 here unless the test says otherwise.
+// impacts, creases), pits, toppling onto a face, and the energy that never rises. Tolerances are
+// stated per test; the integrator runs at rtol 1e-9 here unless the test says otherwise.
 #include "core/impact/ground_phase.h"
 
 #include <gtest/gtest.h>
@@ -180,23 +180,31 @@ TEST(GroundPhase, SlideOnLevelGroundStopsAtTheCoulombDistance) {
 }
 
 // With drag (still air, constant rho and Cd): dv/dt = -mu g - k v^2, so
-//   distance = ln(1 + k v0^2 / (mu g)) / (2k),  time = atan(v0 sqrt(k / (mu g))) / sqrt(mu g k).
+//   distance = ln(1 + k v0^2 / (mu g)) / (2k),  time = atan(v0 sqrt(k / (mu g))) / sqrt(mu g k),
+// k = rho Cd A / (2m) with A the plate's frontal area along its motion on the ground (G14):
+// 0.06 x 0.01 m sliding flat along x, 0.1 x 0.01 m along y, not the flight's area given to the
+// model (0.004 m^2).
 TEST(GroundPhase, SlideWithDragOnLevelGroundFollowsTheClosedForm) {
   const auto site = slope_site(0.0, 0.9, 0.1);
   const GroundBody body = plate();
   const Air air(1.2, 0.004, body.mass_kg);
-  const double k = air.k(), mu = 0.9;
-  for (const double v0 : {5.0, 50.0, 150.0}) {
-    const GroundState s0 = start_at(*site, body, -150.0, 0.35, Vec3(v0, 0.0, 0.0));
-    Recorder rec;
-    const GroundResult r = run(*site, air, body, s0, rec);
-    ASSERT_EQ(r.end, GroundEnd::kRest) << v0;
-    const double d = std::log(1.0 + k * v0 * v0 / (mu * g)) / (2.0 * k);
-    const double t = std::atan(v0 * std::sqrt(k / (mu * g))) / std::sqrt(mu * g * k);
-    // 1e-6 relative, and the rest rule's allowance (the last micrometre in closed form).
-    EXPECT_NEAR(r.path_m, d, 1e-6 * d + kRestTravel_m) << v0;
-    EXPECT_NEAR(r.state.t_s, t, 1e-6 * t) << v0;
-    EXPECT_NEAR(r.state.position_m.y(), 0.35, 1e-9);
+  const double mu = 0.9;
+  for (const bool along_y : {false, true}) {
+    const double k = air.k() * (along_y ? 0.1 * 0.01 : 0.06 * 0.01) / 0.004;
+    const Vec3 dir = along_y ? Vec3::UnitY() : Vec3::UnitX();
+    for (const double v0 : {5.0, 30.0, 60.0}) {
+      const Vec3 p0 = -150.0 * dir + 0.35 * Vec3(dir.y(), dir.x(), 0.0);
+      const GroundState s0 = start_at(*site, body, p0.x(), p0.y(), v0 * dir);
+      Recorder rec;
+      const GroundResult r = run(*site, air, body, s0, rec);
+      ASSERT_EQ(r.end, GroundEnd::kRest) << v0;
+      const double d = std::log(1.0 + k * v0 * v0 / (mu * g)) / (2.0 * k);
+      const double t = std::atan(v0 * std::sqrt(k / (mu * g))) / std::sqrt(mu * g * k);
+      // 1e-6 relative, and the rest rule's allowance (the last micrometre in closed form).
+      EXPECT_NEAR(r.path_m, d, 1e-6 * d + kRestTravel_m) << v0 << " along y " << along_y;
+      EXPECT_NEAR(r.state.t_s, t, 1e-6 * t) << v0 << " along y " << along_y;
+      EXPECT_NEAR(r.state.position_m.dot(Vec3(dir.y(), dir.x(), 0.0)), 0.35, 1e-9);
+    }
   }
 }
 
@@ -462,6 +470,109 @@ TEST(GroundPhase, EnergyNeverRises) {
     }
   }
   EXPECT_EQ(histories, 400);
+}
+
+// ---- toppling (G13) ----
+
+// Mechanical energy per the first piece of the path: before (the start) and after settling.
+double energy(const GroundBody& b, const Vec3& p, const Vec3& v) {
+  return 0.5 * b.mass_kg * v.squaredNorm() + b.mass_kg * g * p.z();
+}
+
+// The plate's thinnest body axis (z) along the plane's normal at attitude q, to 1e-12.
+bool lies_flat(const Quat& q, const Vec3& n) {
+  return std::abs(std::abs((q.conjugate() * n).z()) - 1.0) < 1e-12;
+}
+
+// A plate put down balanced on an edge (its centre over it), tipped 45 degrees onto an edge, or
+// on a corner, on level ground: it falls flat as it enters the ground phase. Its centre drops to
+// the flat clearance (half its thickness, 1e-15 m) at once, its speed is kept (the potential
+// energy is dissipated: the energy drops by m g times the drop), it slides the Coulomb distance
+// (1e-9) and rests flat, lower than it started.
+TEST(GroundPhase, PlateOnAnEdgeOrACornerTopplesFlatAndComesToRestLower) {
+  const auto site = slope_site(0.0, 0.5, 0.1);
+  const Vec3 n = Vec3::UnitZ();
+  const double v0 = 6.0, mu = 0.5;
+  for (const Vec3& down : {Vec3(0.0, 0.03, 0.005), Vec3(0.0, 1.0, 1.0), Vec3(0.05, 0.03, 0.005)}) {
+    const GroundBody body = plate(Quat::FromTwoVectors(down.normalized(), -n));
+    const Air air(0.0, 0.0, body.mass_kg);
+    const GroundState s0 = start_at(*site, body, 0.3, 0.7, Vec3(v0, 0.0, 0.0));
+    ASSERT_GT(s0.position_m.z(), 0.005 + 1e-3);  // on its edge or corner, not flat
+    Recorder rec;
+    const GroundResult r = run(*site, air, body, s0, rec);
+    ASSERT_EQ(r.end, GroundEnd::kRest);
+    ASSERT_FALSE(rec.segments.empty());
+    const GroundSegment& first = rec.segments.front();
+    EXPECT_NEAR(first.a.z(), 0.005, 1e-15);
+    EXPECT_EQ(first.va, s0.velocity_mps);
+    const double drop = s0.position_m.z() - first.a.z();
+    EXPECT_NEAR(energy(body, s0.position_m, s0.velocity_mps) - energy(body, first.a, first.va),
+                body.mass_kg * g * drop, 1e-12);
+    EXPECT_TRUE(lies_flat(r.state.attitude, n));
+    EXPECT_NEAR(r.state.position_m.z(), 0.005, 1e-15);
+    EXPECT_LT(r.state.position_m.z(), s0.position_m.z() - 1e-3);
+    const double d = v0 * v0 / (2 * mu * g);
+    EXPECT_NEAR(r.path_m, d, 1e-9 * d);
+  }
+}
+
+// On a 20 degree slope (mu 0.9: it comes to rest) a plate on an edge or in a random attitude
+// settles onto the plane's face: its resting face normal along -n (1e-12) and its centre at that
+// face's clearance above the plane (1e-12 m). The energy (kinetic + m g z) never rises on entry
+// (1e-12 of its size).
+TEST(GroundPhase, OnASlopeTheSettledFaceIsThePlanes) {
+  const double slope = std::tan(20.0 * kPi / 180.0);
+  const auto site = slope_site(slope, 0.9, 0.1);
+  const Vec3 n = site->terrain_triangle_normal(
+      static_cast<std::uint32_t>(site->terrain_triangle_at(3.3, 1.7)));
+  ASSERT_NEAR(n.x(), -std::sin(20.0 * kPi / 180.0), 1e-12);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    const Quat q = trial == 0 ? Quat::FromTwoVectors(Vec3(0.0, 1.0, 1.0).normalized(), -n)
+                              : fragments::uniform_rotation(u(rng), u(rng), u(rng));
+    const GroundBody body = plate(q);
+    const Air air(0.0, 0.0, body.mass_kg);
+    const Vec3 v(2.0 * (u(rng) - 0.5), 2.0 * (u(rng) - 0.5), 0.0);
+    const GroundState s0 = start_at(*site, body, 3.3, 1.7, v);
+    Recorder rec;
+    const GroundResult r = run(*site, air, body, s0, rec);
+    ASSERT_EQ(r.end, GroundEnd::kRest) << trial;
+    const double e0 = energy(body, s0.position_m, s0.velocity_mps);
+    for (const GroundSegment& sg : rec.segments)
+      EXPECT_LE(energy(body, sg.a, sg.va), e0 + 1e-12 * std::abs(e0)) << trial;
+    // At rest: a body axis along -n, the centre at that face's clearance above the plane.
+    const Quat& qr = r.state.attitude;
+    EXPECT_NEAR((qr.conjugate() * n).cwiseAbs().maxCoeff(), 1.0, 1e-12) << trial;
+    const Vec3& p = r.state.position_m;
+    const double height = n.dot(p - Vec3(p.x(), p.y(), site->terrain_height(p.x(), p.y())));
+    EXPECT_NEAR(height, ground_clearance(body, qr, n), 1e-12) << trial;
+    // The least rotation into that rest (to 1e-12 rad: the grid's triangles differ in normal by
+    // rounding, and crossing one turns the attitude by that much).
+    EXPECT_LT(qr.angularDistance(fragments::toppled_attitude(body.shape, q, n)), 1e-12) << trial;
+    if (trial == 0) {
+      EXPECT_TRUE(lies_flat(qr, n));
+      EXPECT_NEAR(height, 0.005, 1e-12);
+    }
+  }
+}
+
+// A plate already lying flat (turned about the normal, either face down) is not touched: its
+// attitude comes out bit for bit, its centre stays at its height exactly.
+TEST(GroundPhase, AFlatPlateIsLeftExactlyAsItWas) {
+  const auto site = slope_site(0.0, 0.5, 0.1);
+  for (int k = 0; k < 6; ++k) {
+    const Quat q = Quat(Eigen::AngleAxisd(0.41 * k, Vec3::UnitZ())) *
+                   Quat(Eigen::AngleAxisd(k % 2 ? kPi : 0.0, Vec3::UnitX()));
+    const GroundBody body = plate(q);
+    const Air air(0.0, 0.0, body.mass_kg);
+    const GroundState s0 = start_at(*site, body, 0.3, 0.7, Vec3(4.0, 1.0, 0.0));
+    Recorder rec;
+    const GroundResult r = run(*site, air, body, s0, rec);
+    ASSERT_EQ(r.end, GroundEnd::kRest);
+    EXPECT_EQ(r.state.attitude.coeffs(), q.coeffs()) << k;
+    EXPECT_EQ(rec.segments.front().a.z(), s0.position_m.z()) << k;
+  }
 }
 
 // ---- termination ----
