@@ -122,10 +122,28 @@ function hfdRows(s) {
     ['hfd', 'Hazardous fragment distance (m)', cut ? [hfd, LOWER_BOUND_NOTE] : hfd, cut],
     ['hfd_band', 'HFD band, mean ∓ 1 se (m)', `${bounded(band[0], bb[0])} – ${bounded(band[1], bb[1])}`, bb.some(isLower)],
   ];
+  const bracket = groundBracketRow(s);
+  if (bracket) rows.push(bracket);
   const sb = s.site_boundary, left = sb && sb.left_site_hazardous;
   if (sb) rows.push(['site_boundary', 'Site boundary', boundaryText(sb, s.hfd_threshold_per_m2), sb.hfd_sectors_cut > 0]);
   if (left) rows.push(['left_site_hazardous', 'Left the site while hazardous', leftSiteText(left), left.histories > 0]);
   return rows;
+}
+
+// settings.ground_bracket (issue 23): the HFD over the ground model's uncertain constants, e.g.
+// "139.2 – 421.8" with the widest row as a sub-line; flagged, since the nominal HFD alone would
+// read as more certain than the ground model is. null without a bracket.
+export function groundBracketRow(s) {
+  const b = s.ground_bracket;
+  if (!b || !Array.isArray(b.hfd_range_m)) return null;
+  const lower = isLower(b.hfd_range_bound);
+  const range = `${bounded(b.hfd_range_m[0], b.hfd_range_bound)} – ${bounded(b.hfd_range_m[1], b.hfd_range_bound)}`;
+  const top = (b.rows || [])[0];
+  const widest = top
+    ? `widest: ${top.constant} ${fixed(top.low.hfd_m, 1)} m at ${top.low.value}, ${fixed(top.high.hfd_m, 1)} m at ${top.high.value}`
+    : 'no rows';
+  const note = `${widest}${b.cancelled ? ' (incomplete: cancelled)' : ''}${lower ? '; some ends are lower bounds' : ''}`;
+  return ['ground_bracket', 'HFD over the ground model’s ranges (m)', [range, note], true];
 }
 
 // Rows [key, label, value, flagged] of the job view's summary table.
