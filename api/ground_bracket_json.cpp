@@ -81,12 +81,11 @@ std::vector<std::pair<std::string, std::string>> ground_bracket_text(const Json&
   const Json range = b.value("hfd_range_m", Json::array());
   if (range.is_array() && range.size() == 2) {
     const bool lower = b.value("hfd_range_bound", std::string()) == "lower";
-    lines.emplace_back(
-        "  ground-model bracket",
-        fmt("HFD %.1f … %.1f m", range[0].get<double>(), range[1].get<double>()) +
-            (lower ? " (some ends are lower bounds)" : "") + " over the ranges of " +
-            b.value("material", std::string()) + "'s constants (" +
-            fmt("%g", number(b, "samples_scale")) + " × samples per run)");
+    lines.emplace_back("  ground-model bracket",
+                       fmt("HFD %.1f … %.1f m", range[0].get<double>(), range[1].get<double>()) +
+                           (lower ? " (some ends are lower bounds)" : "") + " over the ranges of " +
+                           b.value("material", std::string()) + "'s constants (" +
+                           fmt("%g", number(b, "samples_scale")) + " × samples per run)");
   }
   for (const Json& row : b.value("rows", Json::array()))
     lines.emplace_back("    " + row.value("constant", std::string()), ends_text(row));

@@ -20,8 +20,7 @@ Scenario variant_base(const Scenario& sc) {
   v.settings.record_trajectories = false;
   const double scale = sc.settings.ground_bracket->samples_scale;
   for (auto& g : v.groups)
-    g.samples = std::max<std::int64_t>(
-        1, std::llround(static_cast<double>(g.samples) * scale));
+    g.samples = std::max<std::int64_t>(1, std::llround(static_cast<double>(g.samples) * scale));
   return v;
 }
 
