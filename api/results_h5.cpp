@@ -321,6 +321,43 @@ void write_hfd_attribution(Writer& w, const run::RunResult& r, const run::Scenar
   write_attribution_shares(w, a, scenario.groups.size());
 }
 
+// /ground_bracket (settings.ground_bracket): one row per constant, widest HFD swing first;
+// columns low, high. The nominal run's figures as attributes.
+void write_ground_bracket(Writer& w, const run::GroundBracket& b) {
+  const Handle h = w.group("/ground_bracket");
+  w.attribute(h, "material", b.material);
+  w.attribute(h, "samples_scale", b.samples_scale);
+  w.attribute(h, "histories_per_run", std::int64_t{b.histories_per_run});
+  w.attribute(h, "cancelled", std::uint8_t{b.cancelled ? std::uint8_t{1} : std::uint8_t{0}});
+  w.attribute(h, "nominal_hfd_m", b.nominal.hfd_m);
+  w.attribute(h, "nominal_hfd_bound", b.nominal.hfd_lower_bound ? "lower" : "none");
+  w.attribute(h, "nominal_building_impacts", b.nominal.building_impacts);
+  w.attribute(h, "nominal_building_penetrations", b.nominal.building_penetrations);
+  const std::size_t n = b.rows.size();
+  if (n == 0) return;  // cancelled before the first row
+  std::vector<std::string> constants;
+  std::vector<double> nominal, value, hfd, impacts, penetrations;
+  std::vector<std::uint8_t> bound;
+  for (const run::BracketRow& r : b.rows) {
+    constants.push_back(r.constant);
+    nominal.push_back(r.nominal);
+    for (const run::BracketFigures* f : {&r.low, &r.high}) {
+      value.push_back(f->value);
+      hfd.push_back(f->hfd_m);
+      bound.push_back(f->hfd_lower_bound ? 1 : 0);
+      impacts.push_back(f->building_impacts);
+      penetrations.push_back(f->building_penetrations);
+    }
+  }
+  w.strings("/ground_bracket/constant", constants);
+  w.dataset("/ground_bracket/nominal", nominal);
+  w.dataset("/ground_bracket/value", value.data(), n, 2);
+  w.dataset("/ground_bracket/hfd_m", hfd.data(), n, 2);
+  w.dataset("/ground_bracket/hfd_bound", bound.data(), n, 2);
+  w.dataset("/ground_bracket/building_impacts", impacts.data(), n, 2);
+  w.dataset("/ground_bracket/building_penetrations", penetrations.data(), n, 2);
+}
+
 }  // namespace
 
 void write_results_h5(const std::filesystem::path& path, const run::RunResult& r,
@@ -370,6 +407,7 @@ void write_results_h5(const std::filesystem::path& path, const run::RunResult& r
   }
   write_hfd(w, r, site, scenario);
   write_hfd_attribution(w, r, scenario);
+  if (r.ground_bracket) write_ground_bracket(w, *r.ground_bracket);
 
   write_buildings(w, r, site);
 

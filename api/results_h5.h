@@ -43,7 +43,9 @@ namespace fragsim::api {
 inline constexpr const char* kResultsFileType = "fragsim.results";
 // 2: /hfd/bound, band_bound, by_sector_bound, boundary_* and left_site_hazardous_* (where the
 // terrain's boundary cuts the HFD), the root attribute hfd_bound.
-// 3: /hfd/attribution (what sets the HFD: by mechanism, by group, shares at its triangles).
+// 3: /hfd/attribution (what sets the HFD: by mechanism, by group, shares at its triangles);
+// /ground_bracket with settings.ground_bracket (rows: constants, widest HFD swing first;
+// columns: the low and high end).
 inline constexpr int kResultsFormatVersion = 3;
 
 // Writes a new file at `path` (fails if it exists). Throws std::runtime_error on HDF5 errors and

@@ -279,6 +279,35 @@ TEST_F(ResultsH5, HfdAttribution) {
                std::runtime_error);
 }
 
+// settings.ground_bracket: rows per constant in the result's order, columns low and high.
+TEST_F(ResultsH5, GroundBracket) {
+  EXPECT_THROW(read_dataset_double(write("no_bracket.h5", result_), "/ground_bracket/hfd_m"),
+               std::runtime_error);
+  run::RunResult r = result_;
+  auto b = std::make_shared<run::GroundBracket>();
+  b->material = "soil";
+  b->samples_scale = 0.5;
+  b->nominal.hfd_m = 157.0;
+  run::BracketRow row;
+  row.constant = "roughness_deg";
+  row.nominal = 2.0;
+  row.low = {0.0, 421.8, false, 400.0, 430.0, 15.8, 2.25};
+  row.high = {5.0, 139.2, true, 130.0, 150.0, 10.7, 1.38};
+  b->rows = {row, row};
+  b->rows[1].constant = "exit_angle_ratio";
+  r.ground_bracket = b;
+  const fs::path f = write("bracket.h5", r);
+  EXPECT_EQ(read_dataset_strings(f, "/ground_bracket/constant"),
+            (std::vector<std::string>{"roughness_deg", "exit_angle_ratio"}));
+  EXPECT_EQ(dataset_shape(f, "/ground_bracket/hfd_m"), (std::vector<std::uint64_t>{2, 2}));
+  EXPECT_EQ(read_dataset_double(f, "/ground_bracket/hfd_m"),
+            (std::vector<double>{421.8, 139.2, 421.8, 139.2}));
+  EXPECT_EQ(read_dataset_double(f, "/ground_bracket/value")[1], 5.0);
+  EXPECT_EQ(read_dataset_double(f, "/ground_bracket/hfd_bound")[1], 1.0);
+  EXPECT_EQ(read_dataset_double(f, "/ground_bracket/building_impacts")[0], 15.8);
+  EXPECT_EQ(read_attribute_string(f, "/ground_bracket", "material"), "soil");
+}
+
 TEST_F(ResultsH5, SiteBoundaryFlagsAndLeavers) {
   const fs::path none = write("none.h5", result_);
   EXPECT_EQ(read_dataset_double(none, "/hfd/bound"), std::vector<double>{0.0});
