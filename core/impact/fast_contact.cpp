@@ -53,8 +53,12 @@ FastContactOutcome fast_contact(const scene::FastContactSpec& law, double densit
   }
   const double speed_out = std::sqrt(out2);
   double exit = law.exit_angle_ratio * (theta + law.roughness_deg * kDegToRad);  // F5
-  if (speed_out >= law.switch_speed_mps)  // still fast: it leaves the ground (F6)
-    exit = std::max(exit, std::asin(std::min(1.0, min_exit_normal_speed_mps / speed_out)));
+  // Still fast: it leaves the ground (F6). The margin keeps the normal speed at or above the
+  // floor after rounding (exactly at it, the caller's `>= floor` test could see it a hair below
+  // and let the body slide at v_out); it changes the angle by 1e-9 relative, not the speed.
+  if (speed_out >= law.switch_speed_mps)
+    exit = std::max(exit,
+                    std::asin(std::min(1.0, min_exit_normal_speed_mps * (1.0 + 1e-9) / speed_out)));
   exit = std::min(exit, 0.5 * kPi);
   out.end = FastContactEnd::kRicochet;
   out.exit_deg = exit / kDegToRad;
