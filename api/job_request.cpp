@@ -3,6 +3,7 @@
 #include <limits>
 
 #include "api/json_fields.h"
+#include "core/run/bracket.h"
 
 namespace fragsim::api {
 
@@ -43,6 +44,7 @@ JobRequest parse_job_request(const nlohmann::json& body, const SiteResolver& res
     req.total_samples = req.total_samples > cap ? std::numeric_limits<std::int64_t>::max()
                                                 : req.total_samples * p->max_batches;
   }
+  req.bracket_samples = run::ground_bracket_histories(req.document.scenario);
   return req;
 }
 

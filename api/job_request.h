@@ -22,7 +22,9 @@ struct JobRequest {
   int priority = 0;
   std::optional<std::string> idempotency_key;
   std::int64_t total_samples = 0;  // over all fragment groups (x precision.max_batches)
-  nlohmann::json scenario;         // the request without priority and idempotency_key
+  // The histories of settings.ground_bracket's runs after the study (0 without it).
+  std::int64_t bracket_samples = 0;
+  nlohmann::json scenario;  // the request without priority and idempotency_key
 };
 
 // Throws InputError naming the field. `resolve` looks up "site_id".

@@ -723,6 +723,14 @@ Response Service::post_job(const Request& req) {
                      "the job asks for up to " + std::to_string(jr.total_samples) +
                          " samples in all; this daemon allows at most " +
                          std::to_string(config_.max_samples_per_job) + " (--max-samples-per-job)");
+  // The bracket's runs are work of the same job.
+  if (jr.bracket_samples > config_.max_samples_per_job - jr.total_samples)
+    throw LimitError("settings.ground_bracket",
+                     "the study and its bracket ask for " +
+                         std::to_string(jr.total_samples + jr.bracket_samples) +
+                         " samples in all; this daemon allows at most " +
+                         std::to_string(config_.max_samples_per_job) +
+                         " (--max-samples-per-job): lower samples_scale or the ranges");
   const std::shared_ptr<const scene::Site> site = job_site(jr, held.get());
   OJson warnings = site ? reach_warnings(jr.document.scenario, *site) : OJson::array();
 

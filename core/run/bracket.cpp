@@ -61,6 +61,16 @@ double swing(const BracketRow& row) {
 
 }  // namespace
 
+std::int64_t ground_bracket_histories(const Scenario& sc) {
+  if (!sc.settings.ground_bracket) return 0;
+  const auto it = sc.site.materials.find(sc.site.terrain.material);
+  if (it == sc.site.materials.end()) return 0;
+  std::int64_t per_run = 0;
+  for (const auto& g : variant_base(sc).groups) per_run += g.samples;
+  const auto runs = static_cast<std::int64_t>(1 + 2 * scene::effective_ranges(it->second).size());
+  return per_run * runs;  // <= 17 x 1e9 x groups: far from overflow
+}
+
 void check_ground_bracket(const Scenario& sc) {
   if (!sc.settings.ground_bracket) return;
   if (!sc.settings.bounce)

@@ -18,6 +18,10 @@ namespace fragsim::run {
 std::shared_ptr<const GroundBracket> run_ground_bracket(const Scenario& scenario,
                                                         const RunControl& control = {});
 
+// The histories the bracket runs after the study: (1 + 2 x ranges) runs of the groups' samples x
+// samples_scale (0 without settings.ground_bracket). For work limits (fragsimd).
+std::int64_t ground_bracket_histories(const Scenario& scenario);
+
 // Checks a scenario's bracket request: bounce on, and the terrain material has at least one
 // range. Throws InputError naming settings.ground_bracket.
 void check_ground_bracket(const Scenario& scenario);

@@ -110,11 +110,15 @@ void validate_ranges(const MaterialSpec& m, const std::string& field) {
                    "the material has no such constant (a range is for friction, "
                    "rolling_resistance, a constant restitution, or a fast_contact constant)");
     if (!(range[0] <= range[1])) detail::fail(rf, "low end above the high end");
-    for (const double end : range) {
+    for (std::size_t k = 0; k < 2; ++k) {
       MaterialSpec copy = m;
       copy.ranges.clear();
-      set_material_constant(copy, name, end);
-      validate_material(copy, rf);
+      set_material_constant(copy, name, range[k]);
+      try {
+        validate_material(copy, field);
+      } catch (const InputError& e) {  // named by the range's end, with the constant's rule
+        detail::fail(detail::indexed(rf, k), e.message());
+      }
     }
   }
 }

@@ -599,6 +599,24 @@ TEST_F(ServiceInput, TooManySamplesIs422LimitExceeded) {
   EXPECT_EQ(post("/v1/jobs", job_on(site, 1000)).status, 202);
 }
 
+// settings.ground_bracket's runs count toward the limit: the study's 100 samples and 11 bracket
+// runs (the nominal and fast_contact's five ranges at both ends) of 100 are 1200 > 1000; at
+// samples_scale 0.5, 100 + 11 x 50 = 650 is accepted.
+TEST_F(ServiceInput, AGroundBracketCountsTowardTheSampleLimit) {
+  start([](Config& c) { c.max_samples_per_job = 1000; });
+  Json j = small_example();
+  j["fragment_groups"] = Json::array({j["fragment_groups"][0]});
+  j["fragment_groups"][0]["samples"] = 100;
+  const std::string terrain = j["site"]["terrain"]["material"];
+  j["site"]["materials"][terrain].erase("embedment");
+  j["site"]["materials"][terrain]["fast_contact"] = {{"bulk_density_kg_m3", 1700}};
+  j["settings"]["bounce"] = true;
+  j["settings"]["ground_bracket"] = {{"samples_scale", 1.0}};
+  expect_error(post("/v1/jobs", j), 422, "limit_exceeded", "settings.ground_bracket");
+  j["settings"]["ground_bracket"]["samples_scale"] = 0.5;
+  EXPECT_EQ(post("/v1/jobs", j).status, 202);
+}
+
 // A few bytes of plane can ask for millions of triangles: refused from the spec, before building.
 TEST_F(ServiceInput, TooLargeATerrainIs422BeforeItIsBuilt) {
   start();  // the default budget: 2^24 triangles

@@ -318,5 +318,29 @@ TEST(Materials, EmbedmentFollowsTheCriticalGrazingAngle) {
   }
 }
 
+// Material ranges (settings.ground_bracket): a range of a constant the material does not have, a
+// low end above the high end and an end that is no valid value are refused, each named by the
+// range (an end by its index); a valid range builds.
+TEST(Materials, RangesAreCheckedWithTheRangeNamed) {
+  const auto field_of = [](const SiteSpec& s) {
+    try {
+      (void)Site::build(s);
+    } catch (const InputError& e) {
+      return e.field() + ": " + e.message();
+    }
+    return std::string("<built>");
+  };
+  SiteSpec spec = plane_site();
+  spec.materials["soil"].ranges["roughness_deg"] = {0.0, 5.0};  // no fast_contact
+  EXPECT_EQ(field_of(spec).rfind("site.materials.soil.ranges.roughness_deg: ", 0), 0u);
+  spec.materials["soil"].fast_contact = FastContactSpec{};
+  EXPECT_EQ(field_of(spec), "<built>");
+  spec.materials["soil"].ranges["friction"] = {0.9, 0.5};
+  EXPECT_EQ(field_of(spec), "site.materials.soil.ranges.friction: low end above the high end");
+  spec.materials["soil"].ranges["friction"] = {0.5, 0.9};
+  spec.materials["soil"].ranges["restitution"] = {0.1, 1.5};
+  EXPECT_EQ(field_of(spec).rfind("site.materials.soil.ranges.restitution[1]: ", 0), 0u);
+}
+
 }  // namespace
 }  // namespace fragsim::scene
