@@ -84,8 +84,10 @@ std::vector<std::pair<std::string, std::string>> ground_bracket_text(const Json&
     lines.emplace_back("  ground-model bracket",
                        fmt("HFD %.1f … %.1f m", range[0].get<double>(), range[1].get<double>()) +
                            (lower ? " (some ends are lower bounds)" : "") + " over the ranges of " +
-                           b.value("material", std::string()) + "'s constants (" +
-                           fmt("%g", number(b, "samples_scale")) + " × samples per run)");
+                           b.value("material", std::string()) + "'s constants; nominal " +
+                           fmt("%.1f m", number(b.value("nominal", Json::object()), "hfd_m")) +
+                           " at the same " + fmt("%.0f", number(b, "histories_per_run")) +
+                           " histories per run");
   }
   for (const Json& row : b.value("rows", Json::array()))
     lines.emplace_back("    " + row.value("constant", std::string()), ends_text(row));

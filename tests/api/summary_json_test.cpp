@@ -255,6 +255,7 @@ TEST(SummaryJson, GroundBracketIsATornadoTable) {
   EXPECT_EQ(b["hfd_range_m"][1].get<double>(), hi);
   const std::string text = render_summary_text(s);
   EXPECT_NE(text.find("ground-model bracket"), std::string::npos);
+  EXPECT_NE(text.find("at the same 20 histories per run"), std::string::npos);  // its nominal
   EXPECT_NE(text.find("roughness_deg"), std::string::npos);
 }
 

@@ -143,7 +143,10 @@ export function groundBracketRow(s) {
     ? `widest: ${top.constant} ${fixed(top.low.hfd_m, 1)} m at ${top.low.value}, ${fixed(top.high.hfd_m, 1)} m at ${top.high.value}`
     : 'no rows';
   const note = `${widest}${b.cancelled ? ' (incomplete: cancelled)' : ''}${lower ? '; some ends are lower bounds' : ''}`;
-  return ['ground_bracket', 'HFD over the ground model’s ranges (m)', [range, note], true];
+  // Its runs may have fewer histories than the study, and the HFD depends on that: the range is
+  // read against its own nominal run, which is said with it.
+  const nominal = `nominal ${fixed(b.nominal && b.nominal.hfd_m, 1)} m at ${integer(b.histories_per_run)} histories per run`;
+  return ['ground_bracket', 'HFD over the ground model’s ranges (m)', [range, nominal, note], true];
 }
 
 // Rows [key, label, value, flagged] of the job view's summary table.
@@ -216,7 +219,8 @@ export function attributionRow([key, label, hfd, share]) {
 // A table row: value is text, or [text, sub-line]; `flagged` rows (a lower bound, an unmeetable
 // target) are marked for the eye.
 export function summaryRow([key, label, value, flagged]) {
-  const [text, sub] = Array.isArray(value) ? value : [value, null];
-  const td = el('td', { class: 'value' }, [text, sub ? el('div', { class: 'small sub-line', text: sub }) : null]);
+  const [text, ...subs] = Array.isArray(value) ? value : [value];
+  const lines = subs.filter((x) => x).map((x) => el('div', { class: 'small sub-line', text: x }));
+  const td = el('td', { class: 'value' }, [text, ...lines]);
   return el('tr', { dataset: { key }, class: flagged ? 'flagged' : null }, [el('th', { text: label }), td]);
 }

@@ -13,13 +13,15 @@ test('the ground-model bracket reads as a range, flagged, with its widest row', 
   const s = {
     ground_bracket: {
       hfd_range_m: [139.24, 421.83], hfd_range_bound: 'none', cancelled: false,
+      nominal: { hfd_m: 156.91 }, histories_per_run: 80000,
       rows: [row('roughness_deg', 421.83, 139.24), row('exit_angle_ratio', 391.8, 139.2)],
     },
   };
   const [key, , value, flagged] = groundBracketRow(s);
   assert.equal(key, 'ground_bracket');
   assert.equal(value[0], '139.2 – 421.8');
-  assert.match(value[1], /^widest: roughness_deg 421\.8 m at 0, 139\.2 m at 5$/);
+  assert.equal(value[1], 'nominal 156.9 m at 80,000 histories per run');
+  assert.match(value[2], /^widest: roughness_deg 421\.8 m at 0, 139\.2 m at 5$/);
   assert.equal(flagged, true);
 });
 
@@ -29,7 +31,7 @@ test('a cut end reads as a lower bound; a cancelled bracket says so; none withou
   };
   const [, , value] = groundBracketRow(s);
   assert.equal(value[0], '≥ 100.0 – ≥ 300.0');
-  assert.match(value[1], /cancelled/);
-  assert.match(value[1], /lower bounds/);
+  assert.match(value[2], /cancelled/);
+  assert.match(value[2], /lower bounds/);
   assert.equal(groundBracketRow({}), null);
 });
