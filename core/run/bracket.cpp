@@ -10,6 +10,12 @@ namespace fragsim::run {
 
 namespace {
 
+// A group's samples in a bracket run: samples x samples_scale, at least 1.
+std::int64_t bracket_samples(const Scenario& sc, std::int64_t samples) {
+  const double scale = sc.settings.ground_bracket->samples_scale;
+  return std::max<std::int64_t>(1, std::llround(static_cast<double>(samples) * scale));
+}
+
 // The scenario a bracket run uses: no bracket of its own, no precision batches, no records, the
 // groups' samples scaled.
 Scenario variant_base(const Scenario& sc) {
@@ -18,9 +24,7 @@ Scenario variant_base(const Scenario& sc) {
   v.settings.precision.reset();
   v.settings.record_fragments = false;
   v.settings.record_trajectories = false;
-  const double scale = sc.settings.ground_bracket->samples_scale;
-  for (auto& g : v.groups)
-    g.samples = std::max<std::int64_t>(1, std::llround(static_cast<double>(g.samples) * scale));
+  for (auto& g : v.groups) g.samples = bracket_samples(sc, g.samples);
   return v;
 }
 
@@ -66,7 +70,7 @@ std::int64_t ground_bracket_histories(const Scenario& sc) {
   const auto it = sc.site.materials.find(sc.site.terrain.material);
   if (it == sc.site.materials.end()) return 0;
   std::int64_t per_run = 0;
-  for (const auto& g : variant_base(sc).groups) per_run += g.samples;
+  for (const auto& g : sc.groups) per_run += bracket_samples(sc, g.samples);
   const auto runs = static_cast<std::int64_t>(1 + 2 * scene::effective_ranges(it->second).size());
   return per_run * runs;  // <= 17 x 1e9 x groups: far from overflow
 }

@@ -190,19 +190,27 @@ Phase History::terrain_impact(const FlightEvent& ev) {
   ++work_;
   ++out_.stats.bounces;
   record_point(ev.t, ev.p, ev.v, TrajectoryEvent::kTerrainImpact);
+  const bool hit = b.collision.impact;
+  return leave_terrain(ev, hit ? b.collision.velocity_mps : ev.v,
+                       hit ? b.collision.omega_radps : state_.omega, bounces_ >= st_.max_bounces);
+}
+
+// The body leaves the impact at ev with (v, omega): the ground phase if its rebound along the
+// normal is slower than the floor or `capped` (the bounce cap), else a new flight (unless it can
+// never matter again).
+Phase History::leave_terrain(const FlightEvent& ev, const Vec3& v, const Vec3& omega, bool capped) {
   state_.t = ev.t;
   state_.p = ev.p;
-  state_.v = b.collision.impact ? b.collision.velocity_mps : ev.v;
-  state_.omega = b.collision.impact ? b.collision.omega_radps : state_.omega;
+  state_.v = v;
+  state_.omega = omega;
   state_.triangle = ev.triangle;
-  end_as(Outcome::kGround, ev.t, ev.p, state_.v);
-  const double rebound = state_.v.dot(ev.normal);
-  if (rebound < st_.min_rebound_speed_mps || bounces_ >= st_.max_bounces) return Phase::kGround;
-  if (can_never_matter(ev.p, state_.v, rotational_ke(state_.q, state_.omega))) {
+  end_as(Outcome::kGround, ev.t, ev.p, v);
+  if (v.dot(ev.normal) < st_.min_rebound_speed_mps || capped) return Phase::kGround;
+  if (can_never_matter(ev.p, v, rotational_ke(state_.q, omega))) {
     end_.outcome = Outcome::kHarmless;
     return Phase::kDone;
   }
-  record_point(ev.t, ev.p, state_.v, TrajectoryEvent::kTakeOff);
+  record_point(ev.t, ev.p, v, TrajectoryEvent::kTakeOff);
   return Phase::kFlight;
 }
 
@@ -223,21 +231,8 @@ Phase History::fast_terrain_contact(const FlightEvent& ev, const scene::Material
   audit_impact(energy(ev.p.z(), ev.v, state_.q, state_.omega),
                energy(ev.p.z(), f.velocity_mps, state_.q, f.omega_radps));
   ++bounces_;
-  state_.t = ev.t;
-  state_.p = ev.p;
-  state_.v = f.velocity_mps;
-  state_.omega = f.omega_radps;
-  state_.triangle = ev.triangle;
-  end_as(Outcome::kGround, ev.t, ev.p, state_.v);
-  const bool fast = state_.v.norm() >= mat.fast_contact_speed_mps();
-  if (state_.v.dot(ev.normal) < st_.min_rebound_speed_mps || (!fast && bounces_ >= st_.max_bounces))
-    return Phase::kGround;
-  if (can_never_matter(ev.p, state_.v, rotational_ke(state_.q, state_.omega))) {
-    end_.outcome = Outcome::kHarmless;
-    return Phase::kDone;
-  }
-  record_point(ev.t, ev.p, state_.v, TrajectoryEvent::kTakeOff);
-  return Phase::kFlight;
+  const bool fast = f.velocity_mps.norm() >= mat.fast_contact_speed_mps();
+  return leave_terrain(ev, f.velocity_mps, f.omega_radps, !fast && bounces_ >= st_.max_bounces);
 }
 
 void History::building_hit(const FlightEvent& ev) {

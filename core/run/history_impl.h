@@ -123,6 +123,7 @@ class History {
   Phase flight_phase();
   Phase terrain_impact(const FlightEvent& ev);
   Phase fast_terrain_contact(const FlightEvent& ev, const scene::Material& mat);
+  Phase leave_terrain(const FlightEvent& ev, const Vec3& v, const Vec3& omega, bool capped);
   Phase ground_phase();
   Phase after_ground_phase(const impact::GroundResult& r, const GroundTally& tally);
   void building_hit(const FlightEvent& ev);

@@ -202,13 +202,7 @@ TEST(SummaryJson, OutcomesInEnumOrder) {
 // their own outcome (not `ground`) and in stats.ground_step_caps. With bounce and no restitution
 // a sphere thrown low lands, then rolls on the plane for many steps; the cap is 2 of them.
 TEST(SummaryJson, GroundStepCappedHistoriesAreCountedUnderTheirOwnOutcome) {
-  run::Scenario sc = validation::flat_site_scenario(1000.0, 10.0);
-  auto g = validation::sphere_group(Vec3(0, 0, 0.5), 0.05, 20.0, 1.0, 3);
-  g.direction.elevation_min_deg = 5.0;
-  g.direction.elevation_max_deg = 10.0;
-  sc.groups = {g};
-  sc.settings.bounce = true;
-  sc.settings.harmless_cutoff = false;
+  run::Scenario sc = validation::rolling_sphere_scenario(3);
   sc.settings.max_ground_steps = 2;
   const Json s = summary_to_json(run::run(sc), sc, build_provenance());
   EXPECT_EQ(s["outcomes"]["ground_step_cap"]["histories"], 3);

@@ -57,6 +57,20 @@ inline run::Scenario fan_scenario(double half_m, std::int64_t samples) {
   return sc;
 }
 
+// With bounce: 0.05 kg steel spheres thrown at 20 m/s, 5-10 deg up, from 0.5 m over a 2 km plane
+// of the default material (no restitution): they land and roll for seconds, nothing cut off as
+// harmless (tests of the ground phase's caps).
+inline run::Scenario rolling_sphere_scenario(std::int64_t samples) {
+  run::Scenario sc = flat_site_scenario(1000.0, 10.0);
+  auto g = sphere_group(Vec3(0, 0, 0.5), 0.05, 20.0, 1.0, samples);
+  g.direction.elevation_min_deg = 5.0;
+  g.direction.elevation_max_deg = 10.0;
+  sc.groups = {g};
+  sc.settings.bounce = true;
+  sc.settings.harmless_cutoff = false;
+  return sc;
+}
+
 // A footprint box building with the given materials.
 inline scene::BuildingSpec box_building(const std::string& id, double x0, double y0, double x1,
                                         double y1, double height_m) {

@@ -58,14 +58,8 @@ TEST(WorkLimit, TheGroundPhaseStopsAtTheHistorysCapNotTheGroundStepCap) {
   // With bounce and no restitution, a sphere thrown low lands, then rolls on the plane for
   // seconds (no crest: no take-off). A cap between its flight work and its whole work ends it
   // rolling, as work_limit, before max_ground_steps would.
-  Scenario sc = validation::flat_site_scenario(1000.0, 10.0);
-  auto g = validation::sphere_group(Vec3(0, 0, 0.5), 0.05, 20.0, 1.0, 1);
-  g.direction.elevation_min_deg = 5.0;
-  g.direction.elevation_max_deg = 10.0;
-  sc.groups = {g};
-  sc.settings.bounce = true;
+  Scenario sc = validation::rolling_sphere_scenario(1);  // followed to rest
   sc.settings.record_fragments = true;
-  sc.settings.harmless_cutoff = false;  // followed to rest
   const RunResult full = run(sc);
   ASSERT_EQ(outcome_count(full, Outcome::kGround), 1);
   ASSERT_EQ(full.stats.takeoffs, 0);
