@@ -70,6 +70,13 @@ void write_terrain(Writer& w, const scene::Site& site) {
   for (std::size_t t = 0; t < area.size(); ++t)
     area[t] = site.terrain_triangle_area(static_cast<std::uint32_t>(t));
   w.dataset("/terrain/area_m2", area);
+  std::vector<std::uint32_t> material(site.terrain_triangle_count());
+  for (std::size_t t = 0; t < material.size(); ++t)
+    material[t] = site.terrain_triangle_material(static_cast<std::uint32_t>(t));
+  w.dataset("/terrain/material", material);
+  std::vector<std::string> names;
+  for (const scene::Material& m : site.materials()) names.push_back(m.name);
+  w.strings("/terrain/material_names", names);
 }
 
 void write_buildings(Writer& w, const run::RunResult& r, const scene::Site& site) {

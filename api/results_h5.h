@@ -46,7 +46,8 @@ inline constexpr const char* kResultsFileType = "fragsim.results";
 // 3: /hfd/attribution (what sets the HFD: by mechanism, by group, shares at its triangles);
 // /ground_bracket with settings.ground_bracket (rows: constants, widest HFD swing first;
 // columns: the low and high end).
-inline constexpr int kResultsFormatVersion = 3;
+// 4: /terrain/material (each triangle's material, an index into /terrain/material_names).
+inline constexpr int kResultsFormatVersion = 4;
 
 // Writes a new file at `path` (fails if it exists). Throws std::runtime_error on HDF5 errors and
 // std::logic_error when the result does not fit the site (PTN values != terrain triangles).

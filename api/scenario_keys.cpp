@@ -12,7 +12,9 @@ const std::map<std::string, std::vector<std::string>, std::less<>>& scenario_obj
       // Site
       {"site", {"origin", "terrain", "materials", "buildings"}},
       {"site_origin", {"crs", "easting_m", "northing_m", "elevation_m"}},
-      {"terrain", {"plane", "grid", "mesh", "material"}},
+      {"terrain", {"plane", "grid", "mesh", "material", "triangle_materials", "zones"}},
+      {"terrain_triangle_materials", {"names", "index"}},
+      {"terrain_zone", {"material", "polygon_m"}},
       {"terrain_plane", {"elevation_m", "extent_m", "cell_m"}},
       {"terrain_grid", {"origin_m", "spacing_m", "nx", "ny", "elevation_m"}},
       {"terrain_mesh", {"vertices_m", "triangles"}},

@@ -159,6 +159,44 @@ std::vector<std::array<std::int64_t, 3>> parse_triangles(const Json& j, const st
   return out;
 }
 
+std::vector<std::array<double, 2>> parse_ring(const Json& j, const std::string& path);
+
+void require_material(const std::map<std::string, scene::MaterialSpec>& materials,
+                      const std::string& name, const std::string& path) {
+  if (!materials.count(name)) fail(path, "unknown material \"" + name + "\"");
+}
+
+// site.terrain.triangle_materials {names, index} and site.terrain.zones (docs/scenario.md,
+// "Materials by zone"); counts and ranges against the terrain are checked by the site builder.
+void parse_terrain_materials(const ObjectReader& o, scene::TerrainSpec& t,
+                             const std::map<std::string, scene::MaterialSpec>& materials) {
+  if (const Json* tm = o.find("triangle_materials")) {
+    const ObjectReader r(*tm, o.at("triangle_materials"), "terrain_triangle_materials");
+    const Json& names = read_array(r.require("names"), r.at("names"));
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      const std::string np = index_path(r.at("names"), k);
+      t.triangle_material_names.push_back(read_string(names[k], np));
+      require_material(materials, t.triangle_material_names.back(), np);
+    }
+    const Json& index = read_array(r.require("index"), r.at("index"));
+    t.triangle_material.reserve(index.size());
+    for (std::size_t k = 0; k < index.size(); ++k)
+      t.triangle_material.push_back(
+          read_integer(index[k], index_path(r.at("index"), k), 0, kInt64Max));
+  }
+  if (const Json* zones = o.find("zones")) {
+    read_array(*zones, o.at("zones"));
+    for (std::size_t k = 0; k < zones->size(); ++k) {
+      const ObjectReader r((*zones)[k], index_path(o.at("zones"), k), "terrain_zone");
+      scene::MaterialZoneSpec z;
+      z.material = r.string("material");
+      require_material(materials, z.material, r.at("material"));
+      z.polygon_m = parse_ring(r.require("polygon_m"), r.at("polygon_m"));
+      t.zones.push_back(std::move(z));
+    }
+  }
+}
+
 scene::TerrainSpec parse_terrain(const Json& j, const std::string& path,
                                  const std::map<std::string, scene::MaterialSpec>& materials) {
   const ObjectReader o(j, path, "terrain");
@@ -199,8 +237,8 @@ scene::TerrainSpec parse_terrain(const Json& j, const std::string& path,
     t.geometry = std::move(mesh);
   }
   t.material = o.string("material");
-  if (!materials.count(t.material))
-    fail(o.at("material"), "unknown material \"" + t.material + "\"");
+  require_material(materials, t.material, o.at("material"));
+  parse_terrain_materials(o, t, materials);
   return t;
 }
 
@@ -359,6 +397,19 @@ scene::SiteSpec parse_site(const Json& j, const std::string& path,
     }
   };
   adopt_builtin(o.find("terrain"), "material");
+  if (const Json* t = o.find("terrain"); t != nullptr && t->is_object()) {
+    if (const auto tm = t->find("triangle_materials"); tm != t->end() && tm->is_object()) {
+      if (const auto names = tm->find("names"); names != tm->end() && names->is_array()) {
+        for (const Json& name : *names) {
+          const Json holder = {{"material", name}};
+          adopt_builtin(&holder, "material");
+        }
+      }
+    }
+    if (const auto zones = t->find("zones"); zones != t->end() && zones->is_array()) {
+      for (const Json& z : *zones) adopt_builtin(&z, "material");
+    }
+  }
   if (const Json* bs = o.find("buildings"); bs != nullptr && bs->is_array()) {
     for (const Json& b : *bs) {
       for (const char* key : {"wall", "roof", "window"}) adopt_builtin(&b, key);
@@ -408,6 +459,18 @@ Json site_to_json(const scene::SiteSpec& site, const std::map<std::string, Mater
     terrain["mesh"] = mesh_json(std::get<scene::MeshSpec>(site.terrain.geometry), false);
   }
   terrain["material"] = site.terrain.material;
+  if (!site.terrain.triangle_material_names.empty() || !site.terrain.triangle_material.empty())
+    terrain["triangle_materials"] = {{"names", site.terrain.triangle_material_names},
+                                     {"index", site.terrain.triangle_material}};
+  if (!site.terrain.zones.empty()) {
+    Json zones = Json::array();
+    for (const auto& z : site.terrain.zones) {
+      Json ring = Json::array();
+      for (const auto& p : z.polygon_m) ring.push_back(vec2_json(p));
+      zones.push_back({{"material", z.material}, {"polygon_m", std::move(ring)}});
+    }
+    terrain["zones"] = std::move(zones);
+  }
   out["terrain"] = std::move(terrain);
 
   Json materials = Json::object();

@@ -48,12 +48,12 @@ class GroundMotion {
         body_(body),
         set_(settings),
         obs_(observer),
-        material_(site.materials()[site.terrain_material()]),
+        material_(&site.materials()[site.terrain_material()]),
         ode_(GroundRhs{&air_, &contact_, &res_, &origin_},
              flight::Dopri5Options{settings.rtol, settings.rtol}) {
     res_.round = body.round();
-    res_.mu = material_.friction;
-    res_.mu_r = material_.rolling_resistance;
+    res_.mu = material_->friction;
+    res_.mu_r = material_->rolling_resistance;
     radius_m_ = res_.round ? body.shape.half_m.x() : 0.0;
     if (res_.round)
       res_.ratio = body.shape.inertia_kg_m2.x() / (body.mass_kg * radius_m_ * radius_m_);
@@ -69,7 +69,8 @@ class GroundMotion {
   // Entering a contact.
   Next enter_face(std::uint32_t tri, const Vec3& p, const Vec3& v, const Vec3& omega);
   Next settle_on_face(std::uint32_t tri, const Vec3& p, const Vec3& v, const Vec3& omega);
-  bool fast(const Vec3& v) const { return v.norm() >= material_.fast_contact_speed_mps(); }
+  bool fast(const Vec3& v) const { return v.norm() >= material_->fast_contact_speed_mps(); }
+  void use_material_of(std::uint32_t tri);
   Next fast_contact_on(std::uint32_t tri, const Vec3& p, const Vec3& v, const Vec3& omega);
   Next enter_crease(std::uint32_t tri, std::uint32_t other, std::uint32_t from_id,
                     std::uint32_t to_id, const Vec3& p, const Vec3& v, const Vec3& w);
@@ -131,7 +132,7 @@ class GroundMotion {
   const GroundBody& body_;
   GroundSettings set_;
   GroundObserver& obs_;
-  const scene::Material& material_;
+  const scene::Material* material_;  // of the triangle in contact (use_material_of)
   Contact contact_;
   Resistance res_;
   Vec3 origin_{0, 0, 0};       // position at the last integrator reset
@@ -182,6 +183,14 @@ Next GroundMotion::take_off(std::uint32_t tri, const Vec3& v, const Vec3& omega)
 
 // ---- entering a contact ----
 
+// The law of the material under triangle tri (a zone's) from here on: friction and rolling
+// resistance of the slide, restitution of an impulse, the fast-contact constants.
+void GroundMotion::use_material_of(std::uint32_t tri) {
+  material_ = &site_.materials()[site_.terrain_triangle_material(tri)];
+  res_.mu = material_->friction;
+  res_.mu_r = material_->rolling_resistance;
+}
+
 // The centre put at the body's clearance above triangle tri's plane (normal n), moved
 // vertically: its xy stays on the triangle it was found over (on the edge it crossed).
 Vec3 GroundMotion::place_on_plane(const Vec3& p, std::uint32_t tri, const Vec3& n) const {
@@ -212,6 +221,7 @@ void GroundMotion::turn_with_terrain(const Vec3& from, const Vec3& to) {
 // Onto triangle tri: a fast contact if the material has that law and the body is at least its
 // switch speed fast (F6), else the body settles on the face.
 Next GroundMotion::enter_face(std::uint32_t tri, const Vec3& p, const Vec3& v, const Vec3& omega) {
+  use_material_of(tri);
   if (fast(v)) return fast_contact_on(tri, p, v, omega);
   return settle_on_face(tri, p, v, omega);
 }
@@ -221,7 +231,7 @@ Next GroundMotion::enter_face(std::uint32_t tri, const Vec3& p, const Vec3& v, c
 Next GroundMotion::fast_contact_on(std::uint32_t tri, const Vec3& p, const Vec3& v,
                                    const Vec3& omega) {
   const Vec3& n = site_.terrain_triangle_normal(tri);
-  const FastContactOutcome f = fast_contact(*material_.fast_contact, body_.density_kg_m3, v, omega,
+  const FastContactOutcome f = fast_contact(*material_->fast_contact, body_.density_kg_m3, v, omega,
                                             n, set_.takeoff_speed_mps);
   ++r_.fast_contacts;
   p_ = p;
@@ -331,6 +341,7 @@ void GroundMotion::set_presented_area(const Vec3& v) {
 
 Next GroundMotion::enter_crease(std::uint32_t tri, std::uint32_t other, std::uint32_t from_id,
                                 std::uint32_t to_id, const Vec3& p, const Vec3& v, const Vec3& w) {
+  use_material_of(tri);  // between two materials: the reference side's (docs/physics.md, G15)
   const auto& vs = site_.terrain_vertices();
   Contact c;
   c.crease = true;
@@ -513,6 +524,10 @@ Next GroundMotion::walk_face_step() {
     const Vec3& n2 = site_.terrain_triangle_normal(t2);
     if ((n2 - contact_.n).squaredNorm() > 1e-24)
       return cross_edge(t2, edges_.from[k], edges_.to[k]);
+    // Coplanar into another material (a zone boundary): the body enters the face anew under its
+    // law, at the boundary.
+    if (site_.terrain_triangle_material(t2) != site_.terrain_triangle_material(contact_.tri))
+      return enter_face(t2, p_, v_, omega_of(w_));
     // Coplanar: the same law continues; walk on with the same step.
     contact_.tri = t2;
     edges_ = edges_of(t2);
@@ -733,12 +748,13 @@ Next GroundMotion::cross_edge(std::uint32_t next, std::uint32_t from_id, std::ui
 // An impulse on the plane of `next` at the current point (G12; bounce.h), then on.
 Next GroundMotion::edge_impact(std::uint32_t next, const Vec3& v_in, bool concave,
                                std::uint32_t from_id, std::uint32_t to_id) {
+  use_material_of(next);
   if (fast(v_in)) return fast_contact_on(next, p_, v_in, omega_of(w_));
   const Vec3& n2 = site_.terrain_triangle_normal(next);
-  if (material_.embeds(v_in, n2, body_.density_kg_m3)) return finish(GroundEnd::kEmbedded);
+  if (material_->embeds(v_in, n2, body_.density_kg_m3)) return finish(GroundEnd::kEmbedded);
   const Vec3 omega_in = omega_of(w_);
   const TerrainBounce b = bounce_on_terrain(body_.shape, body_.mass_kg, q_, v_in, omega_in, n2,
-                                            material_, body_.flat_tol_m);
+                                            *material_, body_.flat_tol_m);
   const Vec3 v_out = b.collision.impact ? b.collision.velocity_mps : v_in;
   const Vec3 w_out = b.collision.impact ? b.collision.omega_radps : omega_in;
   ++r_.impacts;

@@ -136,7 +136,7 @@ Phase History::start_on_ground() {
     ev.v = state_.v;
     ev.normal = n;
     ev.triangle = t;
-    ev.material = site_.terrain_material();
+    ev.material = site_.terrain_triangle_material(t);
     return terrain_impact(ev);
   }
   return state_.v.dot(n) < st_.min_rebound_speed_mps ? Phase::kGround : Phase::kFlight;

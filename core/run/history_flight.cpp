@@ -218,7 +218,7 @@ bool History::catch_slip_through(const flight::TrajectoryIntegrator& integ, cons
   const std::int64_t tri = site_.terrain_triangle_at(ev.p.x(), ev.p.y());
   ev.triangle = tri < 0 ? 0u : static_cast<std::uint32_t>(tri);
   ev.normal = tri < 0 ? Vec3::UnitZ() : site_.terrain_triangle_normal(ev.triangle);
-  ev.material = site_.terrain_material();
+  ev.material = tri < 0 ? site_.terrain_material() : site_.terrain_triangle_material(ev.triangle);
   return true;
 }
 
@@ -308,7 +308,7 @@ std::optional<FlightEvent> History::body_terrain_contact(const flight::Trajector
   ev.v = integ.velocity(tc);
   ev.triangle = static_cast<std::uint32_t>(tri);
   ev.normal = site_.terrain_triangle_normal(ev.triangle);
-  ev.material = site_.terrain_material();
+  ev.material = site_.terrain_triangle_material(ev.triangle);
   return ev;
 }
 

@@ -155,7 +155,7 @@ std::optional<SceneHit> Site::intersect_embree(const Vec3& org, const Vec3& dir,
       h.terrain = true;
       h.triangle = 2 * cellk + ((fy - j) > (fx - i) ? 1u : 0u);
       h.surface = SurfaceType::kTerrain;
-      h.material = terrain_material_;
+      h.material = terrain_triangle_material(h.triangle);
       h.normal = Vec3::UnitZ();
       best = h;
       t_limit = t;
@@ -180,7 +180,7 @@ std::optional<SceneHit> Site::intersect_embree(const Vec3& org, const Vec3& dir,
     h.terrain = true;
     h.triangle = rh.prim;
     h.surface = SurfaceType::kTerrain;
-    h.material = terrain_material_;
+    h.material = terrain_triangle_material(rh.prim);
     h.normal = terrain_facet_[rh.prim].normal;
     v0 = &terrain_vertices_[terrain_triangles_[rh.prim][0]];
   } else {
@@ -256,7 +256,7 @@ std::optional<SceneHit> Site::intersect(const Vec3& org, const Vec3& dir, double
   h.terrain = true;
   h.triangle = exact->second;
   h.surface = SurfaceType::kTerrain;
-  h.material = terrain_material_;
+  h.material = terrain_triangle_material(exact->second);
   h.normal = terrain_facet_[exact->second].normal;
   return h;
 }

@@ -169,7 +169,15 @@ class Site {
   // Plane or grid terrain: terrain_index() bucket (i, j) = grid cell (i, j), holding triangle
   // 2k below its (i,j)-(i+1,j+1) diagonal and 2k + 1 above it (k = j nx + i).
   bool terrain_is_lattice() const { return terrain_is_lattice_; }
+  // The site's base terrain material (site.terrain.material): every triangle's unless zones or
+  // per-triangle materials say otherwise.
   std::uint16_t terrain_material() const { return terrain_material_; }
+  // The material of terrain triangle t (docs/scenario.md, "Materials by zone").
+  std::uint16_t terrain_triangle_material(std::uint32_t t) const {
+    return terrain_triangle_material_.empty() ? terrain_material_ : terrain_triangle_material_[t];
+  }
+  // Does any terrain triangle have a material other than terrain_material()?
+  bool terrain_has_zones() const { return !terrain_triangle_material_.empty(); }
 
   // Buildings
   bool has_buildings() const { return !buildings_.empty(); }
@@ -267,6 +275,7 @@ class Site {
   TerrainIndex2D index_;
   std::vector<std::uint32_t> terrain_boundary_;
   std::uint16_t terrain_material_ = 0;
+  std::vector<std::uint16_t> terrain_triangle_material_;  // empty: all terrain_material_
 
   std::vector<Building> buildings_;
   std::vector<Vec3> building_vertices_;

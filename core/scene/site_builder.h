@@ -35,6 +35,10 @@ class SiteBuilder {
                                      const std::string& f);
   static Lattice build_grid_terrain(Site& site, const GridTerrainSpec& grid, const std::string& f);
   static void build_mesh_terrain(Site& site, const MeshSpec& mesh, const std::string& f);
+  // Each terrain triangle's material (TerrainSpec: zones, then triangle_material, then the base
+  // material); needs the 2-D index.
+  static void build_terrain_materials(Site& site, const TerrainSpec& terrain,
+                                      const MaterialIds& ids);
   // Per-triangle areas, upward unit normals and planes, and the terrain's bounds.
   static void build_terrain_facets(Site& site);
   // Site::terrain_boundary_triangles(): from the cell counts of a lattice, from the edges shared

@@ -101,6 +101,17 @@ void check_terrain(const TerrainSpec& terrain) {
     check_mesh_points(mesh, f);
     check_mesh_span(mesh, f);
   }
+  check_count(terrain.triangle_material.size(), kMaxTerrainTriangles,
+              "site.terrain.triangle_materials.index", "entries");
+  check_count(terrain.zones.size(), kMaxMaterialZones, "site.terrain.zones", "zones");
+  for (std::size_t z = 0; z < terrain.zones.size(); ++z) {
+    const std::string zf = indexed("site.terrain.zones", z) + ".polygon_m";
+    check_count(terrain.zones[z].polygon_m.size(), kMaxZoneVertices, zf, "vertices");
+    for (std::size_t k = 0; k < terrain.zones[z].polygon_m.size(); ++k) {
+      check_xy(terrain.zones[z].polygon_m[k][0], indexed(indexed(zf, k), 0));
+      check_xy(terrain.zones[z].polygon_m[k][1], indexed(indexed(zf, k), 1));
+    }
+  }
 }
 
 // The building's triangles as built: a footprint of n vertices (all rings together) with h holes

@@ -38,6 +38,10 @@ inline constexpr std::size_t kMaxBuildingTriangles = std::size_t{1} << 24;
 // the roof's ear clipping O(n^2) to O(n^3); surveyed or mapped outlines have tens to hundreds of
 // vertices.
 inline constexpr std::size_t kMaxFootprintVertices = 1000;
+// Material zones (site.terrain.zones) and the vertices of one zone's polygon: each zone is
+// checked for simplicity (O(n^2)) and tested against the terrain triangles under its bounds.
+inline constexpr std::size_t kMaxMaterialZones = 10000;
+inline constexpr std::size_t kMaxZoneVertices = 1000;
 // Height of a footprint building above its base, m: twelve times the tallest building
 // (Burj Khalifa, 828 m).
 inline constexpr double kMaxBuildingHeight_m = 1e4;

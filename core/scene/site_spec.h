@@ -126,9 +126,24 @@ struct MeshSpec {
   std::vector<SurfaceType> surface;  // per triangle; buildings only (empty for terrain)
 };
 
+// A polygon in plan (input x, y) whose terrain triangles take `material`: those whose centroid
+// lies inside it (docs/scenario.md, "Materials by zone").
+struct MaterialZoneSpec {
+  std::string material;                          // key into SiteSpec::materials
+  std::vector<std::array<double, 2>> polygon_m;  // simple polygon, either orientation
+};
+
+// A terrain triangle's material: the last zone that contains its centroid, else its entry of
+// triangle_material, else `material`.
 struct TerrainSpec {
   std::variant<PlaneTerrainSpec, GridTerrainSpec, MeshSpec> geometry;
   std::string material;  // key into SiteSpec::materials
+  // Per triangle, in the terrain's own order (a mesh's as given; a plane's or grid's cell
+  // k = j (nx - 1) + i holds triangles 2k and 2k + 1): an index into triangle_material_names.
+  // Empty: every triangle has `material`.
+  std::vector<std::string> triangle_material_names;
+  std::vector<std::int64_t> triangle_material;
+  std::vector<MaterialZoneSpec> zones;  // later zones win
 };
 
 // A building: either a footprint extruded to a closed mesh (walls + flat roof) or an explicit

@@ -5,6 +5,7 @@
 #include <limits>
 #include <tuple>
 
+#include "core/scene/polygon.h"
 #include "core/scene/site_builder.h"
 #include "core/scene/terrain_index.h"
 #include "core/scene/validation.h"
@@ -76,6 +77,85 @@ void SiteBuilder::build_terrain(Site& site, const SiteSpec& spec, const Material
           ? detail::make_cell_index(lattice.origin, lattice.cell, lattice.ncx, lattice.ncy,
                                     site.terrain_vertices_, site.terrain_triangles_)
           : detail::make_mesh_index(site.terrain_vertices_, site.terrain_triangles_);
+  build_terrain_materials(site, terrain, ids);
+}
+
+namespace {
+
+// Calls f(t) for every terrain triangle whose centroid lies inside `poly` (local, counter-
+// clockwise or not): the candidates are those of the index buckets under the polygon's bounds.
+template <class F>
+void for_each_triangle_in(const Site& site, const std::vector<Vec2>& poly, F&& f) {
+  Vec2 lo = poly[0], hi = poly[0];
+  for (const Vec2& p : poly) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const TerrainIndex2D& ix = site.terrain_index();
+  const int i0 = clamped_bucket((lo.x() - ix.origin.x()) / ix.cell.x(), ix.nx);
+  const int i1 = clamped_bucket((hi.x() - ix.origin.x()) / ix.cell.x(), ix.nx);
+  const int j0 = clamped_bucket((lo.y() - ix.origin.y()) / ix.cell.y(), ix.ny);
+  const int j1 = clamped_bucket((hi.y() - ix.origin.y()) / ix.cell.y(), ix.ny);
+  for (int j = j0; j <= j1; ++j) {
+    for (int i = i0; i <= i1; ++i) {
+      const std::size_t b = static_cast<std::size_t>(j) * ix.nx + i;
+      for (std::uint32_t k = ix.start[b]; k < ix.start[b + 1]; ++k) {
+        const std::uint32_t t = ix.triangles[k];
+        const Vec2 c = site.terrain_triangle_centroid(t).head<2>();
+        if (c.x() >= lo.x() && c.x() <= hi.x() && c.y() >= lo.y() && c.y() <= hi.y() &&
+            detail::point_in_polygon(poly, c))
+          f(t);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void SiteBuilder::build_terrain_materials(Site& site, const TerrainSpec& terrain,
+                                          const MaterialIds& ids) {
+  site.terrain_triangle_material_.clear();
+  if (terrain.triangle_material_names.empty() && terrain.triangle_material.empty() &&
+      terrain.zones.empty())
+    return;
+  const std::size_t nt = site.terrain_triangles_.size();
+  std::vector<std::uint16_t> m(nt, site.terrain_material_);
+  const std::string tf = "site.terrain.triangle_materials";
+  if (!terrain.triangle_material.empty() || !terrain.triangle_material_names.empty()) {
+    std::vector<std::uint16_t> named;
+    for (std::size_t k = 0; k < terrain.triangle_material_names.size(); ++k)
+      named.push_back(
+          material_id(ids, terrain.triangle_material_names[k], indexed(tf + ".names", k)));
+    if (named.empty()) fail(tf + ".names", "is empty (name the materials the index refers to)");
+    if (terrain.triangle_material.size() != nt)
+      fail(tf + ".index", "has " + std::to_string(terrain.triangle_material.size()) +
+                              " entries; the terrain has " + std::to_string(nt) + " triangles");
+    for (std::size_t t = 0; t < nt; ++t) {
+      const std::int64_t k = terrain.triangle_material[t];
+      if (k < 0 || static_cast<std::size_t>(k) >= named.size())
+        fail(indexed(tf + ".index", t), "must be in [0, " + std::to_string(named.size() - 1) +
+                                            "] (got " + std::to_string(k) + ")");
+      m[t] = named[static_cast<std::size_t>(k)];
+    }
+  }
+  const Vec3& o = site.local_origin_;
+  for (std::size_t z = 0; z < terrain.zones.size(); ++z) {
+    const std::string zf = indexed("site.terrain.zones", z);
+    const std::uint16_t id = material_id(ids, terrain.zones[z].material, zf + ".material");
+    const auto& ring = terrain.zones[z].polygon_m;
+    std::vector<Vec2> poly;
+    for (std::size_t k = 0; k < ring.size(); ++k) {
+      detail::require_finite(ring[k][0], indexed(indexed(zf + ".polygon_m", k), 0));
+      detail::require_finite(ring[k][1], indexed(indexed(zf + ".polygon_m", k), 1));
+      poly.emplace_back(ring[k][0] - o.x(), ring[k][1] - o.y());
+    }
+    if (poly.size() >= 4 && ring.front() == ring.back()) poly.pop_back();  // GIS closing vertex
+    detail::validate_simple_polygon(poly, zf + ".polygon_m", "zone");
+    for_each_triangle_in(site, poly, [&](std::uint32_t t) { m[t] = id; });
+  }
+  if (std::all_of(m.begin(), m.end(), [&](std::uint16_t k) { return k == site.terrain_material_; }))
+    return;  // nothing differs from the base material: the single-material fast path
+  site.terrain_triangle_material_ = std::move(m);
 }
 
 SiteBuilder::Lattice SiteBuilder::build_plane_terrain(Site& site, const PlaneTerrainSpec& plane,

@@ -114,7 +114,7 @@ class ResultsH5 : public ::testing::Test {
 TEST_F(ResultsH5, RootAttributes) {
   const fs::path f = write("r.h5", result_);
   EXPECT_EQ(read_attribute_string(f, "/", "file_type"), "fragsim.results");
-  EXPECT_EQ(read_attribute_int64(f, "/", "format_version"), 3);
+  EXPECT_EQ(read_attribute_int64(f, "/", "format_version"), 4);
   EXPECT_EQ(read_attribute_string(f, "/", "hfd_bound"), "none");
   EXPECT_EQ(read_attribute_string(f, "/", "fragsim_version"), kVersion);
   EXPECT_EQ(read_attribute_string(f, "/", "git_sha"), kGitSha);
@@ -160,6 +160,35 @@ TEST_F(ResultsH5, TerrainInInputCoordinates) {
   double total = 0;
   for (double a : read_dataset_double(f, "/terrain/area_m2")) total += a;
   EXPECT_NEAR(total, 400.0 * 400.0, 1e-6);
+}
+
+// Each terrain triangle's material, by index into the site's material names: the base
+// material without zones, a zone's where one holds the triangle's centroid.
+TEST_F(ResultsH5, TerrainMaterialPerTriangle) {
+  const auto materials_of = [&](const fs::path& f) {
+    const auto names = read_dataset_strings(f, "/terrain/material_names");
+    std::vector<std::string> out;
+    for (const std::int64_t k : read_dataset_int64(f, "/terrain/material"))
+      out.push_back(names.at(static_cast<std::size_t>(k)));
+    return out;
+  };
+  const std::string base = scenario_.site.terrain.material;
+  EXPECT_EQ(materials_of(write("plain.h5", result_)),
+            std::vector<std::string>(site_->terrain_triangle_count(), base));
+  std::string other;
+  for (const auto& [name, m] : scenario_.site.materials)
+    if (name != base) other = name;
+  ASSERT_FALSE(other.empty());
+  scenario_.site.terrain.zones = {
+      {other, {{500000, 4000000}, {500200, 4000000}, {500200, 4000400}, {500000, 4000400}}}};
+  site_ = scene::Site::build(scenario_.site);
+  const auto zoned = materials_of(write("zoned.h5", result_));
+  ASSERT_EQ(zoned.size(), site_->terrain_triangle_count());
+  for (std::size_t t = 0; t < zoned.size(); ++t) {
+    const double x =
+        site_->to_input(site_->terrain_triangle_centroid(static_cast<std::uint32_t>(t))).x();
+    EXPECT_EQ(zoned[t], x < 500200 ? other : base) << t;
+  }
 }
 
 TEST_F(ResultsH5, PtnHfdBuildingsOutcomes) {

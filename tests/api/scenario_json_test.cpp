@@ -510,6 +510,32 @@ TEST(ScenarioJson, MaterialsMustExist) {
             (FieldMessage{"site.buildings[0].wall", "is required"}));
 }
 
+// site.terrain.triangle_materials and zones: materials named by path, built-ins adopted, the
+// normalised scenario carries them back unchanged.
+TEST(ScenarioJson, TerrainMaterialsByTriangleAndZone) {
+  Json j = minimal_example();
+  Json& t = j["site"]["terrain"];
+  t["zones"] = Json::array({{{"material", "hard"}, {"polygon_m", {{0, 0}, {50, 0}, {50, 50}}}}});
+  const ScenarioDocument doc = parse_scenario_document(j);
+  ASSERT_EQ(doc.scenario.site.terrain.zones.size(), 1u);
+  EXPECT_EQ(doc.scenario.site.terrain.zones[0].polygon_m[1], (std::array<double, 2>{50, 0}));
+  EXPECT_EQ(doc.scenario.site.materials.count("hard"), 1u);  // the built-in joins the site
+  EXPECT_EQ(scenario_to_json(doc)["site"]["terrain"]["zones"], t["zones"]);
+  t["zones"][0]["material"] = "gravel";
+  EXPECT_EQ(parse_error(j),
+            (FieldMessage{"site.terrain.zones[0].material", "unknown material \"gravel\""}));
+  t["zones"][0] = {{"material", "hard"}, {"polygon_m", {{0, 0}, {50, 0}}}, {"colour", 1}};
+  EXPECT_EQ(parse_error(j).first, "site.terrain.zones[0].colour");
+  t.erase("zones");
+  t["triangle_materials"] = {{"names", {"soft", "mud"}}, {"index", {0}}};
+  EXPECT_EQ(parse_error(j),
+            (FieldMessage{"site.terrain.triangle_materials.names[1]", "unknown material \"mud\""}));
+  t["triangle_materials"] = {{"names", {"soft"}}, {"index", {0, -1}}};
+  EXPECT_EQ(parse_error(j).first, "site.terrain.triangle_materials.index[1]");
+  t["triangle_materials"] = {{"names", {"soft"}}};
+  EXPECT_EQ(parse_error(j), (FieldMessage{"site.terrain.triangle_materials.index", "is required"}));
+}
+
 TEST(ScenarioJson, MaterialNamesThatAreNotIdentifiersAreQuoted) {
   Json j = minimal_example();
   j["site"]["materials"]["wet soil"] = {{"friction", -1}};

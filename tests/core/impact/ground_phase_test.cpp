@@ -593,5 +593,78 @@ TEST(GroundPhase, ObserverStopsAndStepCapEnds) {
   EXPECT_EQ(run(*site, air, body, s0, rec2, gs).end, GroundEnd::kStepCap);
 }
 
+// ---- materials by zone ----
+
+namespace zones {
+
+// Level grid over [-200, 200]^2 in 10 m cells: "a" (the base) where x < 0, zone "b" for x > 0.
+std::shared_ptr<const scene::Site> two_zone_site(const scene::MaterialSpec& a,
+                                                 const scene::MaterialSpec& b) {
+  scene::SiteSpec spec;
+  scene::GridTerrainSpec grid;
+  grid.origin_m = {-200.0, -200.0};
+  grid.spacing_m = 10.0;
+  grid.nx = grid.ny = 41;
+  grid.elevation_m.assign(41 * 41, 0.0);
+  spec.terrain.geometry = grid;
+  spec.terrain.material = "a";
+  spec.terrain.zones = {{"b", {{0, -200}, {200, -200}, {200, 200}, {0, 200}}}};
+  spec.materials["a"] = a;
+  spec.materials["b"] = b;
+  return scene::Site::build(spec);
+}
+
+std::shared_ptr<const scene::Site> one_material_site(const scene::MaterialSpec& m) {
+  return two_zone_site(m, m);
+}
+
+// A slide wholly inside one zone is the single-material slide of that zone's material, to the
+// last bit (the same triangles, the same law).
+TEST(GroundPhaseZones, ASlideInEachZoneIsThatMaterialsSlide) {
+  const scene::MaterialSpec a = material(0.3, 0.1, 0.2), b = material(0.8, 0.05, 0.4);
+  const auto zoned = two_zone_site(a, b);
+  const GroundBody body = plate();
+  const Air air(0.0, 0.0, body.mass_kg);
+  for (const double x0 : {-150.0, 30.0}) {
+    const auto alone = one_material_site(x0 < 0 ? a : b);
+    const Vec3 v(5.0, 2.0, 0.0);  // 1.6 m (b) to 4.9 m (a): inside the zone it starts in
+    Recorder r1, r2;
+    const GroundResult z = run(*zoned, air, body, start_at(*zoned, body, x0, 3.3, v), r1);
+    const GroundResult s = run(*alone, air, body, start_at(*alone, body, x0, 3.3, v), r2);
+    EXPECT_EQ(z.end, GroundEnd::kRest);
+    EXPECT_EQ(z.state.position_m, s.state.position_m) << x0;
+    EXPECT_EQ(z.state.t_s, s.state.t_s) << x0;
+    EXPECT_EQ(z.steps, s.steps) << x0;
+  }
+}
+
+// Crossing the boundary x = 0 on the ground switches Coulomb's law there: deceleration mu_a g
+// up to the boundary, mu_b g beyond it, so the plate stops at x = (v0^2 - 2 mu_a g d) / (2 mu_b
+// g) (relative 1e-8: the boundary crossing is found by the integrator's event search), and the
+// same slide the other way round stops where the mirrored closed form says.
+TEST(GroundPhaseZones, CrossingAZoneBoundarySwitchesTheLawAtTheBoundary) {
+  const double mu_a = 0.3, mu_b = 0.8, d = 12.0, v0 = 14.0;
+  const auto site = two_zone_site(material(mu_a, 0.1, 0.2), material(mu_b, 0.1, 0.2));
+  const GroundBody body = plate();
+  const Air air(0.0, 0.0, body.mass_kg);
+  Recorder rec;
+  const GroundResult r = run(*site, air, body, start_at(*site, body, -d, 3.3, Vec3(v0, 0, 0)), rec);
+  ASSERT_EQ(r.end, GroundEnd::kRest);
+  const double x_stop = (v0 * v0 - 2 * mu_a * g * d) / (2 * mu_b * g);
+  EXPECT_NEAR(site->to_input(r.state.position_m).x(), x_stop, 1e-8 * (d + x_stop));
+  const double t_stop = (v0 - std::sqrt(v0 * v0 - 2 * mu_a * g * d)) / (mu_a * g) +
+                        std::sqrt(v0 * v0 - 2 * mu_a * g * d) / (mu_b * g);
+  EXPECT_NEAR(r.state.t_s, t_stop, 1e-8 * t_stop);
+  // From b into a: deceleration mu_b g first.
+  Recorder back;
+  const GroundResult rb =
+      run(*site, air, body, start_at(*site, body, d, 3.3, Vec3(-v0, 0, 0)), back);
+  ASSERT_EQ(rb.end, GroundEnd::kRest);
+  const double x_back = -(v0 * v0 - 2 * mu_b * g * d) / (2 * mu_a * g);
+  EXPECT_NEAR(site->to_input(rb.state.position_m).x(), x_back, 1e-8 * (d - x_back));
+}
+
+}  // namespace zones
+
 }  // namespace
 }  // namespace fragsim::impact

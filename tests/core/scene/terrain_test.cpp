@@ -342,5 +342,108 @@ TEST(Materials, RangesAreCheckedWithTheRangeNamed) {
   EXPECT_EQ(field_of(spec).rfind("site.materials.soil.ranges.restitution[1]: ", 0), 0u);
 }
 
+// ---- Materials by zone (TerrainSpec: zones over triangle_material over material) ----
+
+namespace zone_tests {
+
+using testing::expect_input_error;
+
+// The material name of terrain triangle t.
+std::string material_of(const Site& site, std::uint32_t t) {
+  return site.materials()[site.terrain_triangle_material(t)].name;
+}
+
+// A 400 m plane in 10 m cells: cell k = j * 40 + i holds triangles 2k and 2k + 1.
+TEST(MaterialZones, ZonesTakeTheTrianglesWhoseCentroidTheyHoldAndTheLastWins) {
+  SiteSpec spec = plane_site();
+  spec.terrain.zones = {{"metal_roof", {{0, -200}, {200, -200}, {200, 200}, {0, 200}}},
+                        {"glass", {{100, -200}, {200, -200}, {200, 200}, {100, 200}}}};
+  const auto site = Site::build(spec);
+  ASSERT_TRUE(site->terrain_has_zones());
+  for (std::uint32_t t = 0; t < site->terrain_triangle_count(); ++t) {
+    const double x = site->to_input(site->terrain_triangle_centroid(t)).x();
+    const std::string want = x > 100 ? "glass" : x > 0 ? "metal_roof" : "soil";
+    ASSERT_EQ(material_of(*site, t), want) << t;
+  }
+  EXPECT_EQ(site->terrain_material(), 3);  // the base material stays "soil"
+}
+
+// Queries report the material of the triangle hit: the analytic plane, Embree on a grid, and
+// the exact terrain guard all go through terrain_triangle_material.
+TEST(MaterialZones, HitsCarryTheMaterialOfTheTriangleHit) {
+  for (const bool grid : {false, true}) {
+    SiteSpec spec = plane_site();
+    if (grid)
+      spec.terrain.geometry = make_grid(-200, -200, 10, 41, 41, [](double, double) { return 0.0; });
+    spec.terrain.zones = {{"glass", {{0, -200}, {200, -200}, {200, 200}, {0, 200}}}};
+    const auto site = Site::build(spec);
+    for (const double x : {-55.0, -3.0, 3.0, 55.0}) {
+      const Vec3 org = site->to_local(Vec3(x, 7.0, 20.0));
+      const auto hit = site->intersect(org, Vec3(0.1, 0.05, -1.0), 0.0, 100.0);
+      ASSERT_TRUE(hit && hit->terrain) << x;
+      EXPECT_EQ(site->materials()[hit->material].name, x > 0 ? "glass" : "soil") << x;
+      EXPECT_EQ(hit->material, site->terrain_triangle_material(hit->triangle));
+    }
+  }
+}
+
+// A mesh's per-triangle materials, in its order; zones override them.
+TEST(MaterialZones, TriangleMaterialsOfAMeshAndZonesOverThem) {
+  SiteSpec spec = plane_site();
+  MeshSpec mesh;
+  mesh.vertices_m = {{0, 0, 0}, {10, 0, 0}, {10, 10, 0}, {0, 10, 0}, {20, 0, 0}, {20, 10, 0}};
+  mesh.triangles = {{0, 1, 2}, {0, 2, 3}, {1, 4, 5}, {1, 5, 2}};
+  spec.terrain.geometry = mesh;
+  spec.terrain.triangle_material_names = {"glass", "metal_roof"};
+  spec.terrain.triangle_material = {0, 1, 1, 0};
+  auto site = Site::build(spec);
+  EXPECT_EQ(material_of(*site, 0), "glass");
+  EXPECT_EQ(material_of(*site, 1), "metal_roof");
+  EXPECT_EQ(material_of(*site, 2), "metal_roof");
+  EXPECT_EQ(material_of(*site, 3), "glass");
+  spec.terrain.zones = {{"soil", {{12, -1}, {21, -1}, {21, 11}, {12, 11}, {12, -1}}}};
+  site = Site::build(spec);
+  EXPECT_EQ(material_of(*site, 1), "metal_roof");
+  EXPECT_EQ(material_of(*site, 2), "soil");
+  EXPECT_EQ(material_of(*site, 3), "soil");
+}
+
+// Zones that change nothing leave the single-material site (no per-triangle table).
+TEST(MaterialZones, ZonesOfTheBaseMaterialOrOverNothingChangeNothing) {
+  SiteSpec spec = plane_site();
+  spec.terrain.zones = {{"soil", {{-50, -50}, {50, -50}, {50, 50}}},
+                        {"glass", {{500, 500}, {600, 500}, {600, 600}}}};
+  const auto site = Site::build(spec);
+  EXPECT_FALSE(site->terrain_has_zones());
+  EXPECT_EQ(site->terrain_triangle_material(7), site->terrain_material());
+}
+
+TEST(MaterialZones, BadZonesAndIndicesAreNamed) {
+  SiteSpec spec = plane_site();
+  spec.terrain.zones = {{"soil", {{0, 0}, {10, 0}, {10, 10}}}, {"mud", {{0, 0}, {1, 0}, {0, 1}}}};
+  expect_input_error(spec, "site.terrain.zones[1].material", "unknown material \"mud\"");
+  spec.terrain.zones = {{"glass", {{0, 0}, {10, 10}, {10, 0}, {0, 10}}}};  // a bow tie
+  EXPECT_THROW(Site::build(spec), InputError);
+  try {
+    Site::build(spec);
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field().rfind("site.terrain.zones[0].polygon_m", 0), 0u) << e.field();
+  }
+  spec.terrain.zones.clear();
+  spec.terrain.triangle_material_names = {"glass"};
+  spec.terrain.triangle_material = {0, 0};
+  expect_input_error(spec, "site.terrain.triangle_materials.index",
+                     "has 2 entries; the terrain has 3200 triangles");
+  spec.terrain.triangle_material.assign(3200, 0);
+  spec.terrain.triangle_material[17] = 1;
+  expect_input_error(spec, "site.terrain.triangle_materials.index[17]",
+                     "must be in [0, 0] (got 1)");
+  spec.terrain.triangle_material_names.clear();
+  expect_input_error(spec, "site.terrain.triangle_materials.names",
+                     "is empty (name the materials the index refers to)");
+}
+
+}  // namespace zone_tests
+
 }  // namespace
 }  // namespace fragsim::scene
