@@ -93,10 +93,11 @@ void read_stl_ascii(const std::string& text, const Reporter& r, MeshData& m) {
   std::size_t facet = 0;
   const auto expect = [&](std::string_view want) {
     const std::string_view got = w.next();
-    if (got.empty()) r.fail_facet(facet, "truncated (the file ends inside the facet)");
+    if (got.empty() || (got != want && w.done()))  // the end, or a word cut by it
+      r.fail_facet(facet, "truncated (the file ends inside the facet)");
     if (got != want)
-      r.fail_facet(facet, "expected \"" + std::string(want) + "\", got \"" + std::string(got) +
-                              "\"");
+      r.fail_facet(facet,
+                   "expected \"" + std::string(want) + "\", got \"" + std::string(got) + "\"");
   };
   const auto number = [&]() {
     const std::string_view t = w.next();
@@ -156,10 +157,10 @@ void read_stl_binary(const std::string& bytes, const Reporter& r, MeshData& m) {
   std::memcpy(&n, bytes.data() + 80, 4);
   const std::uint64_t need = 84 + 50 * static_cast<std::uint64_t>(n);
   if (bytes.size() < need)
-    r.fail_facet((bytes.size() - 84) / 50,
-                 "truncated (the header says " + std::to_string(n) + " facets, " +
-                     std::to_string(need) + " bytes; the file has " +
-                     std::to_string(bytes.size()) + ")");
+    r.fail_facet((bytes.size() - 84) / 50, "truncated (the header says " + std::to_string(n) +
+                                               " facets, " + std::to_string(need) +
+                                               " bytes; the file has " +
+                                               std::to_string(bytes.size()) + ")");
   if (bytes.size() > need)
     r.fail("has " + std::to_string(bytes.size() - need) + " bytes after its " + std::to_string(n) +
            " facets (the header's count): not a binary STL, or a damaged one");
@@ -186,7 +187,8 @@ void read_stl(const std::string& bytes, const Reporter& r, MeshData& m) {
   if (bytes.size() >= 84) {
     std::uint32_t n = 0;
     std::memcpy(&n, bytes.data() + 80, 4);
-    if (bytes.size() == 84 + 50 * static_cast<std::uint64_t>(n)) return read_stl_binary(bytes, r, m);
+    if (bytes.size() == 84 + 50 * static_cast<std::uint64_t>(n))
+      return read_stl_binary(bytes, r, m);
   }
   std::size_t k = 0;
   while (k < bytes.size() && std::isspace(static_cast<unsigned char>(bytes[k]))) ++k;
@@ -258,7 +260,8 @@ void read_obj(const std::string& text, const Reporter& r, MeshData& m) {
                                  std::to_string(m.vertices.size()) + ")");
         idx.push_back(static_cast<std::uint32_t>(i));
       }
-      const auto key = std::make_pair(current.material, std::make_pair(current.group, current.object));
+      const auto key =
+          std::make_pair(current.material, std::make_pair(current.group, current.object));
       auto [it, fresh] = group_ids.emplace(key, static_cast<std::uint32_t>(m.groups.size()));
       if (fresh) m.groups.push_back(current);
       for (std::size_t k = 1; k + 1 < idx.size(); ++k) {  // a polygon: a fan of triangles
@@ -291,14 +294,16 @@ struct PlyElement {
 
 std::size_t ply_size(const std::string& t) {
   static const std::map<std::string, std::size_t> sizes = {
-      {"char", 1},  {"uchar", 1},   {"int8", 1},  {"uint8", 1},  {"short", 2},   {"ushort", 2},
-      {"int16", 2}, {"uint16", 2},  {"int", 4},   {"uint", 4},   {"int32", 4},   {"uint32", 4},
+      {"char", 1},  {"uchar", 1},   {"int8", 1},   {"uint8", 1},  {"short", 2}, {"ushort", 2},
+      {"int16", 2}, {"uint16", 2},  {"int", 4},    {"uint", 4},   {"int32", 4}, {"uint32", 4},
       {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
   const auto it = sizes.find(t);
   return it == sizes.end() ? 0 : it->second;
 }
 
-bool ply_integer(const std::string& t) { return t != "float" && t != "float32" && t != "double" && t != "float64"; }
+bool ply_integer(const std::string& t) {
+  return t != "float" && t != "float32" && t != "double" && t != "float64";
+}
 
 double ply_value(const char* p, const std::string& t) {
   const auto get = [p](auto v) {
@@ -405,7 +410,8 @@ void read_ply(const std::string& bytes, const Reporter& r, MeshData& m) {
     saw_face |= is_face;
     int slot = -1;  // the face's material slot: its first integer scalar property
     for (std::size_t k = 0; is_face && slot < 0 && k < e.properties.size(); ++k)
-      if (e.properties[k].count_type.empty() && ply_integer(e.properties[k].type)) slot = static_cast<int>(k);
+      if (e.properties[k].count_type.empty() && ply_integer(e.properties[k].type))
+        slot = static_cast<int>(k);
     for (std::size_t i = 0; i < e.count; ++i) {
       const std::string what = (is_face ? "facet " : e.name + " ") + std::to_string(i);
       double xyz[3] = {NAN, NAN, NAN};
@@ -415,7 +421,8 @@ void read_ply(const std::string& bytes, const Reporter& r, MeshData& m) {
         const PlyProperty& p = e.properties[k];
         if (p.count_type.empty()) {
           const double x = body.value(p.type, what);
-          if (is_vertex && (p.name == "x" || p.name == "y" || p.name == "z")) xyz[p.name[0] - 'x'] = x;
+          if (is_vertex && (p.name == "x" || p.name == "y" || p.name == "z"))
+            xyz[p.name[0] - 'x'] = x;
           if (static_cast<int>(k) == slot) group = static_cast<long long>(x);
           continue;
         }
@@ -425,7 +432,8 @@ void read_ply(const std::string& bytes, const Reporter& r, MeshData& m) {
           if (is_face && (p.name == "vertex_indices" || p.name == "vertex_index")) {
             if (!(v >= 0 && v < static_cast<double>(m.vertices.size())))
               r.fail_facet(i, "vertex index " + std::to_string(static_cast<long long>(v)) +
-                                  " out of range (vertices: " + std::to_string(m.vertices.size()) + ")");
+                                  " out of range (vertices: " + std::to_string(m.vertices.size()) +
+                                  ")");
             idx.push_back(static_cast<std::uint32_t>(v));
           }
         }

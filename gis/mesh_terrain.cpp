@@ -146,8 +146,8 @@ Assembled assemble(const MeshTerrainImport& spec) {
         tri[k] = id[v];
       }
       const bool merged = tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2];
-      if (merged || scene::detail::is_zero_area(a.vertices[tri[0]], a.vertices[tri[1]],
-                                                a.vertices[tri[2]]))
+      if (merged ||
+          scene::detail::is_zero_area(a.vertices[tri[0]], a.vertices[tri[1]], a.vertices[tri[2]]))
         throw InputError(field, file_label(src.path) + ": facet " + std::to_string(m.facet[t]) +
                                     ": welding (weld_m = " + api::format_number(spec.weld_m) +
                                     " m) leaves it without area" +
@@ -215,8 +215,12 @@ class PlanIndex {
   }
 
  private:
-  int ci(double x) const { return std::clamp(static_cast<int>(std::floor((x - lo_.x()) / cell_)), -1, ncx_); }
-  int cj(double y) const { return std::clamp(static_cast<int>(std::floor((y - lo_.y()) / cell_)), -1, ncy_); }
+  int ci(double x) const {
+    return std::clamp(static_cast<int>(std::floor((x - lo_.x()) / cell_)), -1, ncx_);
+  }
+  int cj(double y) const {
+    return std::clamp(static_cast<int>(std::floor((y - lo_.y()) / cell_)), -1, ncy_);
+  }
   template <class F>
   void each_cell(std::uint32_t t, F&& f) const {
     const auto r = range(t);
@@ -311,12 +315,13 @@ void check_height_surface(const MeshTerrainImport& spec, const Assembled& a) {
       }
   }
   if (pairs == 0) return;
-  const Vec3 g = (a.vertices[a.triangles[worst.first][0]] + a.vertices[a.triangles[worst.first][1]] +
-                  a.vertices[a.triangles[worst.first][2]]) /
-                 3.0;
+  const Vec3 g =
+      (a.vertices[a.triangles[worst.first][0]] + a.vertices[a.triangles[worst.first][1]] +
+       a.vertices[a.triangles[worst.first][2]]) /
+      3.0;
   refuse(spec, a, worst.first,
-         "overlaps " + facet_name(spec, a, worst.second) + " in plan near " + xy_text(g.x(), g.y()) +
-             " (an overhang or a fold; " + std::to_string(pairs) +
+         "overlaps " + facet_name(spec, a, worst.second) + " in plan near " +
+             xy_text(g.x(), g.y()) + " (an overhang or a fold; " + std::to_string(pairs) +
              " overlapping pairs in all): the terrain must be a height surface" + kResampleHint);
 }
 
@@ -406,8 +411,8 @@ ImportedMeshTerrain resample(const MeshTerrainImport& spec, const Assembled& a) 
   out.vertices = z.size();
   out.triangles = mat.size();
   out.terrain["material"] = a.names[0];
-  out.terrain["grid"] = {{"origin_m", {x0, y0}}, {"spacing_m", s}, {"nx", nx}, {"ny", ny},
-                         {"elevation_m", z}};
+  out.terrain["grid"] = {
+      {"origin_m", {x0, y0}}, {"spacing_m", s}, {"nx", nx}, {"ny", ny}, {"elevation_m", z}};
   out.terrain["triangle_materials"] = {{"names", names_json(a.names)}, {"index", mat}};
   const double x1 = x0 + (nx - 1) * s, y1 = y0 + (ny - 1) * s;
   out.outline_m = {Vec2(x0, y0), Vec2(x1, y0), Vec2(x1, y1), Vec2(x0, y1)};
@@ -447,12 +452,15 @@ AxisMap parse_axes(const Json& j, const std::string& field) {
     const std::string s = j.get<std::string>();
     if (s == "z_up") return AxisMap{};
     if (s != "y_up")
-      throw InputError(field, "must be \"z_up\", \"y_up\" or three axes such as [\"x\", \"-z\", "
-                              "\"y\"] (got \"" + s + "\")");
+      throw InputError(field,
+                       "must be \"z_up\", \"y_up\" or three axes such as [\"x\", \"-z\", "
+                       "\"y\"] (got \"" +
+                           s + "\")");
     names = {"x", "-z", "y"};
   } else {
     const Json& arr = api::read_array(j, field, 3);
-    for (std::size_t k = 0; k < 3; ++k) names.push_back(api::read_string(arr[k], api::index_path(field, k)));
+    for (std::size_t k = 0; k < 3; ++k)
+      names.push_back(api::read_string(arr[k], api::index_path(field, k)));
   }
   AxisMap m;
   std::array<bool, 3> used{false, false, false};
@@ -464,8 +472,10 @@ AxisMap parse_axes(const Json& j, const std::string& field) {
       n.erase(0, 1);
     }
     if (n.size() != 1 || n[0] < 'x' || n[0] > 'z')
-      throw InputError(api::index_path(field, k), "must be one of \"x\", \"-x\", \"y\", \"-y\", "
-                                                  "\"z\", \"-z\" (got \"" + names[k] + "\")");
+      throw InputError(api::index_path(field, k),
+                       "must be one of \"x\", \"-x\", \"y\", \"-y\", "
+                       "\"z\", \"-z\" (got \"" +
+                           names[k] + "\")");
     const int from = n[0] - 'x';
     if (used[from])
       throw InputError(field, "names the file's " + n + " axis twice (each axis once)");
@@ -479,9 +489,10 @@ AxisMap parse_axes(const Json& j, const std::string& field) {
     for (int q = p + 1; q < 3; ++q) inversions += m.from[p] > m.from[q] ? 1 : 0;
   const double det = (inversions % 2 ? -1.0 : 1.0) * m.sign[0] * m.sign[1] * m.sign[2];
   if (det < 0)
-    throw InputError(field, "is a mirror (determinant -1), which would turn the terrain inside "
-                            "out: flip the sign of one axis (e.g. \"y_up\" is [\"x\", \"-z\", "
-                            "\"y\"])");
+    throw InputError(field,
+                     "is a mirror (determinant -1), which would turn the terrain inside "
+                     "out: flip the sign of one axis (e.g. \"y_up\" is [\"x\", \"-z\", "
+                     "\"y\"])");
   return m;
 }
 
@@ -511,7 +522,8 @@ OJson shape_from_mesh_file(const std::string& path, const AxisMap& axes, double 
   for (const Vec3& v : vertices) mean += v;
   mean /= static_cast<double>(vertices.size());
   OJson list = OJson::array();
-  for (const Vec3& v : vertices) list.push_back({v.x() - mean.x(), v.y() - mean.y(), v.z() - mean.z()});
+  for (const Vec3& v : vertices)
+    list.push_back({v.x() - mean.x(), v.y() - mean.y(), v.z() - mean.z()});
   OJson shape;
   shape["type"] = "polyhedron";
   shape["vertices_m"] = std::move(list);

@@ -29,15 +29,15 @@ struct AxisMap {
 AxisMap parse_axes(const nlohmann::json& j, const std::string& field);
 
 struct MeshSource {
-  std::string path;                                       // resolved
-  std::string material;                                   // the file's material
+  std::string path;                                      // resolved
+  std::string material;                                  // the file's material
   std::map<std::string, std::string> material_by_group;  // group name -> material
 };
 
 struct MeshTerrainImport {
   std::vector<MeshSource> meshes;
   AxisMap axes;
-  double weld_m = 1e-6;                 // vertices closer than this are merged
+  double weld_m = 1e-6;                  // vertices closer than this are merged
   std::optional<double> grid_spacing_m;  // resample to a grid terrain
   std::string field = "terrain";         // the import file's field, for errors
 };

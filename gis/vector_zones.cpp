@@ -41,8 +41,7 @@ OGRLayer* pick_layer(GDALDataset& ds, const ZonesImport& spec) {
                    spec.path + ": no layer \"" + spec.layer + "\" (its layers: " + names + ")");
 }
 
-std::unique_ptr<OGRCoordinateTransformation> transform_for(OGRLayer& layer,
-                                                           const ZonesImport& spec,
+std::unique_ptr<OGRCoordinateTransformation> transform_for(OGRLayer& layer, const ZonesImport& spec,
                                                            const OGRSpatialReference& site_srs,
                                                            const std::string& where) {
   if (site_srs.IsEmpty()) return nullptr;  // a site without a CRS: coordinates as they are
@@ -53,8 +52,9 @@ std::unique_ptr<OGRCoordinateTransformation> transform_for(OGRLayer& layer,
     from = *own;
     from.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
   } else {
-    throw InputError("zones.path",
-                     where + ": the layer has no coordinate reference system; give zones.source_crs");
+    throw InputError(
+        "zones.path",
+        where + ": the layer has no coordinate reference system; give zones.source_crs");
   }
   if (from.IsSame(&site_srs)) return nullptr;
   GdalErrorCapture errors;
@@ -82,7 +82,8 @@ OJson import_zones(const ZonesImport& spec, const OGRSpatialReference& site_srs,
   for (auto& feature : *layer) {
     const std::string fid = where + ": feature " + std::to_string(feature->GetFID());
     const int k = feature->GetFieldIndex(spec.material_attribute.c_str());
-    const std::string material = feature->IsFieldSetAndNotNull(k) ? feature->GetFieldAsString(k) : "";
+    const std::string material =
+        feature->IsFieldSetAndNotNull(k) ? feature->GetFieldAsString(k) : "";
     if (std::find(materials.begin(), materials.end(), material) == materials.end())
       throw InputError("zones", fid + ": material \"" + material +
                                     "\" is not a key of materials (nor \"hard\" or \"soft\")");
@@ -99,8 +100,8 @@ OJson import_zones(const ZonesImport& spec, const OGRSpatialReference& site_srs,
     } else if (type == wkbMultiPolygon) {
       for (const OGRPolygon* p : *geom->toMultiPolygon()) parts.push_back(p);
     } else {
-      throw InputError("zones", fid + ": is a " + std::string(OGRGeometryTypeToName(type)) +
-                                    ", not a polygon");
+      throw InputError(
+          "zones", fid + ": is a " + std::string(OGRGeometryTypeToName(type)) + ", not a polygon");
     }
     for (std::size_t p = 0; p < parts.size(); ++p) {
       const std::string part = parts.size() > 1 ? " (part " + std::to_string(p + 1) + ")" : "";
