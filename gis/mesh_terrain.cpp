@@ -45,16 +45,27 @@ struct Assembled {
 };
 
 // Vertices closer than `tol` share one id (the first one's position): a hash grid of cells of
-// size tol, the 27 cells around a point searched. tol = 0 merges equal positions only.
+// 4 tol, searching the neighbour cells a point is within tol of. tol = 0 merges equal positions.
 class Welder {
  public:
-  explicit Welder(double tol) : tol_(tol), inv_(tol > 0 ? 1.0 / tol : 1.0) {}
+  explicit Welder(double tol) : tol_(tol), cell_(tol > 0 ? 4 * tol : 1.0) {}
   std::uint32_t add(const Vec3& p, std::vector<Vec3>& out) {
-    const Key c = key(p);
-    for (std::int64_t dx = -1; dx <= 1; ++dx)
-      for (std::int64_t dy = -1; dy <= 1; ++dy)
-        for (std::int64_t dz = -1; dz <= 1; ++dz) {
-          const auto it = head_.find({c[0] + dx, c[1] + dy, c[2] + dz});
+    Key c{};
+    std::array<std::array<std::int64_t, 2>, 3> steps{};  // per axis: 0 and maybe -1 or +1
+    std::array<int, 3> nsteps{};
+    for (int k = 0; k < 3; ++k) {
+      const double f = std::floor(p[k] / cell_);
+      c[k] = static_cast<std::int64_t>(f);
+      const double in = p[k] - f * cell_;
+      steps[k][0] = 0;
+      nsteps[k] = 1;
+      if (in <= tol_) steps[k][nsteps[k]++] = -1;
+      if (in >= cell_ - tol_) steps[k][nsteps[k]++] = 1;
+    }
+    for (int a = 0; a < nsteps[0]; ++a)
+      for (int b = 0; b < nsteps[1]; ++b)
+        for (int d = 0; d < nsteps[2]; ++d) {
+          const auto it = head_.find({c[0] + steps[0][a], c[1] + steps[1][b], c[2] + steps[2][d]});
           if (it == head_.end()) continue;
           for (std::uint32_t v = it->second; v != kNone; v = next_[v])
             if ((out[v] - p).norm() <= tol_) return v;
@@ -69,18 +80,22 @@ class Welder {
 
  private:
   using Key = std::array<std::int64_t, 3>;
-  struct Hash {
+  struct Hash {  // splitmix64's finaliser over the three cell indices
+    static std::uint64_t mix(std::uint64_t x) {
+      x ^= x >> 30;
+      x *= 0xbf58476d1ce4e5b9ULL;
+      x ^= x >> 27;
+      x *= 0x94d049bb133111ebULL;
+      return x ^ (x >> 31);
+    }
     std::size_t operator()(const Key& k) const {
-      return static_cast<std::size_t>(k[0] * 73856093 ^ k[1] * 19349663 ^ k[2] * 83492791);
+      return static_cast<std::size_t>(
+          mix(static_cast<std::uint64_t>(k[0]) ^
+              mix(static_cast<std::uint64_t>(k[1]) ^ mix(static_cast<std::uint64_t>(k[2])))));
     }
   };
-  Key key(const Vec3& p) const {
-    return {static_cast<std::int64_t>(std::floor(p.x() * inv_)),
-            static_cast<std::int64_t>(std::floor(p.y() * inv_)),
-            static_cast<std::int64_t>(std::floor(p.z() * inv_))};
-  }
   static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
-  double tol_, inv_;
+  double tol_, cell_;
   std::unordered_map<Key, std::uint32_t, Hash> head_;
   std::vector<std::uint32_t> next_;
 };

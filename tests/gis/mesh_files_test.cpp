@@ -95,7 +95,8 @@ TEST_F(MeshFilesTest, BadFilesAreRefusedNamingTheFileAndFacet) {
             "terrain.meshes[0]: cut.stl: facet 3: truncated (the file ends inside the facet)");
   path = write_mesh(dir_ / "cut", p, MeshFormat::kPlyBinary);
   fs::resize_file(path, fs::file_size(path) - 3 * 17);
-  EXPECT_EQ(error_of(path), "terrain.meshes[0]: cut.ply: facet 1: truncated (the file ends before it)");
+  EXPECT_EQ(error_of(path),
+            "terrain.meshes[0]: cut.ply: facet 1: truncated (the file ends before it)");
   // A NaN vertex, a zero-area facet, an index out of range.
   p.vertices[2][1] = std::nan("");
   for (const MeshFormat f : {MeshFormat::kStlAscii, MeshFormat::kObj, MeshFormat::kPlyBinary}) {
@@ -106,16 +107,18 @@ TEST_F(MeshFilesTest, BadFilesAreRefusedNamingTheFileAndFacet) {
   p = pyramid();
   p.vertices[4] = {2, 0, 0};  // the apex on the base's first edge: facet 0 has no area
   path = write_mesh(dir_ / "flat", p, MeshFormat::kObj);
-  EXPECT_EQ(error_of(path), "terrain.meshes[0]: flat.obj: facet 0: zero-area facet (its vertices "
-                            "are on a line or repeated)");
+  EXPECT_EQ(error_of(path),
+            "terrain.meshes[0]: flat.obj: facet 0: zero-area facet (its vertices "
+            "are on a line or repeated)");
   p = pyramid();
   p.triangles[3][1] = 5;
   path = write_mesh(dir_ / "range", p, MeshFormat::kPlyAscii);
   EXPECT_EQ(error_of(path),
             "terrain.meshes[0]: range.ply: facet 3: vertex index 5 out of range (vertices: 5)");
   path = write_mesh(dir_ / "range", p, MeshFormat::kObj);
-  EXPECT_EQ(error_of(path), "terrain.meshes[0]: range.obj: facet 3: line 12: vertex index \"6\" "
-                            "out of range (vertices so far: 5)");
+  EXPECT_EQ(error_of(path),
+            "terrain.meshes[0]: range.obj: facet 3: line 12: vertex index \"6\" "
+            "out of range (vertices so far: 5)");
   std::ofstream(dir_ / "x.dxf") << "0\n";
   EXPECT_EQ(error_of(dir_ / "x.dxf"),
             "terrain.meshes[0]: x.dxf: unknown mesh format \".dxf\" (.stl, .obj or .ply)");

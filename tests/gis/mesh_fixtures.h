@@ -18,9 +18,9 @@ inline const std::vector<MeshFormat> kMeshFormats = {MeshFormat::kStlAscii, Mesh
                                                      MeshFormat::kPlyBinary};
 
 inline const char* extension(MeshFormat f) {
-  return f == MeshFormat::kObj ? ".obj"
+  return f == MeshFormat::kObj                                         ? ".obj"
          : (f == MeshFormat::kPlyAscii || f == MeshFormat::kPlyBinary) ? ".ply"
-                                                                        : ".stl";
+                                                                       : ".stl";
 }
 
 struct MeshFixture {
@@ -52,7 +52,8 @@ inline std::filesystem::path write_mesh(const std::filesystem::path& stem, const
       out << "solid test\n";
       for (const auto& t : m.triangles) {
         out << "facet normal 0 0 0\nouter loop\n";
-        for (const int k : t) out << "vertex " << num(v[k][0]) << " " << num(v[k][1]) << " " << num(v[k][2]) << "\n";
+        for (const int k : t)
+          out << "vertex " << num(v[k][0]) << " " << num(v[k][1]) << " " << num(v[k][2]) << "\n";
         out << "endloop\nendfacet\n";
       }
       out << "endsolid test\n";
@@ -71,7 +72,8 @@ inline std::filesystem::path write_mesh(const std::filesystem::path& stem, const
     }
     case MeshFormat::kObj:
       out << "# test mesh\n";
-      for (const auto& p : v) out << "v " << num(p[0]) << " " << num(p[1]) << " " << num(p[2]) << "\n";
+      for (const auto& p : v)
+        out << "v " << num(p[0]) << " " << num(p[1]) << " " << num(p[2]) << "\n";
       for (std::size_t t = 0; t < m.triangles.size(); ++t) {
         if (!m.group.empty() && (t == 0 || m.group[t] != m.group[t - 1]))
           out << "g g" << m.group[t] << "\n";

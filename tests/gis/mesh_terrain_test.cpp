@@ -27,11 +27,15 @@ MeshFixture pyramid() {
           {7, 7, 9, 9}};
 }
 
-double plane_z(double x, double y) { return 1 + 0.25 * x + 0.5 * y; }
+double plane_z(double x, double y) {
+  return 1 + 0.25 * x + 0.5 * y;
+}
 
 // The tilted plane z = 1 + x/4 + y/2 over [x0, x1] x [0, 4], two triangles.
 MeshFixture plane(double x0, double x1) {
-  return {{{x0, 0, plane_z(x0, 0)}, {x1, 0, plane_z(x1, 0)}, {x1, 4, plane_z(x1, 4)},
+  return {{{x0, 0, plane_z(x0, 0)},
+           {x1, 0, plane_z(x1, 0)},
+           {x1, 4, plane_z(x1, 4)},
            {x0, 4, plane_z(x0, 4)}},
           {{0, 1, 2}, {0, 2, 3}},
           {}};
@@ -75,20 +79,15 @@ class MeshTerrainTest : public ::testing::Test {
 
 TEST_F(MeshTerrainTest, APyramidLandsWhereItShouldInEveryFormatAndAxisMap) {
   const MeshFixture site = pyramid();
-  const std::vector<Json> maps = {"z_up",
-                                  "y_up",
-                                  {"y", "z", "x"},
-                                  {"-x", "-y", "z"},
-                                  {"x", "z", "-y"},
-                                  {"-z", "y", "x"}};
+  const std::vector<Json> maps = {
+      "z_up", "y_up", {"y", "z", "x"}, {"-x", "-y", "z"}, {"x", "z", "-y"}, {"-z", "y", "x"}};
   for (const Json& axes : maps) {
     const AxisMap m = parse_axes(axes, "axes");
     for (const MeshFormat f : testing::kMeshFormats) {
       const fs::path path = write_mesh(dir_ / "p", in_file_axes(site, m), f);
       SCOPED_TRACE(axes.dump() + " " + path.string());
-      const ImportedSite s =
-          import(import_file({{{"path", path.filename()}, {"material", "vegetated"}}},
-                             {{"axes", axes}}));
+      const ImportedSite s = import(
+          import_file({{{"path", path.filename()}, {"material", "vegetated"}}}, {{"axes", axes}}));
       const auto& mesh = s.site["terrain"]["mesh"];
       ASSERT_EQ(mesh["vertices_m"].size(), 5u);  // STL's 12 corners welded
       ASSERT_EQ(mesh["triangles"].size(), 4u);
@@ -111,10 +110,9 @@ TEST_F(MeshTerrainTest, MaterialsGoPerFileAndPerGroup) {
                                        {{"path", "side.stl"}, {"material", "rock"}}}));
   Json expected = {{"names", {"vegetated", "rock"}}, {"index", {0, 0, 0, 0, 1, 1}}};
   EXPECT_EQ(Json::parse(s.site["terrain"]["triangle_materials"].dump()), expected);
-  s = import(import_file({{{"path", "p.obj"},
-                           {"material", "vegetated"},
-                           {"material_by_group", {{"g9", "hard"}}}},
-                          {{"path", "side.stl"}, {"material", "rock"}}}));
+  s = import(import_file(
+      {{{"path", "p.obj"}, {"material", "vegetated"}, {"material_by_group", {{"g9", "hard"}}}},
+       {{"path", "side.stl"}, {"material", "rock"}}}));
   expected = {{"names", {"vegetated", "hard", "rock"}}, {"index", {0, 0, 1, 1, 2, 2}}};
   EXPECT_EQ(Json::parse(s.site["terrain"]["triangle_materials"].dump()), expected);
   s = import(import_file(
@@ -124,11 +122,13 @@ TEST_F(MeshTerrainTest, MaterialsGoPerFileAndPerGroup) {
 
   const Json typo = import_file(
       {{{"path", "p.obj"}, {"material", "vegetated"}, {"material_by_group", {{"g8", "rock"}}}}});
-  EXPECT_EQ(error_of(typo), "terrain.meshes[0].material_by_group.g8: p.obj has no group of that "
-                            "name (its groups: \"g7\", \"g9\")");
+  EXPECT_EQ(error_of(typo),
+            "terrain.meshes[0].material_by_group.g8: p.obj has no group of that "
+            "name (its groups: \"g7\", \"g9\")");
   const Json unknown = import_file({{{"path", "p.obj"}, {"material", "gravel"}}});
-  EXPECT_EQ(error_of(unknown), "terrain.meshes[0].material: \"gravel\" is not a key of materials "
-                               "(nor \"hard\" or \"soft\")");
+  EXPECT_EQ(error_of(unknown),
+            "terrain.meshes[0].material: \"gravel\" is not a key of materials "
+            "(nor \"hard\" or \"soft\")");
 }
 
 TEST_F(MeshTerrainTest, AMeshThatIsNoHeightSurfaceIsRefusedNamingTheFacet) {
@@ -142,7 +142,8 @@ TEST_F(MeshTerrainTest, AMeshThatIsNoHeightSurfaceIsRefusedNamingTheFacet) {
   write_mesh(dir_ / "wall", p, MeshFormat::kStlAscii);
   EXPECT_EQ(error_of(import_file({{{"path", "wall.stl"}, {"material", "rock"}}})),
             "terrain.meshes[0]: wall.stl: facet 4: vertical (its plan projection has no area; 1 "
-            "vertical facets in all)" + hint);
+            "vertical facets in all)" +
+                hint);
   p = pyramid();
   p.vertices.push_back({2, 1, 5});
   p.triangles.push_back({0, 1, 5});  // over face 0: an overhang
@@ -151,22 +152,24 @@ TEST_F(MeshTerrainTest, AMeshThatIsNoHeightSurfaceIsRefusedNamingTheFacet) {
   EXPECT_EQ(error_of(import_file({{{"path", "ok.ply"}, {"material", "rock"}},
                                   {{"path", "fold.obj"}, {"material", "rock"}}})),
             "terrain.meshes[1]: fold.obj: facet 0: overlaps facet 4 of fold.obj in plan near "
-            "(2.000, 0.667) (an overhang or a fold; 1 overlapping pairs in all)" + hint);
+            "(2.000, 0.667) (an overhang or a fold; 1 overlapping pairs in all)" +
+                hint);
   // Two files over the same ground overlap too.
   write_mesh(dir_ / "ok2", plane(12, 16), MeshFormat::kPlyAscii);
   EXPECT_EQ(error_of(import_file({{{"path", "ok.ply"}, {"material", "rock"}},
                                   {{"path", "ok2.ply"}, {"material", "rock"}}})),
             "terrain.meshes[0]: ok.ply: facet 0: overlaps facet 0 of ok2.ply in plan near "
-            "(12.667, 1.333) (an overhang or a fold; 3 overlapping pairs in all)" + hint);
+            "(12.667, 1.333) (an overhang or a fold; 3 overlapping pairs in all)" +
+                hint);
   // Welding that leaves a facet without area.
   const MeshFixture sliver = {{{0, 0, 0}, {5e-7, 0, 0}, {0, 1, 0}}, {{0, 1, 2}}, {}};
   write_mesh(dir_ / "sliver", sliver, MeshFormat::kObj);
   EXPECT_EQ(error_of(import_file({{{"path", "sliver.obj"}, {"material", "rock"}}})),
             "terrain.meshes[0]: sliver.obj: facet 0: welding (weld_m = 1e-06 m) leaves it without "
             "area (two of its vertices merge); give a smaller weld_m");
-  EXPECT_EQ(error_of(import_file({{{"path", "sliver.obj"}, {"material", "rock"}}},
-                                 {{"weld_m", 1e-8}})),
-            "<no error>");
+  EXPECT_EQ(
+      error_of(import_file({{{"path", "sliver.obj"}, {"material", "rock"}}}, {{"weld_m", 1e-8}})),
+      "<no error>");
 }
 
 TEST_F(MeshTerrainTest, TheImportFileIsChecked) {
@@ -177,8 +180,9 @@ TEST_F(MeshTerrainTest, TheImportFileIsChecked) {
             "flip the sign of one axis (e.g. \"y_up\" is [\"x\", \"-z\", \"y\"])");
   EXPECT_EQ(error_of(import_file(meshes, {{"axes", {"x", "-x", "z"}}})),
             "terrain.axes: names the file's x axis twice (each axis once)");
-  EXPECT_EQ(error_of(import_file(meshes, {{"axes", {"x", "w", "z"}}})),
-            "terrain.axes[1]: must be one of \"x\", \"-x\", \"y\", \"-y\", \"z\", \"-z\" (got \"w\")");
+  EXPECT_EQ(
+      error_of(import_file(meshes, {{"axes", {"x", "w", "z"}}})),
+      "terrain.axes[1]: must be one of \"x\", \"-x\", \"y\", \"-y\", \"z\", \"-z\" (got \"w\")");
   EXPECT_EQ(error_of(import_file(meshes, {{"path", "dem.tif"}})),
             "terrain: give either \"path\" (a raster) or \"meshes\" (mesh files), not both");
   EXPECT_EQ(error_of(import_file(meshes, {{"weld", 0}})),
@@ -209,12 +213,19 @@ TEST_F(MeshTerrainTest, AGridResampledFromATiltedPlaneIsExactAtItsNodes) {
 
 TEST_F(MeshTerrainTest, AGridTakesTheHighestSurfaceAndACliffBecomesASlope) {
   // A 5 m cliff at x = 4 (two vertical facets) and a ledge overhanging it to x = 3.
-  const MeshFixture cliff = {{{0, 0, 0}, {4, 0, 0}, {4, 4, 0}, {0, 4, 0},  // low ground
-                              {4, 0, 5}, {8, 0, 5}, {8, 4, 5}, {4, 4, 5},  // high ground
-                              {3, 0, 5}, {3, 4, 5}},                       // the ledge
-                             {{0, 1, 2}, {0, 2, 3}, {4, 5, 6}, {4, 6, 7}, {1, 4, 7}, {1, 7, 2},
-                              {8, 4, 7}, {8, 7, 9}},
-                             {}};
+  const MeshFixture cliff = {
+      {{0, 0, 0},
+       {4, 0, 0},
+       {4, 4, 0},
+       {0, 4, 0},  // low ground
+       {4, 0, 5},
+       {8, 0, 5},
+       {8, 4, 5},
+       {4, 4, 5},  // high ground
+       {3, 0, 5},
+       {3, 4, 5}},  // the ledge
+      {{0, 1, 2}, {0, 2, 3}, {4, 5, 6}, {4, 6, 7}, {1, 4, 7}, {1, 7, 2}, {8, 4, 7}, {8, 7, 9}},
+      {}};
   write_mesh(dir_ / "cliff", cliff, MeshFormat::kObj);
   const Json meshes = {{{"path", "cliff.obj"}, {"material", "rock"}}};
   EXPECT_NE(error_of(import_file(meshes)).find("facet 4: vertical"), std::string::npos);
