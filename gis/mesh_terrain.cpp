@@ -261,7 +261,12 @@ std::array<Vec2, 3> plan(const Assembled& a, std::uint32_t t) {
 
 // Whether two plan triangles' interiors overlap (more than 1e-9 of their size: triangles that
 // share an edge or a vertex only touch). Separating axes: the six edge normals.
-bool interiors_overlap(const std::array<Vec2, 3>& p, const std::array<Vec2, 3>& q) {
+bool interiors_overlap(std::array<Vec2, 3> p, std::array<Vec2, 3> q) {
+  const Vec2 o = p[0];  // relative to a vertex: projections of CRS-sized coordinates keep digits
+  for (int k = 0; k < 3; ++k) {
+    p[k] -= o;
+    q[k] -= o;
+  }
   double size = 0;
   for (int k = 0; k < 3; ++k)
     size = std::max({size, (p[(k + 1) % 3] - p[k]).norm(), (q[(k + 1) % 3] - q[k]).norm()});

@@ -245,5 +245,27 @@ TEST_F(MeshTerrainTest, AGridTakesTheHighestSurfaceAndACliffBecomesASlope) {
             "cover whole");
 }
 
+TEST_F(MeshTerrainTest, AFineSurfaceInCrsCoordinatesIsAHeightSurface) {
+  // 60 x 60 cells of 0.37 m at UTM-sized coordinates, rough: no shared edge or vertex may be
+  // taken for an overlap. 7,200 triangles.
+  MeshFixture m;
+  const int n = 61;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      m.vertices.push_back({452000.13 + 0.37 * i, 3839000.71 + 0.37 * j,
+                            400 + 0.3 * std::sin(1.7 * i) + 0.2 * std::cos(2.3 * j)});
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i) {
+      const int v = j * n + i;
+      m.triangles.push_back({v, v + 1, v + n + 1});
+      m.triangles.push_back({v, v + n + 1, v + n});
+    }
+  write_mesh(dir_ / "utm", in_file_axes(m, parse_axes("y_up", "axes")), MeshFormat::kPlyBinary);
+  const ImportedSite s =
+      import(import_file({{{"path", "utm.ply"}, {"material", "rock"}}}, {{"axes", "y_up"}}));
+  EXPECT_EQ(s.site["terrain"]["mesh"]["triangles"].size(), 7200u);
+  EXPECT_EQ(s.site["terrain"]["mesh"]["vertices_m"].size(), 3721u);
+}
+
 }  // namespace
 }  // namespace fragsim::gis
