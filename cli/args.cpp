@@ -150,6 +150,7 @@ bool take_file_command_option(const std::vector<std::string>& args, std::size_t&
     o.pixel_m = x;
     return true;
   }
+  if (o.command == Command::kShapeImport) return take_nonempty(args, k, "--axes", "axes", o.axes);
   return take_nonempty(args, k, "--out", "file name", o.out);
 }
 
@@ -175,6 +176,7 @@ void take_argument(const std::vector<std::string>& args, std::size_t& k, Options
     case Command::kExport:
     case Command::kSiteImport:
     case Command::kSiteExportGis:
+    case Command::kShapeImport:
       if (take_file_command_option(args, k, o)) return;
       break;
     default: break;
@@ -201,6 +203,12 @@ std::size_t parse_command(const std::vector<std::string>& args, Options& o) {
     o.command = args[1] == "import" ? Command::kSiteImport : Command::kSiteExportGis;
     return 2;
   }
+  if (first == "shape") {
+    if (args.size() < 2 || args[1] != "import")
+      throw UsageError("shape: expected \"shape import FILE [--axes y_up]\"");
+    o.command = Command::kShapeImport;
+    return 2;
+  }
   const auto it = commands.find(first);
   if (it == commands.end()) throw UsageError("unknown command \"" + first + "\"");
   o.command = it->second;
@@ -221,6 +229,9 @@ void check_complete(const Options& o) {
     case Command::kSiteImport:
       if (o.scenario.empty()) throw UsageError("site import: missing IMPORT.json");
       if (o.out.empty()) throw UsageError("site import needs --out SITE.json");
+      return;
+    case Command::kShapeImport:
+      if (o.scenario.empty()) throw UsageError("shape import: missing FILE (.stl, .obj, .ply)");
       return;
     default: break;
   }
@@ -261,6 +272,7 @@ Usage:
   fragsim validate SCENARIO.json
   fragsim site import IMPORT.json --out SITE.json
   fragsim site export-gis SITE.json --out DIR
+  fragsim shape import FILE [--axes z_up|y_up|x,-z,y]
   fragsim export RESULTS.h5 --out DIR [--pixel-m X]
   fragsim submit SCENARIO.json [--server URL] [--token-file FILE] [--priority N]
                  [--idempotency-key KEY] [--no-wait] [--out DIR [--maps]] [--quiet]
@@ -276,12 +288,19 @@ Commands:
   validate   Check the scenario (JSON contract and site geometry) without running it.
   site import
              Build a site from GIS files (docs/gis.md): a DEM raster (GeoTIFF, DTED, ASCII
-             grid, ...) and building footprints (GeoPackage, shapefile, GeoJSON, ...) named in
-             IMPORT.json, in a projected CRS. SITE.json is a site object as a scenario's "site"
-             and POST /v1/sites take it; it is checked (and built) before it is written.
+             grid, ...) or triangle-mesh terrain (STL, OBJ, PLY; a material per file or per
+             group), building footprints (GeoPackage, shapefile, GeoJSON, ...) and material
+             zones named in IMPORT.json, in a projected CRS. SITE.json is a site object as a
+             scenario's "site" and POST /v1/sites take it; it is checked (and built) before it
+             is written.
   site export-gis
              The inverse: a site (or a scenario's inline site) with a grid terrain and a CRS as
              DIR/terrain.tif, DIR/buildings.gpkg and DIR/import.json (which imports them back).
+  shape import
+             Print a scenario fragment "shape" from a mesh file (STL, OBJ, PLY; docs/gis.md):
+             {"type": "polyhedron", "vertices_m": [...]}, the file's distinct vertices in the
+             scenario's axes (--axes: z_up, the default; y_up for a y-up file, = x,-z,y; or
+             three of x,-x,y,-y,z,-z), centred on their mean. Fragsim uses their convex hull.
   export     Write a run's results as GIS files into DIR (docs/gis.md): the PTN density as
              GeoTIFF (and in classes with a colour table), the hazardous area, buildings and
              HFD as GeoPackage, GeoJSON (RFC 7946) and KML, in the site's CRS / WGS 84.

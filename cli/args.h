@@ -22,6 +22,7 @@ enum class Command {
   kSubmit,
   kSiteImport,
   kSiteExportGis,
+  kShapeImport,
   kExport,
   kMerge
 };
@@ -50,6 +51,8 @@ struct Options {
   bool maps = false;  // with --out: also download the job's GIS maps into DIR/maps
   // export (RESULTS.h5 in `scenario`, DIR in `out`)
   std::optional<double> pixel_m;
+  // shape import (FILE in `scenario`): --axes z_up | y_up | x,-z,y
+  std::string axes = "z_up";
 };
 
 Options parse_args(const std::vector<std::string>& args);  // args without argv[0]

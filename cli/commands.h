@@ -49,6 +49,8 @@ int write_outputs(const Options& options, const PreparedRun& prepared, run::RunR
 int site_import_command(const Options& options);
 // `fragsim site export-gis`: a site document to GIS files (gis/site_to_gis.h).
 int site_export_gis_command(const Options& options);
+// `fragsim shape import FILE --axes y_up`: a mesh file's vertices as a scenario shape.
+int shape_import_command(const Options& options);
 // `fragsim export`: results.h5 to GIS files (gis/results_export.h).
 int export_command(const Options& options);
 // `cancel` is set by the SIGINT/SIGTERM handler.

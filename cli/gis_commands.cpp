@@ -59,12 +59,25 @@ int site_import_command(const Options& o) {
   const auto site = check_site(imported.site, o.scenario);
   write_atomically(o.out, imported.site.dump());
   const auto& t = imported.terrain;
-  std::cout << "ok: " << o.out << "\n"
-            << "  CRS: " << imported.site["origin"]["crs"].get<std::string>() << " ("
-            << gis::crs_label(t.srs) << ")\n"
-            << "  terrain: " << (t.as_grid ? "grid " : "mesh ") << t.nx << " x " << t.ny
-            << " vertices, " << site->terrain_triangle_count() << " triangles";
-  if (t.filled_cells > 0) std::cout << ", " << t.filled_cells << " nodata cells filled";
+  std::cout << "ok: " << o.out << "\n  CRS: ";
+  if (t.srs.IsEmpty()) {
+    std::cout << "none (local metres)\n";
+  } else {
+    std::cout << imported.site["origin"]["crs"].get<std::string>() << " (" << gis::crs_label(t.srs)
+              << ")\n";
+  }
+  if (const auto& m = imported.mesh) {
+    std::cout << "  terrain: " << spec.mesh_terrain->meshes.size() << " mesh files, "
+              << m->file_facets << " facets -> ";
+    if (m->nx > 0) std::cout << "grid " << m->nx << " x " << m->ny << " nodes, ";
+    if (m->nx == 0) std::cout << "mesh of " << m->vertices << " vertices, ";
+    std::cout << site->terrain_triangle_count() << " triangles";
+  } else {
+    std::cout << "  terrain: " << (t.as_grid ? "grid " : "mesh ") << t.nx << " x " << t.ny
+              << " vertices, " << site->terrain_triangle_count() << " triangles";
+    if (t.filled_cells > 0) std::cout << ", " << t.filled_cells << " nodata cells filled";
+  }
+  if (spec.zones) std::cout << "\n  zones: " << imported.zones;
   std::cout << "\n  buildings: " << imported.buildings << "\n";
   return kExitOk;
 }
@@ -80,6 +93,21 @@ int site_export_gis_command(const Options& o) {
   std::cout << "ok: " << o.out << "\n";
   for (const auto& f : r.files) std::cout << "  " << (fs::path(o.out) / f).string() << "\n";
   for (const auto& n : r.notes) std::cout << "note: " << n << "\n";
+  return kExitOk;
+}
+
+int shape_import_command(const Options& o) {
+  std::string axes = o.axes;
+  nlohmann::json j = axes;
+  if (axes.find(',') != std::string::npos) {  // "x,-z,y"
+    j = nlohmann::json::array();
+    for (std::size_t b = 0, e = 0; e != std::string::npos; b = e + 1) {
+      e = axes.find(',', b);
+      j.push_back(axes.substr(b, e == std::string::npos ? e : e - b));
+    }
+  }
+  const gis::AxisMap map = gis::parse_axes(j, "--axes");
+  std::cout << gis::shape_from_mesh_file(o.scenario, map, 1e-6).dump() << "\n";
   return kExitOk;
 }
 

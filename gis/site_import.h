@@ -8,14 +8,19 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "gis/mesh_terrain.h"
 #include "gis/raster_terrain.h"
 #include "gis/vector_buildings.h"
+#include "gis/vector_zones.h"
 
 namespace fragsim::gis {
 
 struct SiteImport {
-  TerrainImport terrain;
+  TerrainImport terrain;                          // a raster (when mesh_terrain is not set)
+  std::optional<MeshTerrainImport> mesh_terrain;  // terrain.meshes: mesh files
+  std::string mesh_crs;  // terrain.crs of the meshes form: the CRS of their mapped coordinates
   std::optional<BuildingsImport> buildings;
+  std::optional<ZonesImport> zones;
   nlohmann::json materials = nlohmann::json::object();  // copied into site.materials
   double origin_elevation_m = 0.0;  // site.origin.elevation_m: altitude of z = 0
 };
@@ -26,8 +31,9 @@ SiteImport parse_site_import(const nlohmann::json& j, const std::filesystem::pat
 
 struct ImportedSite {
   nlohmann::ordered_json site;  // the site object
-  ImportedTerrain terrain;      // (its terrain JSON moved into `site`)
-  std::size_t buildings = 0;
+  ImportedTerrain terrain;      // (its terrain JSON moved into `site`); srs also for meshes
+  std::optional<ImportedMeshTerrain> mesh;  // the meshes form (its JSON moved into `site`)
+  std::size_t buildings = 0, zones = 0;
 };
 
 // Reads the files and assembles the site; coordinates are the CRS's own (site.origin's easting

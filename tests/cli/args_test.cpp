@@ -93,6 +93,14 @@ TEST(Args, FileCommandsNeedTheirInputAndOut) {
   EXPECT_EQ(usage_error({"site", "export-gis"}), "site export-gis: missing SITE.json");
   EXPECT_NE(usage_error({"site", "frobnicate"}).find("site: expected"), std::string::npos);
   EXPECT_EQ(usage_error({"site", "import", "i.json", "--out", ""}), "--out: empty file name");
+  o = parse_args({"shape", "import", "rock.stl", "--axes", "y_up"});
+  EXPECT_EQ(o.command, Command::kShapeImport);
+  EXPECT_EQ(o.scenario, "rock.stl");
+  EXPECT_EQ(o.axes, "y_up");
+  EXPECT_EQ(parse_args({"shape", "import", "rock.ply"}).axes, "z_up");
+  EXPECT_EQ(usage_error({"shape", "import"}), "shape import: missing FILE (.stl, .obj, .ply)");
+  EXPECT_EQ(usage_error({"shape", "import", "r.stl", "--out", "x"}), "unknown option \"--out\"");
+  EXPECT_NE(usage_error({"shape", "export"}).find("shape: expected"), std::string::npos);
 }
 
 TEST(Args, HelpAndVersionWinAndEveryMistakeIsNamed) {

@@ -10,6 +10,7 @@
 #include "api/test_support.h"
 #include "cli/cli_process.h"
 #include "gis/gis_fixtures.h"
+#include "gis/mesh_fixtures.h"
 
 namespace {
 
@@ -99,6 +100,45 @@ TEST_F(SiteImportCli, BadGisInputExits2NamingTheFileAndWritesNothing) {
   r = run({"site", "import", (dir_ / "import.json").string()});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("site import needs --out SITE.json"), std::string::npos);
+}
+
+TEST_F(SiteImportCli, AMeshThatIsNoHeightSurfaceExits2NamingTheFacetAndWritesNothing) {
+  using fragsim::gis::testing::MeshFixture;
+  // A y-up pyramid (file y = elevation) with a vertical facet added (facet 4).
+  const MeshFixture wall = {{{0, 0, 0}, {4, 0, 0}, {4, 0, -4}, {0, 0, -4}, {2, 3, -2}, {4, 2, -4}},
+                            {{0, 1, 4}, {1, 2, 4}, {2, 3, 4}, {3, 0, 4}, {1, 2, 5}},
+                            {}};
+  fragsim::gis::testing::write_mesh(dir_ / "wall", wall,
+                                    fragsim::gis::testing::MeshFormat::kStlBinary);
+  const Result r = import(R"({"schema": "fragsim.site_import/1",
+      "terrain": {"meshes": [{"path": "wall.stl", "material": "soft"}], "axes": "y_up"}})");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err.rfind("error: terrain.meshes[0]: wall.stl: facet 4: vertical", 0), 0u) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "site.json"));
+}
+
+TEST_F(SiteImportCli, ShapeImportPrintsAPolyhedronCentredOnItsVertices) {
+  using fragsim::gis::testing::MeshFixture;
+  // A y-up tetrahedron: site (x, y, z) = file (x, -z, y).
+  const MeshFixture tet = {{{0, 0, 0}, {2, 0, 0}, {0, 4, 0}, {0, 0, -6}},
+                           {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}},
+                           {}};
+  const fs::path path = fragsim::gis::testing::write_mesh(
+      dir_ / "tet", tet, fragsim::gis::testing::MeshFormat::kStlAscii);
+  const Result r = run({"shape", "import", path.string(), "--axes", "y_up"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Json shape = Json::parse(r.out);
+  EXPECT_EQ(shape["type"], "polyhedron");
+  ASSERT_EQ(shape["vertices_m"].size(), 4u);  // 12 STL corners, 4 distinct
+  // Mean of the site vertices (0,0,0), (2,0,0), (0,0,4), (0,6,0): (0.5, 1.5, 1).
+  const std::vector<std::array<double, 3>> expected = {
+      {-0.5, -1.5, -1}, {-0.5, -1.5, 3}, {1.5, -1.5, -1}, {-0.5, 4.5, -1}};  // first seen first
+  for (std::size_t v = 0; v < 4; ++v)
+    for (std::size_t c = 0; c < 3; ++c)
+      EXPECT_NEAR(shape["vertices_m"][v][c].get<double>(), expected[v][c], 1e-12);
+  const Result mirror = run({"shape", "import", path.string(), "--axes", "y,x,z"});
+  EXPECT_EQ(mirror.exit_code, 2);
+  EXPECT_NE(mirror.err.find("--axes: is a mirror"), std::string::npos) << mirror.err;
 }
 
 }  // namespace
