@@ -72,6 +72,9 @@ int site_import_command(const Options& o) {
     if (m->nx > 0) std::cout << "grid " << m->nx << " x " << m->ny << " nodes, ";
     if (m->nx == 0) std::cout << "mesh of " << m->vertices << " vertices, ";
     std::cout << site->terrain_triangle_count() << " triangles";
+    if (m->uncovered_nodes > 0)
+      std::cout << " (resampled: " << m->uncovered_nodes
+                << " lattice nodes outside the meshes dropped with their cells)";
   } else {
     std::cout << "  terrain: " << (t.as_grid ? "grid " : "mesh ") << t.nx << " x " << t.ny
               << " vertices, " << site->terrain_triangle_count() << " triangles";

@@ -371,13 +371,20 @@ OJson names_json(const std::vector<std::string>& names) {
   return j;
 }
 
-// The grid of the highest surface: nodes at multiples of s inside the meshes' plan box.
-ImportedMeshTerrain resample(const MeshTerrainImport& spec, const Assembled& a) {
+// A lattice of nx x ny nodes, spacing s from (x0, y0): node (i, j) at k = j nx + i.
+struct Lattice {
+  int nx = 0, ny = 0;
+  double x0 = 0, y0 = 0, s = 0;
+  std::vector<double> z;           // the highest surface at each node
+  std::vector<std::uint32_t> top;  // the facet it is on (valid where covered)
+  std::vector<char> covered;       // some facet above the node
+  std::size_t missing = 0, first_missing = 0;
+};
+
+// The highest surface at every node of the lattice over the facets' plan box.
+Lattice sample_lattice(const MeshTerrainImport& spec, const Assembled& a, const PlanIndex& index,
+                       const std::vector<std::uint32_t>& members) {
   const double s = *spec.grid_spacing_m;
-  std::vector<std::uint32_t> members;
-  for (std::uint32_t t = 0; t < a.triangles.size(); ++t)
-    if (!is_vertical(a, t)) members.push_back(t);
-  const PlanIndex index(a.vertices, a.triangles, members);
   Vec2 lo(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
   Vec2 hi = -lo;
   for (const auto t : members)
@@ -385,57 +392,126 @@ ImportedMeshTerrain resample(const MeshTerrainImport& spec, const Assembled& a) 
       lo = lo.cwiseMin(a.vertices[v].head<2>());
       hi = hi.cwiseMax(a.vertices[v].head<2>());
     }
-  const double x0 = std::ceil(lo.x() / s - 1e-9) * s, y0 = std::ceil(lo.y() / s - 1e-9) * s;
-  const int nx = static_cast<int>(std::floor((hi.x() - x0) / s + 1e-9)) + 1;
-  const int ny = static_cast<int>(std::floor((hi.y() - y0) / s + 1e-9)) + 1;
+  Lattice l;
+  l.s = s;
+  l.x0 = std::ceil(lo.x() / s - 1e-9) * s;
+  l.y0 = std::ceil(lo.y() / s - 1e-9) * s;
+  l.nx = static_cast<int>(std::floor((hi.x() - l.x0) / s + 1e-9)) + 1;
+  l.ny = static_cast<int>(std::floor((hi.y() - l.y0) / s + 1e-9)) + 1;
   const std::string field = spec.field + ".grid_spacing_m";
-  if (nx < 2 || ny < 2)
+  if (l.nx < 2 || l.ny < 2)
     throw InputError(field, "gives fewer than 2 x 2 nodes over the meshes' plan extent");
-  if (static_cast<double>(nx) * ny > 4e8)
-    throw InputError(field, "gives " + api::format_number(static_cast<double>(nx) * ny) +
+  if (static_cast<double>(l.nx) * l.ny > 4e8)
+    throw InputError(field, "gives " + api::format_number(static_cast<double>(l.nx) * l.ny) +
                                 " nodes: too fine for the meshes' extent");
-  std::vector<double> z(static_cast<std::size_t>(nx) * ny);
-  std::vector<std::uint32_t> node_tri(z.size());
-  std::size_t missing = 0, first = 0;
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) {
-      const std::size_t k = static_cast<std::size_t>(j) * nx + i;
-      const auto h = highest_at(index, a, x0 + i * s, y0 + j * s);
-      if (!h && missing++ == 0) first = k;
-      if (h) std::tie(z[k], node_tri[k]) = *h;
+  const std::size_t n = static_cast<std::size_t>(l.nx) * l.ny;
+  l.z.assign(n, 0.0);
+  l.top.assign(n, 0);
+  l.covered.assign(n, 0);
+  for (int j = 0; j < l.ny; ++j)
+    for (int i = 0; i < l.nx; ++i) {
+      const std::size_t k = static_cast<std::size_t>(j) * l.nx + i;
+      const auto h = highest_at(index, a, l.x0 + i * s, l.y0 + j * s);
+      if (!h && l.missing++ == 0) l.first_missing = k;
+      if (h) std::tie(l.z[k], l.top[k]) = *h;
+      l.covered[k] = h ? 1 : 0;
     }
-  if (missing > 0)
-    throw InputError(field, std::to_string(missing) + " of " + std::to_string(z.size()) +
-                                " grid nodes have no mesh above them (the first at " +
-                                xy_text(x0 + static_cast<double>(first % nx) * s,
-                                        y0 + static_cast<double>(first / nx) * s) +
-                                "): the grid spans the meshes' plan bounding box, which they "
-                                "do not cover whole");
-  std::vector<std::uint32_t> mat(2 * static_cast<std::size_t>(nx - 1) * (ny - 1));
-  for (int j = 0; j + 1 < ny; ++j)
-    for (int i = 0; i + 1 < nx; ++i) {
-      const std::size_t k = static_cast<std::size_t>(j) * (nx - 1) + i;
-      const double x = x0 + i * s, y = y0 + j * s;
+  return l;
+}
+
+// The material of each lattice triangle: the facet highest under its centroid (or under the
+// cell's first node when none is).
+std::vector<std::uint32_t> lattice_materials(const Assembled& a, const PlanIndex& index,
+                                             const Lattice& l) {
+  std::vector<std::uint32_t> mat(2 * static_cast<std::size_t>(l.nx - 1) * (l.ny - 1));
+  for (int j = 0; j + 1 < l.ny; ++j)
+    for (int i = 0; i + 1 < l.nx; ++i) {
+      const std::size_t k = static_cast<std::size_t>(j) * (l.nx - 1) + i;
+      const double x = l.x0 + i * l.s, y = l.y0 + j * l.s;
       // Cell k: triangle 2k = (v00, v10, v11), 2k + 1 = (v00, v11, v01) (terrain_builder.cpp).
-      const std::array<Vec2, 2> centroid{Vec2(x + 2 * s / 3, y + s / 3),
-                                         Vec2(x + s / 3, y + 2 * s / 3)};
+      const std::array<Vec2, 2> centroid{Vec2(x + 2 * l.s / 3, y + l.s / 3),
+                                         Vec2(x + l.s / 3, y + 2 * l.s / 3)};
       for (int h = 0; h < 2; ++h) {
         const auto top = highest_at(index, a, centroid[h].x(), centroid[h].y());
-        const std::uint32_t t = top ? top->second : node_tri[static_cast<std::size_t>(j) * nx + i];
+        const std::uint32_t t = top ? top->second : l.top[static_cast<std::size_t>(j) * l.nx + i];
         mat[2 * k + h] = a.material[t];
       }
     }
+  return mat;
+}
+
+// The lattice's cells whose four corners are covered, as a mesh terrain (the used nodes, the
+// cells' two triangles in the lattice's order) and the kept triangles' materials.
+std::pair<OJson, std::vector<std::uint32_t>> covered_mesh(const Lattice& l,
+                                                          const std::vector<std::uint32_t>& mat) {
+  std::vector<std::int64_t> id(l.z.size(), -1);
+  OJson vertices = OJson::array(), triangles = OJson::array();
+  std::vector<std::uint32_t> kept;
+  const auto node = [&](int i, int j) {
+    const std::size_t k = static_cast<std::size_t>(j) * l.nx + i;
+    if (id[k] < 0) {
+      id[k] = static_cast<std::int64_t>(vertices.size());
+      vertices.push_back({l.x0 + i * l.s, l.y0 + j * l.s, l.z[k]});
+    }
+    return id[k];
+  };
+  for (int j = 0; j + 1 < l.ny; ++j)
+    for (int i = 0; i + 1 < l.nx; ++i) {
+      const auto c = [&](int di, int dj) {
+        return l.covered[static_cast<std::size_t>(j + dj) * l.nx + i + di] != 0;
+      };
+      if (!(c(0, 0) && c(1, 0) && c(0, 1) && c(1, 1))) continue;
+      const auto v00 = node(i, j), v10 = node(i + 1, j), v11 = node(i + 1, j + 1),
+                 v01 = node(i, j + 1);
+      const std::size_t k = static_cast<std::size_t>(j) * (l.nx - 1) + i;
+      triangles.push_back({v00, v10, v11});
+      triangles.push_back({v00, v11, v01});
+      kept.push_back(mat[2 * k]);
+      kept.push_back(mat[2 * k + 1]);
+    }
+  OJson mesh = {{"vertices_m", std::move(vertices)}, {"triangles", std::move(triangles)}};
+  return {std::move(mesh), std::move(kept)};
+}
+
+// Resampled to the lattice of the highest surface: a grid terrain when the facets cover their
+// plan box, else (a survey's outline) a mesh of the lattice cells with all four corners covered,
+// whose boundary follows the covered area.
+ImportedMeshTerrain resample(const MeshTerrainImport& spec, const Assembled& a) {
+  std::vector<std::uint32_t> members;
+  for (std::uint32_t t = 0; t < a.triangles.size(); ++t)
+    if (!is_vertical(a, t)) members.push_back(t);
+  const PlanIndex index(a.vertices, a.triangles, members);
+  const Lattice l = sample_lattice(spec, a, index, members);
+  const std::vector<std::uint32_t> mat = lattice_materials(a, index, l);
   ImportedMeshTerrain out;
-  out.nx = nx;
-  out.ny = ny;
-  out.vertices = z.size();
-  out.triangles = mat.size();
   out.terrain["material"] = a.names[0];
-  out.terrain["grid"] = {
-      {"origin_m", {x0, y0}}, {"spacing_m", s}, {"nx", nx}, {"ny", ny}, {"elevation_m", z}};
-  out.terrain["triangle_materials"] = {{"names", names_json(a.names)}, {"index", mat}};
-  const double x1 = x0 + (nx - 1) * s, y1 = y0 + (ny - 1) * s;
-  out.outline_m = {Vec2(x0, y0), Vec2(x1, y0), Vec2(x1, y1), Vec2(x0, y1)};
+  const double x1 = l.x0 + (l.nx - 1) * l.s, y1 = l.y0 + (l.ny - 1) * l.s;
+  out.outline_m = {Vec2(l.x0, l.y0), Vec2(x1, l.y0), Vec2(x1, y1), Vec2(l.x0, y1)};
+  out.uncovered_nodes = l.missing;
+  if (l.missing == 0) {
+    out.nx = l.nx;
+    out.ny = l.ny;
+    out.vertices = l.z.size();
+    out.triangles = mat.size();
+    out.terrain["grid"] = {{"origin_m", {l.x0, l.y0}},
+                           {"spacing_m", l.s},
+                           {"nx", l.nx},
+                           {"ny", l.ny},
+                           {"elevation_m", l.z}};
+    out.terrain["triangle_materials"] = {{"names", names_json(a.names)}, {"index", mat}};
+    return out;
+  }
+  auto [mesh, kept] = covered_mesh(l, mat);
+  out.vertices = mesh["vertices_m"].size();
+  out.triangles = kept.size();
+  if (out.triangles == 0)
+    throw InputError(spec.field + ".grid_spacing_m",
+                     "no grid cell has mesh above all four corners (the first uncovered node at " +
+                         xy_text(l.x0 + static_cast<double>(l.first_missing % l.nx) * l.s,
+                                 l.y0 + static_cast<double>(l.first_missing / l.nx) * l.s) +
+                         ")");
+  out.terrain["mesh"] = std::move(mesh);
+  out.terrain["triangle_materials"] = {{"names", names_json(a.names)}, {"index", kept}};
   return out;
 }
 

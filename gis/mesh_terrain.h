@@ -49,12 +49,15 @@ struct ImportedMeshTerrain {
   std::size_t file_facets = 0;  // facets read (triangles, after splitting polygons)
   std::size_t vertices = 0, triangles = 0;
   int nx = 0, ny = 0;  // a grid's nodes (0 for a mesh)
+  // Resampled: lattice nodes with no facet above them (outside the survey's outline). Not 0: the
+  // terrain is a mesh of the lattice cells whose four corners are covered, not a grid.
+  std::size_t uncovered_nodes = 0;
 };
 
 // Reads, maps and welds the files and checks the result, before anything is written: a mesh
-// must be a height surface (no vertical facet, no two facets overlapping in plan), a grid must
-// have mesh above every node. InputError("<field>.meshes[i]", "<file>: facet k: ...") naming the
-// file and its facet (0-based).
+// must be a height surface (no vertical facet, no two facets overlapping in plan); resampled,
+// the cells whose four corners have mesh above them are kept (all: a grid).
+// InputError("<field>.meshes[i]", "<file>: facet k: ...") naming the file and its facet (0-based).
 ImportedMeshTerrain import_mesh_terrain(const MeshTerrainImport& spec);
 
 // A scenario shape {"type": "polyhedron", "vertices_m": [...]}: the file's distinct vertices

@@ -235,14 +235,26 @@ TEST_F(MeshTerrainTest, AGridTakesTheHighestSurfaceAndACliffBecomesASlope) {
   for (int i = 0; i < 17; ++i)  // under the ledge (x >= 3) the ledge's top, 5 m
     EXPECT_EQ(g["elevation_m"][17 * 4 + i].get<double>(), i >= 6 ? 5.0 : 0.0) << i;
 
-  // Nodes with no mesh above them are refused.
-  const MeshFixture half = {{{0, 0, 0}, {4, 0, 0}, {4, 4, 0}}, {{0, 1, 2}}, {}};
+  // A mesh that does not cover its plan box (a survey's outline): the lattice cells with all
+  // four corners covered, as a mesh terrain. The right triangle (0,0)-(4,0)-(4,4) at 1 m covers
+  // the nodes with y <= x: the cells below the diagonal, (i, j) with j < i, 6 cells.
+  const MeshFixture half = {{{0, 0, 0}, {4, 0, 0}, {4, 4, 4}}, {{0, 1, 2}}, {}};
   write_mesh(dir_ / "half", half, MeshFormat::kObj);
-  EXPECT_EQ(error_of(import_file({{{"path", "half.obj"}, {"material", "rock"}}},
-                                 {{"grid_spacing_m", 1}})),
-            "terrain.grid_spacing_m: 10 of 25 grid nodes have no mesh above them (the first at "
-            "(0.000, 1.000)): the grid spans the meshes' plan bounding box, which they do not "
-            "cover whole");
+  const ImportedSite h =
+      import(import_file({{{"path", "half.obj"}, {"material", "rock"}}}, {{"grid_spacing_m", 1}}));
+  ASSERT_FALSE(h.site["terrain"].contains("grid"));
+  const auto& m = h.site["terrain"]["mesh"];
+  EXPECT_EQ(m["triangles"].size(), 12u);
+  EXPECT_EQ(h.site["terrain"]["triangle_materials"]["index"].size(), 12u);
+  for (const auto& v : m["vertices_m"]) {  // nodes on the plane z = y, all covered
+    EXPECT_LE(v[1].get<double>(), v[0].get<double>());
+    EXPECT_EQ(v[2].get<double>(), v[1].get<double>());
+  }
+  // Too coarse to keep a cell: refused.
+  EXPECT_NE(
+      error_of(import_file({{{"path", "half.obj"}, {"material", "rock"}}}, {{"grid_spacing_m", 3}}))
+          .find("terrain.grid_spacing_m: no grid cell has mesh above all four corners"),
+      std::string::npos);
 }
 
 TEST_F(MeshTerrainTest, AFineSurfaceInCrsCoordinatesIsAHeightSurface) {
