@@ -184,20 +184,37 @@ namespace {
 // 1 - cos of the largest tilt taken as lying flat already (toppled_attitude).
 constexpr double kFlatCos = 1e-15;
 
-// The outward normal of the hull face the ray from the centre along db leaves through: the least
-// t = offset_f / (n_f . db) (scale-free), ties to the lower face (smaller offset).
-Vec3 polyhedron_resting_normal(const Polyhedron& p, const Vec3& db) {
+// The hull face the ray from the centre along unit d leaves through: the least
+// t = offset_f / (n_f . d) (scale-free), ties to the lower face (smaller offset).
+std::size_t polyhedron_exit_face(const Polyhedron& p, const Vec3& d, double& t_exit) {
   const auto& normals = p.normals();
   const auto& offsets = p.offsets();
   std::size_t best = normals.size();
-  double best_t = std::numeric_limits<double>::infinity();
+  t_exit = std::numeric_limits<double>::infinity();
   for (std::size_t f = 0; f < normals.size(); ++f) {
-    const double c = normals[f].dot(db);
+    const double c = normals[f].dot(d);
     if (!(c > 0.0)) continue;
     const double t = offsets[f] / c;
-    if (t < best_t || (t == best_t && offsets[f] < offsets[best])) best_t = t, best = f;
+    if (t < t_exit || (t == t_exit && offsets[f] < offsets[best])) t_exit = t, best = f;
   }
-  return best < normals.size() ? normals[best] : db;
+  return best;
+}
+
+// The face a polyhedron comes to rest on: the face the line from the centre along db leaves
+// through; lying on it, the centre may stand outside it (unlike a cuboid's), and then it falls on
+// to the face the line along that face's normal leaves through, until the line leaves through the
+// face it lies on (or one coplanar with it, within 1e-12). Each fall lowers the centre (from
+// offset_f to offset_g < t_g <= offset_f), so this ends, at most once per face.
+Vec3 polyhedron_resting_normal(const Polyhedron& p, const Vec3& db) {
+  double t = 0.0;
+  std::size_t f = polyhedron_exit_face(p, db, t);
+  if (f == p.normals().size()) return db;
+  for (std::size_t k = 0; k < p.normals().size(); ++k) {
+    const std::size_t g = polyhedron_exit_face(p, p.normals()[f], t);
+    if (g == p.normals().size() || g == f || t >= p.offsets()[f] * (1.0 - 1e-12)) break;
+    f = g;
+  }
+  return p.normals()[f];
 }
 
 // The unit direction, in body axes, that is to point along -n once the body has toppled: the

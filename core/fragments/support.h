@@ -56,8 +56,9 @@ Vec3 contact_point(const ContactBody& b, const Quat& q, const Vec3& n, double fl
 // balanced exactly on an edge falls flat); for a cylinder an end disk when |d_z| / (L/2) >
 // sqrt(1 - d_z^2) / R, else its side (the axis made perpendicular to n). An ellipsoid rests only
 // on the ends of its shortest axis (or, with two shortest, on the circle they span). A polyhedron
-// rests on the hull face the line leaves through (the least offset_f / (n_f . d) over the faces
-// with n_f . d > 0, ties to the lower face). A sphere, and
+// tips onto the hull face the line leaves through (the least offset_f / (n_f . d) over the faces
+// with n_f . d > 0, ties to the lower face) and, while its centre does not stand over the face it
+// lies on, on again the same way (the centre drops each time), to a stable face. A sphere, and
 // a body whose face is already flat (tilted less than ~5e-8 rad), keeps q exactly.
 Quat toppled_attitude(const ContactBody& b, const Quat& q, const Vec3& n);
 

@@ -68,8 +68,7 @@ TEST(ConvexHull, RegularTetrahedronIsIsotropic) {
   EXPECT_NEAR(m.volume_m3, v, 1e-14 * v);
   const double want = v * a * a / 20.0;
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      EXPECT_NEAR(m.inertia_m5(i, j), i == j ? want : 0.0, 1e-13 * want);
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(m.inertia_m5(i, j), i == j ? want : 0.0, 1e-13 * want);
   EXPECT_NEAR(m.surface_m2, std::sqrt(3.0) * a * a, 1e-14);
 }
 
@@ -86,8 +85,9 @@ TEST(ConvexHull, RandomCloudsContainEveryPointAndKeepOnlyInputPoints) {
     std::vector<Vec3> pts;
     const Vec3 shift = trial % 5 == 4 ? Vec3(1e3, -2e3, 5e2) : Vec3::Zero();
     for (int i = 0; i < n; ++i) {
-      Vec3 p = trial % 2 == 0 ? Vec3(u(rng), u(rng), u(rng))
-                              : Vec3(g(rng), g(rng), g(rng)).normalized() * std::cbrt(0.5 + 0.5 * u(rng));
+      Vec3 p = trial % 2 == 0
+                   ? Vec3(u(rng), u(rng), u(rng))
+                   : Vec3(g(rng), g(rng), g(rng)).normalized() * std::cbrt(0.5 + 0.5 * u(rng));
       if (trial % 3 == 2) p.z() *= 1e-3;  // a slab
       pts.push_back(p + shift);
     }
@@ -97,8 +97,7 @@ TEST(ConvexHull, RandomCloudsContainEveryPointAndKeepOnlyInputPoints) {
     for (const auto& t : h.triangles)
       for (int k = 0; k < 3; ++k) EXPECT_TRUE(edges.insert({t[k], t[(k + 1) % 3]}).second);
     for (const auto& [a, b] : edges) EXPECT_EQ(edges.count({b, a}), 1u);
-    for (const Vec3& v : h.vertices)
-      EXPECT_NE(std::find(pts.begin(), pts.end(), v), pts.end());
+    for (const Vec3& v : h.vertices) EXPECT_NE(std::find(pts.begin(), pts.end(), v), pts.end());
     EXPECT_GT(mesh_mass(h).volume_m3, 0.0);
   }
   std::printf("[ measured ] worst point above a hull face: %.3g of the size\n", worst);
@@ -176,9 +175,9 @@ TEST(ConvexHull, RefusesWhatHasNoVolume) {
   };
   EXPECT_EQ(error_of({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}),
             "shape.vertices_m: a polyhedron needs at least 4 points (got 3)");
-  EXPECT_NE(error_of({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}, {0.5, 0.5, 1e-12}})
-                .find("coplanar"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}, {0.5, 0.5, 1e-12}}).find("coplanar"),
+      std::string::npos);
   EXPECT_NE(error_of({{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {3, 3, 3 + 1e-13}}).find("collinear"),
             std::string::npos);
   EXPECT_NE(error_of({{1, 1, 1}, {1, 1, 1}, {1, 1, 1}, {1, 1, 1}}).find("coincide"),
