@@ -131,7 +131,8 @@ TEST(Polyhedron, DensityScalesTheHullToEachMass) {
     EXPECT_NEAR(a.presented_area_m2, a.surface_m2 / 4, 1e-16);
   }
   try {
-    polyhedron_shape({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, 1000.0, "fragment_groups[2].shape.vertices_m");
+    polyhedron_shape({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, 1000.0,
+                     "fragment_groups[2].shape.vertices_m");
     FAIL() << "3 points must throw";
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "fragment_groups[2].shape.vertices_m");
