@@ -97,10 +97,11 @@ TEST(PolyhedronHistory, RocksNeverGainEnergyAlwaysEndAndDoNotDependOnThreads) {
     EXPECT_EQ(a.fragments[k].bounces, b.fragments[k].bounces);
     EXPECT_EQ(a.fragments[k].ground_path_m, b.fragments[k].ground_path_m);
   }
-  std::printf("[ measured ] 1000 rocks: %lld bounces, %lld ground steps, %d at rest on the ground, "
-              "energy rises %lld\n",
-              static_cast<long long>(a.stats.bounces), static_cast<long long>(a.stats.ground_steps),
-              at_rest, static_cast<long long>(a.stats.energy_rises));
+  std::printf(
+      "[ measured ] 1000 rocks: %lld bounces, %lld ground steps, %d at rest on the ground, "
+      "energy rises %lld\n",
+      static_cast<long long>(a.stats.bounces), static_cast<long long>(a.stats.ground_steps),
+      at_rest, static_cast<long long>(a.stats.energy_rises));
 }
 
 }  // namespace
