@@ -19,6 +19,12 @@ namespace fragsim::fragments {
 
 namespace {
 
+// The horizon of a new point is not a simple cycle, or a face's neighbour does not share its edge:
+// points degenerate at the tolerance's level. Never seen in the tests (lattices, points on a
+// sphere, random clouds, scanned boulders); refused rather than built wrong.
+constexpr const char* kInconsistent =
+    "the hull could not be built consistently (points degenerate at rounding level)";
+
 struct Face {
   std::array<std::uint32_t, 3> v{};   // point indices, counter-clockwise from outside
   std::array<std::uint32_t, 3> nb{};  // face across edge (v[k], v[k+1])
@@ -177,6 +183,7 @@ void Quickhull::find_horizon(std::uint32_t start, std::uint32_t point) {
       stamp_[g] = round_;
       visible_.push_back(g);
       const int back = edge_to(faces_[g], f.v[(k + 1) % 3], f.v[k]);
+      if (back < 0) fail(kInconsistent);
       stack.push_back({g, back, 1});
     } else {
       horizon_.push_back({f.v[k], f.v[(k + 1) % 3], g, fr.face});
@@ -200,15 +207,15 @@ void Quickhull::add_point(std::uint32_t f) {
     cone.push_back(nf);
     faces_[nf].nb[0] = e.across;
     Face& across = faces_[e.across];
-    across.nb[static_cast<std::size_t>(edge_to(across, e.b, e.a))] = nf;
-    if (!starting_at.emplace(e.a, nf).second || !ending_at.emplace(e.b, nf).second)
-      fail("the hull could not be built consistently (points degenerate at rounding level)");
+    const int k = edge_to(across, e.b, e.a);
+    if (k < 0 || !starting_at.emplace(e.a, nf).second || !ending_at.emplace(e.b, nf).second)
+      fail(kInconsistent);
+    across.nb[static_cast<std::size_t>(k)] = nf;
   }
   for (const std::uint32_t nf : cone) {
     Face& face = faces_[nf];
     const auto s = starting_at.find(face.v[1]), e = ending_at.find(face.v[0]);
-    if (s == starting_at.end() || e == ending_at.end())
-      fail("the hull could not be built consistently (points degenerate at rounding level)");
+    if (s == starting_at.end() || e == ending_at.end()) fail(kInconsistent);
     face.nb[1] = s->second;  // edge (b, point) borders the new face over the edge from b
     face.nb[2] = e->second;  // edge (point, a) borders the new face over the edge into a
   }
