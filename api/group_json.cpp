@@ -3,6 +3,7 @@
 #include "api/group_json.h"
 
 #include <cctype>
+#include <cmath>
 #include <utility>
 
 #include "api/limits.h"
@@ -21,7 +22,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::pair<const char*, ShapeType> kShapes[] = {
     {"sphere", ShapeType::kSphere},       {"cuboid", ShapeType::kCuboid},
     {"ellipsoid", ShapeType::kEllipsoid}, {"cylinder", ShapeType::kCylinder},
-    {"point", ShapeType::kPoint},
+    {"point", ShapeType::kPoint},         {"polyhedron", ShapeType::kPolyhedron},
 };
 
 constexpr std::pair<const char*, Distribution::Kind> kDistributions[] = {
@@ -50,7 +51,8 @@ std::size_t shape_dimension_count(ShapeType s) {
     case ShapeType::kCylinder: return 2;
     case ShapeType::kCuboid:
     case ShapeType::kEllipsoid: return 3;
-    case ShapeType::kPoint: return 0;
+    case ShapeType::kPoint:
+    case ShapeType::kPolyhedron: return 0;
   }
   return 0;
 }
@@ -61,7 +63,8 @@ const char* shape_dimension_layout(ShapeType s) {
     case ShapeType::kCylinder: return "[diameter, length]";
     case ShapeType::kCuboid: return "[a, b, c] edge lengths";
     case ShapeType::kEllipsoid: return "[a, b, c] axis lengths";
-    case ShapeType::kPoint: return "[]";
+    case ShapeType::kPoint:
+    case ShapeType::kPolyhedron: return "[]";
   }
   return "[]";
 }
@@ -100,6 +103,42 @@ void check_strictly_increasing(const std::vector<double>& v, const std::string& 
                                     " after " + format_number(v[k - 1]) + ")");
 }
 
+// A polyhedron: vertices_m (at least 4, at most limits::kMaxPolyhedronVertices, each coordinate
+// within the dimension bound), optional density_kg_m3; its hull is built here, once.
+fragments::ShapeSpec parse_polyhedron(const ObjectReader& o) {
+  for (const char* key : {"dims_m", "aspect"})
+    if (o.has(key))
+      fail(o.at(key),
+           "not used by a polyhedron (its size is vertices_m, or follows the mass with "
+           "density_kg_m3)");
+  const std::string vp = o.at("vertices_m");
+  const Json& arr = read_array(o.require("vertices_m"), vp);
+  if (arr.size() > limits::kMaxPolyhedronVertices)
+    fail(vp, "at most " + std::to_string(limits::kMaxPolyhedronVertices) + " points (got " +
+                 std::to_string(arr.size()) + ")");
+  std::vector<Vec3> pts;
+  pts.reserve(arr.size());
+  for (std::size_t k = 0; k < arr.size(); ++k) {
+    const std::string pk = index_path(vp, k);
+    pts.push_back(read_vec3(arr[k], pk));
+    check_abs_le(pts.back(), limits::kMaxDimension_m, pk);
+  }
+  std::optional<double> density;
+  if (o.has("density_kg_m3")) {
+    density = o.number("density_kg_m3");
+    check_gt(*density, 0.0, o.at("density_kg_m3"));
+    check_ge_le(*density, limits::kMinDensity_kg_m3, limits::kMaxDensity_kg_m3,
+                o.at("density_kg_m3"));
+  }
+  fragments::ShapeSpec s = fragments::polyhedron_shape(std::move(pts), density, vp);
+  // A fixed-size hull is a body of its own size: as small as the smallest dimension at least.
+  const double size = std::cbrt(s.polyhedron->volume_m3());
+  if (!density && size < limits::kMinDimension_m)
+    fail(vp, "the hull is too small (volume^(1/3) " + format_number(size) +
+                 " m, must be >= " + format_number(limits::kMinDimension_m) + ")");
+  return s;
+}
+
 fragments::ShapeSpec parse_shape(const Json& j, const std::string& path) {
   const ObjectReader o(j, path, "shape");
   fragments::ShapeSpec s;
@@ -113,7 +152,11 @@ fragments::ShapeSpec parse_shape(const Json& j, const std::string& path) {
   }
   if (!known)
     fail(o.at("type"),
-         "must be one of sphere, cuboid, ellipsoid, cylinder, point (got \"" + type + "\")");
+         "must be one of sphere, cuboid, ellipsoid, cylinder, point, polyhedron (got "
+         "\"" +
+             type + "\")");
+  if (s.type == ShapeType::kPolyhedron) return parse_polyhedron(o);
+  if (o.has("vertices_m")) fail(o.at("vertices_m"), "only used by a polyhedron");
   if (s.type == ShapeType::kPoint) {
     for (const char* key : {"dims_m", "density_kg_m3", "aspect"})
       if (o.has(key)) fail(o.at(key), "not used by a point mass (give the group's area_m2)");
@@ -357,6 +400,11 @@ Json fragment_group_to_json(const fragments::FragmentGroupSpec& g) {
   if (!g.shape.dims_m.empty()) shape["dims_m"] = g.shape.dims_m;
   if (g.shape.density_kg_m3) shape["density_kg_m3"] = *g.shape.density_kg_m3;
   if (!g.shape.aspect.empty()) shape["aspect"] = g.shape.aspect;
+  if (g.shape.type == ShapeType::kPolyhedron) {
+    Json v = Json::array();
+    for (const Vec3& p : g.shape.vertices_m) v.push_back(vec3_json(p));
+    shape["vertices_m"] = std::move(v);
+  }
   Json cd = g.cd.mach.empty() ? Json(g.cd.constant) : Json{{"mach", g.cd.mach}, {"cd", g.cd.cd}};
   Json out = {
       {"name", g.name},

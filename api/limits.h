@@ -5,6 +5,8 @@
 // limits (coordinates, extent, element counts) are in core/scene/site_limits.h, the sampled
 // quantities' ranges (mass, speed, spin) in core/fragments/sampling.h.
 
+#include <cstddef>
+
 namespace fragsim::api::limits {
 
 // Gravitational acceleration, m/s^2: ten times Earth's standard gravity (9.80665); Jupiter's
@@ -33,6 +35,10 @@ inline constexpr double kMaxDimension_m = 100.0;
 // Aspect proportions relative to each other: 1000:1 is a wire or a foil.
 inline constexpr double kMinAspect = 1e-3;
 inline constexpr double kMaxAspect = 1e3;
+// Points of a polyhedron's vertices_m: a scanned boulder's hull has a few hundred vertices; 10,000
+// keeps a hull's build (quickhull, ~n log n) and its per-face queries (toppling, frontal area)
+// cheap.
+inline constexpr std::size_t kMaxPolyhedronVertices = 10'000;
 // Presented area, m^2: a 10 m x 10 m panel broadside is 100.
 inline constexpr double kMaxArea_m2 = 1e3;
 // Real fragments a group stands for: a large stack of munitions yields 1e6-1e8 fragments.

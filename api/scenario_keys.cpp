@@ -43,7 +43,7 @@ const std::map<std::string, std::vector<std::string>, std::less<>>& scenario_obj
         "area_m2", "spin_radps", "attitude"}},
       {"frame", {"origin_m", "yaw_deg", "pitch_deg", "roll_deg", "velocity_mps"}},
       {"attitude", {"yaw_deg", "pitch_deg", "roll_deg"}},
-      {"shape", {"type", "dims_m", "density_kg_m3", "aspect"}},
+      {"shape", {"type", "dims_m", "density_kg_m3", "aspect", "vertices_m"}},
       {"direction", {"elevation_deg", "azimuth_deg"}},
       {"cd_table", {"mach", "cd"}},
       {"dist_fixed", {"dist", "value"}},

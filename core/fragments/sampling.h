@@ -42,9 +42,12 @@ inline constexpr PhysRange kSpinRange{0.0, 1e5};
 // Mass properties of a rigid body of uniform density (body frame = principal axes).
 struct MassProperties {
   double mass_kg = 0.0;
-  Vec3 dims_m{0, 0, 0};            // resolved dims (layout as ShapeSpec::dims_m, unused entries 0)
-  Vec3 inertia_kg_m2{0, 0, 0};     // principal moments about body x, y, z
-  double surface_m2 = 0.0;         // total surface area (0 for point)
+  Vec3 dims_m{0, 0, 0};  // resolved dims (layout as ShapeSpec::dims_m, unused entries 0);
+                         // polyhedron: its bounding box along the body axes
+  std::shared_ptr<const Polyhedron> polyhedron;  // polyhedron: the shared hull ...
+  double scale = 1.0;                            // ... scaled by this about its centre of mass
+  Vec3 inertia_kg_m2{0, 0, 0};                   // principal moments about body x, y, z
+  double surface_m2 = 0.0;                       // total surface area (0 for point)
   double presented_area_m2 = 0.0;  // tumble-averaged: surface / 4 (Cauchy), or the override
 };
 

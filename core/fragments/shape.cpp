@@ -18,7 +18,8 @@ std::size_t dims_count(ShapeType s) {
     case ShapeType::kCuboid: return 3;
     case ShapeType::kEllipsoid: return 3;
     case ShapeType::kCylinder: return 2;
-    case ShapeType::kPoint: return 0;
+    case ShapeType::kPoint:
+    case ShapeType::kPolyhedron: return 0;
   }
   return 0;
 }
@@ -30,7 +31,8 @@ double volume(ShapeType s, const Vec3& d) {
     case ShapeType::kCuboid: return d[0] * d[1] * d[2];
     case ShapeType::kEllipsoid: return kPi / 6.0 * d[0] * d[1] * d[2];  // 4/3 pi (a/2)(b/2)(c/2)
     case ShapeType::kCylinder: return kPi / 4.0 * d[0] * d[0] * d[1];
-    case ShapeType::kPoint: return 0.0;
+    case ShapeType::kPoint:
+    case ShapeType::kPolyhedron: return 0.0;  // not used (polyhedron_mass_properties)
   }
   return 0.0;
 }
@@ -53,6 +55,33 @@ Vec3 checked_dims(ShapeType s, const std::vector<double>& v, const char* field) 
   return d;
 }
 
+// A polyhedron: the hull as given (scale 1; density mass / V0) or, with a density, scaled by
+// s = cbrt(m / (rho V0)) about its centre of mass. Inertia = m / V s^2 J0, J0 the hull's principal
+// moments per unit density (eq. P5: moments of a uniform solid scale as mass x length^2).
+MassProperties polyhedron_mass_properties(const ShapeSpec& shape, double mass_kg,
+                                          const std::optional<double>& area_override) {
+  if (!shape.polyhedron)
+    throw InputError("shape.vertices_m", "the hull is not built (fragments::polyhedron_shape)");
+  const Polyhedron& p = *shape.polyhedron;
+  MassProperties mp;
+  mp.mass_kg = mass_kg;
+  mp.polyhedron = shape.polyhedron;
+  if (shape.density_kg_m3) {
+    const double rho = *shape.density_kg_m3;
+    if (!std::isfinite(rho) || !(rho > 0.0)) {
+      throw InputError("shape.density_kg_m3", "must be a finite number > 0");
+    }
+    mp.scale = std::cbrt(mass_kg / (rho * p.volume_m3()));
+  }
+  const double s2 = mp.scale * mp.scale;
+  mp.dims_m = 2.0 * mp.scale * p.half_extent_m();
+  mp.inertia_kg_m2 = mass_kg / p.volume_m3() * s2 * p.inertia_m5();
+  mp.surface_m2 = s2 * p.surface_m2();
+  // Cauchy: exact for the (convex) hull.
+  mp.presented_area_m2 = area_override ? *area_override : 0.25 * mp.surface_m2;
+  return mp;
+}
+
 }  // namespace
 
 const char* shape_type_name(ShapeType s) {
@@ -62,8 +91,19 @@ const char* shape_type_name(ShapeType s) {
     case ShapeType::kEllipsoid: return "ellipsoid";
     case ShapeType::kCylinder: return "cylinder";
     case ShapeType::kPoint: return "point";
+    case ShapeType::kPolyhedron: return "polyhedron";
   }
   return "unknown";
+}
+
+ShapeSpec polyhedron_shape(std::vector<Vec3> vertices_m, std::optional<double> density_kg_m3,
+                           const std::string& field) {
+  ShapeSpec s;
+  s.type = ShapeType::kPolyhedron;
+  s.polyhedron = Polyhedron::from_points(vertices_m, field);
+  s.vertices_m = std::move(vertices_m);
+  s.density_kg_m3 = density_kg_m3;
+  return s;
 }
 
 double ellipsoid_surface_area(double a, double b, double c) {
@@ -86,6 +126,7 @@ MassProperties mass_properties(const ShapeSpec& shape, double mass_kg,
     mp.presented_area_m2 = *area_override;
     return mp;
   }
+  if (s == ShapeType::kPolyhedron) return polyhedron_mass_properties(shape, mass_kg, area_override);
 
   // Resolve the size: fixed dims, or scaled to volume = mass / density with the given proportions.
   Vec3 d;
@@ -141,7 +182,8 @@ MassProperties mass_properties(const ShapeSpec& shape, double mass_kg,
       mp.surface_m2 = 2.0 * kPi * r * (r + len);
       break;
     }
-    case ShapeType::kPoint: break;
+    case ShapeType::kPoint:
+    case ShapeType::kPolyhedron: break;
   }
 
   // Cauchy's surface-area formula: averaged over uniformly random orientations, the projected

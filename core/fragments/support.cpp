@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <utility>
+#include <vector>
 
 namespace fragsim::fragments {
 
@@ -15,6 +18,11 @@ ContactBody contact_body(ShapeType type, const MassProperties& mp) {
     case ShapeType::kEllipsoid: b.half_m = 0.5 * mp.dims_m; break;
     case ShapeType::kCylinder:
       b.half_m = Vec3(0.5 * mp.dims_m[0], 0.5 * mp.dims_m[0], 0.5 * mp.dims_m[1]);
+      break;
+    case ShapeType::kPolyhedron:
+      b.polyhedron = mp.polyhedron;
+      b.scale = mp.scale;
+      b.half_m = 0.5 * mp.dims_m;
       break;
     case ShapeType::kPoint: {
       // A small sphere of the same presented area (pi r^2 = A) and of the point's mass.
@@ -33,6 +41,7 @@ double body_volume(const ContactBody& b) {
   switch (b.type) {
     case ShapeType::kCuboid: return 8.0 * h.x() * h.y() * h.z();
     case ShapeType::kCylinder: return kPi * h.x() * h.x() * 2.0 * h.z();
+    case ShapeType::kPolyhedron: return std::pow(b.scale, 3) * b.polyhedron->volume_m3();
     case ShapeType::kSphere:
     case ShapeType::kEllipsoid:
     case ShapeType::kPoint: break;
@@ -44,7 +53,8 @@ double bounding_radius(const ContactBody& b) {
   switch (b.type) {
     case ShapeType::kCuboid: return b.half_m.norm();                         // a corner
     case ShapeType::kCylinder: return std::hypot(b.half_m[0], b.half_m[2]);  // a rim point
-    default: return b.half_m.maxCoeff();                                     // sphere, ellipsoid
+    case ShapeType::kPolyhedron: return b.scale * b.polyhedron->bounding_radius_m();
+    default: return b.half_m.maxCoeff();  // sphere, ellipsoid
   }
 }
 
@@ -59,9 +69,75 @@ double support_extent(const ContactBody& b, const Quat& q, const Vec3& d) {
       const double c = std::clamp(db.z(), -1.0, 1.0);
       return a.z() * std::abs(c) + a.x() * std::sqrt(std::max(0.0, 1.0 - c * c));
     }
+    case ShapeType::kPolyhedron: {
+      const Polyhedron& p = *b.polyhedron;
+      return b.scale * db.dot(p.vertices()[p.support_vertex(db)]);
+    }
     default: return a.x();
   }
 }
+
+namespace {
+
+// Area centroid of the convex polygon spanned by `pts` (body axes) seen along the unit direction
+// d: their 2-D hull in the plane across d (monotone chain), fanned into triangles whose projected
+// areas weight their 3-D centroids. A set that spans no area: the midpoint of its two ends.
+Vec3 contact_polygon_centroid(const std::vector<Vec3>& pts, const Vec3& d) {
+  const Vec3 e1 = d.unitOrthogonal(), e2 = d.cross(e1);
+  std::vector<std::pair<Vec2, std::size_t>> uv;
+  for (std::size_t i = 0; i < pts.size(); ++i) uv.push_back({{e1.dot(pts[i]), e2.dot(pts[i])}, i});
+  std::sort(uv.begin(), uv.end(), [](const auto& a, const auto& b) {
+    return a.first.x() < b.first.x() || (a.first.x() == b.first.x() && a.first.y() < b.first.y());
+  });
+  const auto turn = [](const Vec2& o, const Vec2& a, const Vec2& b) {
+    return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
+  };
+  std::vector<std::size_t> ring;  // indices into uv, counter-clockwise
+  for (int pass = 0; pass < 2; ++pass) {
+    const std::size_t base = ring.size();
+    for (std::size_t k = 0; k < uv.size(); ++k) {
+      const std::size_t j = pass == 0 ? k : uv.size() - 1 - k;
+      while (ring.size() >= base + 2 &&
+             turn(uv[ring[ring.size() - 2]].first, uv[ring.back()].first, uv[j].first) <= 0.0)
+        ring.pop_back();
+      ring.push_back(j);
+    }
+    ring.pop_back();  // the last point starts the other chain
+  }
+  double area = 0.0;
+  Vec3 sum = Vec3::Zero();
+  for (std::size_t k = 1; k + 1 < ring.size(); ++k) {
+    const double w = turn(uv[ring[0]].first, uv[ring[k]].first, uv[ring[k + 1]].first);
+    area += w;
+    sum += w * (pts[uv[ring[0]].second] + pts[uv[ring[k]].second] + pts[uv[ring[k + 1]].second]);
+  }
+  if (area > 0.0) return sum / (3.0 * area);
+  return 0.5 * (pts[uv.front().second] + pts[uv.back().second]);
+}
+
+// Polyhedron: the vertices within `tol` (hull units) of the lowest along db, found by walking
+// the hull's edges from a support vertex (they form a connected set: from each, an edge path of
+// rising d . x leads to the support vertex), and their centroid.
+Vec3 polyhedron_contact_point(const Polyhedron& p, const Vec3& db, double tol) {
+  const auto& v = p.vertices();
+  const std::uint32_t top = p.support_vertex(db);
+  const double floor = db.dot(v[top]) - tol;
+  std::vector<std::uint32_t> set{top};
+  for (std::size_t k = 0; k < set.size(); ++k) {
+    for (const std::uint32_t* it = p.neighbours_begin(set[k]); it != p.neighbours_end(set[k]);
+         ++it) {
+      if (db.dot(v[*it]) >= floor && std::find(set.begin(), set.end(), *it) == set.end())
+        set.push_back(*it);
+    }
+  }
+  if (set.size() == 1) return v[top];
+  if (set.size() == 2) return 0.5 * (v[set[0]] + v[set[1]]);
+  std::vector<Vec3> pts;
+  for (const std::uint32_t i : set) pts.push_back(v[i]);
+  return contact_polygon_centroid(pts, db);
+}
+
+}  // namespace
 
 Vec3 contact_point(const ContactBody& b, const Quat& q, const Vec3& n, double flat_tol_m) {
   const Vec3 db = -(q.conjugate() * n);  // toward the plane, body axes
@@ -93,6 +169,9 @@ Vec3 contact_point(const ContactBody& b, const Quat& q, const Vec3& n, double fl
       }
       break;
     }
+    case ShapeType::kPolyhedron:
+      xb = b.scale * polyhedron_contact_point(*b.polyhedron, db, flat_tol_m / b.scale);
+      break;
     default:
       xb = a.x() * db;  // sphere: |db| = 1
       break;
@@ -104,6 +183,39 @@ namespace {
 
 // 1 - cos of the largest tilt taken as lying flat already (toppled_attitude).
 constexpr double kFlatCos = 1e-15;
+
+// The hull face the ray from the centre along unit d leaves through: the least
+// t = offset_f / (n_f . d) (scale-free), ties to the lower face (smaller offset).
+std::size_t polyhedron_exit_face(const Polyhedron& p, const Vec3& d, double& t_exit) {
+  const auto& normals = p.normals();
+  const auto& offsets = p.offsets();
+  std::size_t best = normals.size();
+  t_exit = std::numeric_limits<double>::infinity();
+  for (std::size_t f = 0; f < normals.size(); ++f) {
+    const double c = normals[f].dot(d);
+    if (!(c > 0.0)) continue;
+    const double t = offsets[f] / c;
+    if (t < t_exit || (t == t_exit && offsets[f] < offsets[best])) t_exit = t, best = f;
+  }
+  return best;
+}
+
+// The face a polyhedron comes to rest on: the face the line from the centre along db leaves
+// through; lying on it, the centre may stand outside it (unlike a cuboid's), and then it falls on
+// to the face the line along that face's normal leaves through, until the line leaves through the
+// face it lies on (or one coplanar with it, within 1e-12). Each fall lowers the centre (from
+// offset_f to offset_g < t_g <= offset_f), so this ends, at most once per face.
+Vec3 polyhedron_resting_normal(const Polyhedron& p, const Vec3& db) {
+  double t = 0.0;
+  std::size_t f = polyhedron_exit_face(p, db, t);
+  if (f == p.normals().size()) return db;
+  for (std::size_t k = 0; k < p.normals().size(); ++k) {
+    const std::size_t g = polyhedron_exit_face(p, p.normals()[f], t);
+    if (g == p.normals().size() || g == f || t >= p.offsets()[f] * (1.0 - 1e-12)) break;
+    f = g;
+  }
+  return p.normals()[f];
+}
 
 // The unit direction, in body axes, that is to point along -n once the body has toppled: the
 // projection of db (= -n in body axes) onto the span of the resting face's normal(s).
@@ -136,6 +248,7 @@ Vec3 resting_direction(const ContactBody& b, const Vec3& db) {
       for (int i = 0; i < 3; ++i) keep[i] = a[i] == shortest ? 1.0 : 0.0;
       break;
     }
+    case ShapeType::kPolyhedron: return polyhedron_resting_normal(*b.polyhedron, db);
     case ShapeType::kSphere:
     case ShapeType::kPoint: return db;
   }
@@ -172,6 +285,13 @@ double projected_area(const ContactBody& b, const Quat& q, const Vec3& d) {
       // sqrt(1 - d_z^2) as |(d_x, d_y)|: exact for a flow along the axis (1 - d_z^2 is not).
       const double r = h.x(), len = 2.0 * h.z();
       return kPi * r * r * std::abs(db.z()) + 2.0 * r * len * std::hypot(db.x(), db.y());
+    }
+    case ShapeType::kPolyhedron: {
+      const Polyhedron& p = *b.polyhedron;
+      double sum = 0.0;
+      for (std::size_t f = 0; f < p.normals().size(); ++f)
+        sum += p.areas()[f] * std::abs(p.normals()[f].dot(db));
+      return 0.5 * b.scale * b.scale * sum;
     }
     case ShapeType::kSphere:
     case ShapeType::kPoint: break;

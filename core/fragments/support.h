@@ -13,10 +13,14 @@ namespace fragsim::fragments {
 
 // The solid that touches the ground. A point mass behaves as a small sphere of the same
 // presented area (radius sqrt(A / pi)), as the bounce issue specifies.
+// A polyhedron is its group's shared hull (never copied) scaled by `scale`.
 struct ContactBody {
   ShapeType type = ShapeType::kSphere;  // never kPoint: resolved to kSphere
-  Vec3 half_m{0, 0, 0};  // sphere: (r, r, r); cuboid, ellipsoid: semi-axes; cylinder: (R, R, L/2)
+  Vec3 half_m{0, 0, 0};  // sphere: (r, r, r); cuboid, ellipsoid: semi-axes; cylinder: (R, R, L/2);
+                         // polyhedron: half its bounding box along the body axes
   Vec3 inertia_kg_m2{0, 0, 0};  // principal moments (a point mass gets the sphere's 2/5 m r^2)
+  std::shared_ptr<const Polyhedron> polyhedron;  // polyhedron only
+  double scale = 1.0;                            // polyhedron: x_body = scale * hull vertex
 };
 
 ContactBody contact_body(ShapeType type, const MassProperties& mp);
@@ -36,9 +40,11 @@ double support_extent(const ContactBody& b, const Quat& q, const Vec3& d);
 // Where a body lying on a plane with unit normal n (pointing from the plane toward the body)
 // touches it, relative to the centre of mass in site axes: the centroid of the body's points
 // that lie within `flat_tol_m` of the lowest one. A vertex, an edge (its midpoint), a face (its
-// centre), a cylinder's end disk (its centre) or side line (its midpoint). Taking the centroid of
-// the whole contact set makes a face or edge landing symmetric: a cube landing flat gets its
-// impulse under its centre of mass and no spin, whatever the order in which corners are listed.
+// centre), a cylinder's end disk (its centre) or side line (its midpoint); a polyhedron's vertex,
+// edge midpoint, or the area centroid of the polygon its touching vertices span. Taking the
+// centroid of the whole contact set makes a face or edge landing symmetric: a cube landing flat
+// gets its impulse under its centre of mass and no spin, whatever the order in which corners are
+// listed.
 Vec3 contact_point(const ContactBody& b, const Quat& q, const Vec3& n, double flat_tol_m);
 
 // The attitude a body lying on a plane with unit normal n (from the plane toward the body)
@@ -49,14 +55,18 @@ Vec3 contact_point(const ContactBody& b, const Quat& q, const Vec3& n, double fl
 // |d_i| / a_i (d = -n in body axes, a the half sizes; ties to the smaller a_i, so a plate
 // balanced exactly on an edge falls flat); for a cylinder an end disk when |d_z| / (L/2) >
 // sqrt(1 - d_z^2) / R, else its side (the axis made perpendicular to n). An ellipsoid rests only
-// on the ends of its shortest axis (or, with two shortest, on the circle they span). A sphere, and
+// on the ends of its shortest axis (or, with two shortest, on the circle they span). A polyhedron
+// tips onto the hull face the line leaves through (the least offset_f / (n_f . d) over the faces
+// with n_f . d > 0, ties to the lower face) and, while its centre does not stand over the face it
+// lies on, on again the same way (the centre drops each time), to a stable face. A sphere, and
 // a body whose face is already flat (tilted less than ~5e-8 rad), keeps q exactly.
 Quat toppled_attitude(const ContactBody& b, const Quat& q, const Vec3& n);
 
 // Area of the body's projection along unit direction d (site axes) at attitude q: the frontal
 // area a flow along d meets. Cuboid (full sizes A, B, C): |d_x| B C + |d_y| A C + |d_z| A B;
 // ellipsoid (semi-axes a, b, c): pi a b c sqrt((d_x/a)^2 + (d_y/b)^2 + (d_z/c)^2); cylinder:
-// pi R^2 |d_z| + 2 R L sqrt(1 - d_z^2); sphere pi r^2 (d in body axes). Averaged over
+// pi R^2 |d_z| + 2 R L sqrt(1 - d_z^2); sphere pi r^2; polyhedron (a closed convex surface
+// covers its shadow twice) sum over faces of area_f |n_f . d| / 2 (d in body axes). Averaged over
 // directions it is the surface / 4 (Cauchy).
 double projected_area(const ContactBody& b, const Quat& q, const Vec3& d);
 

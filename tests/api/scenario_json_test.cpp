@@ -10,6 +10,8 @@
 #include <string>
 #include <utility>
 
+#include "api/limits.h"
+#include "core/fragments/sampling.h"
 #include "test_support.h"
 
 namespace fragsim::api {
@@ -613,7 +615,8 @@ TEST(ScenarioJson, Shapes) {
   EXPECT_EQ(
       parse_error(with(minimal_example(), "/fragment_groups/0/shape/type", "cube")),
       (FieldMessage{"fragment_groups[0].shape.type",
-                    "must be one of sphere, cuboid, ellipsoid, cylinder, point (got \"cube\")"}));
+                    "must be one of sphere, cuboid, ellipsoid, cylinder, point, polyhedron (got "
+                    "\"cube\")"}));
   EXPECT_EQ(
       parse_error(with(minimal_example(), "/fragment_groups/0/shape",
                        {{"type", "cuboid"}, {"dims_m", {0.1, 0.1, 0.1}}, {"aspect", {1, 1, 1}}})),
@@ -624,6 +627,64 @@ TEST(ScenarioJson, Shapes) {
   EXPECT_EQ(sc.groups[1].shape.dims_m, (std::vector<double>{0.02}));
   EXPECT_EQ(sc.groups[2].shape.type, fragments::ShapeType::kPoint);
   EXPECT_EQ(sc.groups[2].area_m2, 0.001);
+}
+
+// A polyhedron: its hull is built at parse time (once, shared by the group); the sizing rule
+// (density or as given), the refusals, and the echo that reads back the same.
+TEST(ScenarioJson, Polyhedron) {
+  const run::Scenario ks = parse_scenario(kitchen_sink());
+  const auto& rocks = ks.groups[3].shape;
+  ASSERT_EQ(rocks.type, fragments::ShapeType::kPolyhedron);
+  ASSERT_TRUE(rocks.polyhedron);
+  EXPECT_EQ(rocks.vertices_m.size(), 8u);
+  EXPECT_EQ(rocks.polyhedron->vertices().size(), 7u);  // [0, 0, 0] is inside
+  EXPECT_EQ(rocks.density_kg_m3, 2700.0);
+  const std::string at = "/fragment_groups/0/shape";
+  const Json tetra = {{0, 0, 0}, {0.1, 0, 0}, {0, 0.1, 0}, {0, 0, 0.1}};
+  // Fixed size: the sampled mass (0.05 kg in the minimal example) on the given hull.
+  const run::Scenario fixed =
+      parse_scenario(with(minimal_example(), at, {{"type", "polyhedron"}, {"vertices_m", tetra}}));
+  const auto mp = fragments::mass_properties(fixed.groups[0].shape, 0.05, std::nullopt);
+  EXPECT_EQ(mp.scale, 1.0);
+  EXPECT_NEAR(fixed.groups[0].shape.polyhedron->volume_m3(), 1e-3 / 6.0, 1e-18);
+  // Echo: the points as given, and it reads back the same.
+  const Json echoed = scenario_to_json(parse_scenario_document(kitchen_sink()));
+  EXPECT_EQ(echoed["fragment_groups"][3]["shape"]["vertices_m"].size(), 8u);
+  EXPECT_EQ(scenario_to_json(parse_scenario_document(echoed)), echoed);
+
+  const auto poly = [&](Json extra) {
+    Json shape = {{"type", "polyhedron"}, {"vertices_m", tetra}};
+    for (auto& [k, v] : extra.items()) shape[k] = v;
+    return parse_error(with(minimal_example(), at, shape));
+  };
+  EXPECT_EQ(poly({{"dims_m", {0.1, 0.1, 0.1}}}),
+            (FieldMessage{"fragment_groups[0].shape.dims_m",
+                          "not used by a polyhedron (its size is vertices_m, or follows the mass "
+                          "with density_kg_m3)"}));
+  EXPECT_EQ(poly({{"aspect", {1, 1, 1}}}).first, "fragment_groups[0].shape.aspect");
+  EXPECT_EQ(poly({{"vertices_m", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}}}),
+            (FieldMessage{"fragment_groups[0].shape.vertices_m",
+                          "a polyhedron needs at least 4 points (got 3)"}));
+  EXPECT_EQ(poly({{"vertices_m", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}}}),
+            (FieldMessage{"fragment_groups[0].shape.vertices_m",
+                          "the points are (nearly) coplanar: a polyhedron needs volume"}));
+  EXPECT_EQ(
+      poly({{"vertices_m", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, "x"}}}}),
+      (FieldMessage{"fragment_groups[0].shape.vertices_m[3][2]", "expected number, got string"}));
+  EXPECT_EQ(poly({{"vertices_m", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 101}}}}).first,
+            "fragment_groups[0].shape.vertices_m[3][2]");
+  EXPECT_EQ(poly({{"vertices_m", {{0, 0, 0}, {1e-7, 0, 0}, {0, 1e-7, 0}, {0, 0, 1e-7}}}}).first,
+            "fragment_groups[0].shape.vertices_m");
+  EXPECT_EQ(poly({{"density_kg_m3", 0}}).first, "fragment_groups[0].shape.density_kg_m3");
+  Json many = Json::array();
+  for (std::size_t k = 0; k <= limits::kMaxPolyhedronVertices; ++k)
+    many.push_back({0.001 * static_cast<double>(k % 7), 0.001 * static_cast<double>(k % 11),
+                    0.001 * static_cast<double>(k % 13)});
+  EXPECT_EQ(poly({{"vertices_m", many}}), (FieldMessage{"fragment_groups[0].shape.vertices_m",
+                                                        "at most 10000 points (got 10001)"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), at,
+                             {{"type", "sphere"}, {"dims_m", {0.1}}, {"vertices_m", tetra}})),
+            (FieldMessage{"fragment_groups[0].shape.vertices_m", "only used by a polyhedron"}));
 }
 
 TEST(ScenarioJson, Attitude) {
