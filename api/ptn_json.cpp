@@ -1,5 +1,6 @@
 #include "api/ptn_json.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -75,6 +76,7 @@ PtnGeoJsonWriter::PtnGeoJsonWriter(const std::filesystem::path& results_h5,
   for (const std::int64_t v : triangles_)
     if (v < 0 || v >= vertex_count)
       throw std::runtime_error(results_h5.string() + ": triangle index out of range");
+  read_materials(results_h5);
 
   OJson head;
   head["type"] = "FeatureCollection";
@@ -91,6 +93,19 @@ PtnGeoJsonWriter::PtnGeoJsonWriter(const std::filesystem::path& results_h5,
   head_ = head.dump();
   head_.pop_back();  // the closing brace: the features follow
   head_ += ",\"features\":[";
+}
+
+void PtnGeoJsonWriter::read_materials(const std::filesystem::path& h5) {
+  const auto names = list_datasets(h5);
+  if (!std::binary_search(names.begin(), names.end(), std::string("/terrain/material"))) return;
+  material_ = read_dataset_int64(h5, "/terrain/material");
+  for (const std::string& name : read_dataset_strings(h5, "/terrain/material_names"))
+    material_names_json_.push_back(nlohmann::json(name).dump());
+  if (material_.size() != density_.size())
+    throw std::runtime_error(h5.string() + ": /terrain/material does not match the PTN field");
+  for (const std::int64_t k : material_)
+    if (k < 0 || static_cast<std::size_t>(k) >= material_names_json_.size())
+      throw std::runtime_error(h5.string() + ": /terrain/material index out of range");
 }
 
 std::string PtnGeoJsonWriter::convert_vertices(const nlohmann::json& origin,
@@ -136,6 +151,10 @@ void PtnGeoJsonWriter::append_feature(std::string& out, std::size_t t) const {
   append_number(out, density_[t]);
   out += R"(,"std_error_per_m2":)";
   append_number(out, std_error_[t]);
+  if (!material_.empty()) {
+    out += R"(,"material":)";
+    out += material_names_json_[static_cast<std::size_t>(material_[t])];
+  }
   out += "}}";
 }
 

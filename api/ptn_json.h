@@ -31,7 +31,9 @@ using Wgs84Factory = std::function<ToWgs84(const std::string& crs)>;
 // The GeoJSON written piece by piece, so that a daemon can stream it: the whole text of the demo
 // job is 20.7 MB, and building it as a JSON tree cost ~150 MB per request. The constructor reads
 // and checks the datasets (throws std::runtime_error), so that nothing is sent for a bad file.
-// Triangles with density < min_density_per_m2 are left out when it is given.
+// Triangles with density < min_density_per_m2 are left out when it is given. Each feature's
+// properties: triangle, density_per_m2, std_error_per_m2 and, from a results.h5 of format 4 or
+// later, material (the triangle's material name).
 class PtnGeoJsonWriter {
  public:
   PtnGeoJsonWriter(const std::filesystem::path& results_h5, const std::string& job_id,
@@ -41,12 +43,17 @@ class PtnGeoJsonWriter {
 
  private:
   void append_feature(std::string& out, std::size_t t) const;
+  void read_materials(const std::filesystem::path& h5);
   // Vertices to WGS 84 when the factory knows the CRS; returns the "fragsim_coordinates" text.
   std::string convert_vertices(const nlohmann::json& origin, const Wgs84Factory& wgs84);
 
   std::string head_;
   std::vector<double> density_, std_error_, vertices_;
   std::vector<std::int64_t> triangles_;
+  // Per triangle, its material's name as JSON text (results.h5 format >= 4: /terrain/material);
+  // empty for older files, whose features have no "material".
+  std::vector<std::string> material_names_json_;
+  std::vector<std::int64_t> material_;
   std::optional<double> min_density_;
   std::size_t next_ = 0;  // triangle
   bool started_ = false, first_feature_ = true, done_ = false;

@@ -41,6 +41,13 @@ std::vector<T> narrowed(const std::vector<std::int64_t>& v) {
   return out;
 }
 
+std::vector<std::uint8_t> narrowed_u8(const std::vector<std::uint16_t>& v) {
+  std::vector<std::uint8_t> out(v.size());
+  std::transform(v.begin(), v.end(), out.begin(),
+                 [](std::uint16_t x) { return static_cast<std::uint8_t>(x); });
+  return out;
+}
+
 std::vector<float> to_float(const std::vector<double>& v) {
   std::vector<float> out(v.size());
   std::transform(v.begin(), v.end(), out.begin(), [](double x) { return static_cast<float>(x); });
@@ -85,6 +92,20 @@ void read_trajectories(const std::filesystem::path& f, std::int64_t max, SceneAr
   }
 }
 
+// /terrain/material and /terrain/material_names (results.h5 format 4), checked against the
+// triangles.
+void read_terrain_material(const std::filesystem::path& f, SceneArrays& s) {
+  const auto material = read_dataset_int64(f, "/terrain/material");
+  s.material_names = read_dataset_strings(f, "/terrain/material_names");
+  if (3 * material.size() != s.terrain_triangles.size())
+    throw std::runtime_error(f.string() + ": /terrain/material does not fit /terrain/triangles");
+  for (const std::int64_t k : material)
+    if (k < 0 || static_cast<std::size_t>(k) >= s.material_names.size())
+      throw std::runtime_error(f.string() + ": /terrain/material holds " + std::to_string(k) +
+                               ", beyond /terrain/material_names");
+  s.terrain_material = narrowed<std::uint16_t>(material);
+}
+
 // Appends one array's bytes at the next multiple of 8 and describes it in `arrays`.
 template <class T>
 void put_array(std::string& data, nlohmann::ordered_json& arrays, const char* name,
@@ -92,7 +113,10 @@ void put_array(std::string& data, nlohmann::ordered_json& arrays, const char* na
   if (v.empty()) return;
   static_assert(std::is_arithmetic_v<T>);
   data.resize((data.size() + 7) / 8 * 8, '\0');
-  const char* type = std::is_same_v<T, float> ? "f32" : sizeof(T) == 4 ? "u32" : "u8";
+  const char* type = std::is_same_v<T, float> ? "f32"
+                     : sizeof(T) == 4         ? "u32"
+                     : sizeof(T) == 2         ? "u16"
+                                              : "u8";
   nlohmann::ordered_json shape = {v.size() / columns};
   if (columns > 1) shape.push_back(columns);
   arrays[name] = {
@@ -114,6 +138,10 @@ SceneArrays scene_from_site(const scene::Site& site) {
   s.terrain_triangles.reserve(3 * site.terrain_triangle_count());
   for (const auto& t : site.terrain_triangles())
     s.terrain_triangles.insert(s.terrain_triangles.end(), t.begin(), t.end());
+  s.terrain_material.resize(site.terrain_triangle_count());
+  for (std::size_t t = 0; t < s.terrain_material.size(); ++t)
+    s.terrain_material[t] = site.terrain_triangle_material(static_cast<std::uint32_t>(t));
+  for (const scene::Material& m : site.materials()) s.material_names.push_back(m.name);
   for (const Vec3& v : site.building_vertices())
     append_relative(s.building_vertices, site.to_input(v), s.offset_m);
   for (const auto& t : site.building_triangles()) {
@@ -137,6 +165,7 @@ SceneArrays scene_from_results(const std::filesystem::path& f, std::int64_t max_
   if (3 * s.density_per_m2.size() != s.terrain_triangles.size())
     throw std::runtime_error(f.string() + ": /ptn/density_per_m2 does not fit /terrain/triangles");
   const auto names = list_datasets(f);
+  if (has_dataset(names, "/terrain/material")) read_terrain_material(f, s);
   s.building_ids = read_dataset_strings(f, "/buildings/id");
   if (has_dataset(names, "/buildings/vertices_m")) {
     for (const Vec3& p : points_of(read_dataset_double(f, "/buildings/vertices_m")))
@@ -161,6 +190,10 @@ std::string encode_scene(const SceneArrays& s) {
   nlohmann::ordered_json arrays = nlohmann::ordered_json::object();
   put_array(data, arrays, "terrain_vertices", s.terrain_vertices, 3);
   put_array(data, arrays, "terrain_triangles", s.terrain_triangles, 3);
+  if (s.material_names.size() <= 256)
+    put_array(data, arrays, "terrain_material", narrowed_u8(s.terrain_material), 1);
+  else
+    put_array(data, arrays, "terrain_material", s.terrain_material, 1);
   put_array(data, arrays, "density_per_m2", s.density_per_m2, 1);
   put_array(data, arrays, "std_error_per_m2", s.std_error_per_m2, 1);
   put_array(data, arrays, "building_vertices", s.building_vertices, 3);
@@ -177,6 +210,7 @@ std::string encode_scene(const SceneArrays& s) {
   header["offset_m"] = {s.offset_m.x(), s.offset_m.y(), s.offset_m.z()};
   header["arrays"] = std::move(arrays);
   header["building_ids"] = s.building_ids;
+  if (!s.material_names.empty()) header["material_names"] = s.material_names;
   if (s.has_trajectories)
     header["trajectories"] = {{"recorded", s.trajectories_recorded},
                               {"sent", s.trajectory_group.size()}};

@@ -7,7 +7,7 @@
 //   bytes 8..11    uint32 H: header length, spaces included, so that 12 + H is a multiple of 8
 //   bytes 12..     header JSON {"format": "fragsim.scene/1", "offset_m": [x, y, z],
 //                  "arrays": {name: {"type", "shape", "offset", "bytes"}}, "building_ids": [...],
-//                  "trajectories": {"recorded", "sent"} (jobs)}
+//                  "material_names": [...], "trajectories": {"recorded", "sent"} (jobs)}
 //   then the data block; each array starts at 12 + H + offset, offset a multiple of 8.
 //
 // Positions are float32 relative to offset_m (float64, the centre of the terrain's bounding box
@@ -31,6 +31,11 @@ struct SceneArrays {
   Vec3 offset_m{0, 0, 0};
   std::vector<float> terrain_vertices;  // 3 per vertex, relative to offset_m
   std::vector<std::uint32_t> terrain_triangles;
+  // Per terrain triangle: its material, an index into material_names (docs/scenario.md,
+  // "Materials by zone"). Empty for a results.h5 older than format 4 (no /terrain/material).
+  // Sent as u8 when there are at most 256 names, else u16.
+  std::vector<std::uint16_t> terrain_material;
+  std::vector<std::string> material_names;              // the site's materials, index order
   std::vector<float> density_per_m2, std_error_per_m2;  // per terrain triangle (jobs)
   std::vector<float> building_vertices;
   std::vector<std::uint32_t> building_triangles;

@@ -1,9 +1,11 @@
 // The PTN field as JSON and GeoJSON (fragsimd GET /v1/jobs/{id}/ptn), read back from the
 // results.h5 of a real (small) run: values bit for bit, one closed ring per terrain triangle in
-// input coordinates, the min_density filter, the site origin as a foreign member.
+// input coordinates, the min_density filter, the site origin as a foreign member, each
+// triangle's material (a zone), and none from a results.h5 older than format 4.
 #include "api/ptn_json.h"
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <algorithm>
 #include <bit>
@@ -35,6 +37,7 @@ std::vector<std::uint64_t> bits(const std::vector<double>& v) {
 
 // The minimal example, coarser (8 x 8 cells: 128 triangles), fewer samples, and moved away from
 // the coordinate origin (x + 1000, y + 2000, z + 100) so that input and local coordinates differ.
+// Without an origin, the plane's west half (x < 1000) is a zone of the built-in "hard".
 Json small_scenario(bool with_origin) {
   Json j = testing::minimal_example();
   Json& site = j["site"];
@@ -43,6 +46,9 @@ Json small_scenario(bool with_origin) {
         {"crs", "EPSG:32611"}, {"easting_m", 500000}, {"northing_m", 3800000}, {"elevation_m", 50}};
   } else {
     site.erase("origin");
+    site["terrain"]["zones"] = {
+        {{"material", "hard"},
+         {"polygon_m", {{800, 1800}, {1000, 1800}, {1000, 2200}, {800, 2200}}}}};
   }
   site["terrain"]["plane"] = {
       {"elevation_m", 100}, {"extent_m", {800, 1800, 1200, 2200}}, {"cell_m", 50}};
@@ -251,6 +257,38 @@ TEST_F(PtnJson, OriginIsAForeignMemberIffTheSiteHasOne) {
   const Json b = geojson(run_b(), std::nullopt);
   EXPECT_FALSE(b.contains("fragsim_origin"));
   EXPECT_EQ(b["features"].size(), run_b().site->terrain_triangle_count());
+}
+
+// Each feature names its triangle's material: the base one's everywhere without zones, the
+// zone's on the west half.
+TEST_F(PtnJson, GeoJsonFeaturesNameTheirTrianglesMaterial) {
+  for (const RunFiles* f : {&run_a(), &run_b()}) {
+    const Json j = geojson(*f, std::nullopt);
+    ASSERT_EQ(j["features"].size(), f->site->terrain_triangle_count());
+    std::size_t hard = 0;
+    for (const Json& feature : j["features"]) {
+      const auto t = feature["properties"]["triangle"].get<std::uint32_t>();
+      const std::string& want = f->site->materials()[f->site->terrain_triangle_material(t)].name;
+      EXPECT_EQ(feature["properties"]["material"], want) << t;
+      hard += want == "hard";
+    }
+    EXPECT_EQ(hard, f == &run_b() ? 64u : 0u);  // 4 of the 8 columns of 16 triangles
+  }
+}
+
+// A results.h5 of format < 4 (no /terrain/material): features without "material".
+TEST_F(PtnJson, GeoJsonOfAnOldFileHasNoMaterial) {
+  const fs::path old = run_b().dir / "old.h5";
+  fs::copy_file(run_b().h5, old, fs::copy_options::overwrite_existing);
+  const hid_t file = H5Fopen(old.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  EXPECT_GE(H5Ldelete(file, "/terrain/material", H5P_DEFAULT), 0);
+  EXPECT_GE(H5Ldelete(file, "/terrain/material_names", H5P_DEFAULT), 0);
+  H5Fclose(file);
+  const Json j = Json::parse(render_ptn_geojson(old, kJobId, std::nullopt));
+  ASSERT_EQ(j["features"].size(), run_b().site->terrain_triangle_count());
+  for (const Json& feature : j["features"])
+    EXPECT_FALSE(feature["properties"].contains("material"));
 }
 
 TEST_F(PtnJson, JsonOfTheSecondRunMatchesItsResult) {

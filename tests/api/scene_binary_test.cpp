@@ -1,9 +1,11 @@
 // The browser's scene format (api/scene_binary.h): header, alignment, arrays that round-trip, a
 // site far from (0, 0) kept to float precision through offset_m, a results.h5 read back with its
-// trajectories sampled evenly.
+// trajectories sampled evenly, each terrain triangle's material (zones) from a site and from a
+// results.h5, and a results.h5 older than format 4 (no /terrain/material) still read.
 #include "api/scene_binary.h"
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <cstring>
 #include <fstream>
@@ -73,6 +75,26 @@ TEST(SceneBinary, HeaderDescribesAlignedArraysThatRoundTrip) {
   EXPECT_FALSE(d.header.contains("trajectories"));
 }
 
+TEST(SceneBinary, MaterialIndicesAreU8UpTo256NamesElseU16) {
+  SceneArrays s;
+  s.terrain_vertices = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  s.terrain_triangles = {0, 1, 2};
+  s.terrain_material = {255};
+  s.material_names.assign(256, "m");
+  Decoded d = decode(encode_scene(s));
+  EXPECT_EQ(d.header["arrays"]["terrain_material"]["type"], "u8");
+  EXPECT_EQ(d.array<std::uint8_t>("terrain_material"), std::vector<std::uint8_t>{255});
+  EXPECT_EQ(d.header["material_names"].size(), 256u);
+  s.material_names.assign(300, "m");
+  s.terrain_material = {299};
+  s.triangle_surface = {1};  // after a 2-byte array, still aligned
+  d = decode(encode_scene(s));
+  EXPECT_EQ(d.header["arrays"]["terrain_material"]["type"], "u16");
+  EXPECT_EQ(d.header["arrays"]["terrain_material"]["shape"], Json({1}));
+  EXPECT_EQ(d.array<std::uint16_t>("terrain_material"), std::vector<std::uint16_t>{299});
+  EXPECT_EQ(d.array<std::uint8_t>("triangle_surface"), std::vector<std::uint8_t>{1});
+}
+
 class SceneFromRun : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -111,7 +133,36 @@ class SceneFromRun : public ::testing::Test {
     return path;
   }
 
+  // The west half (x < 500200) of the far plane in another material than the base one.
+  void zone_west_half() {
+    for (const auto& [name, m] : scenario_.site.materials)
+      if (name != scenario_.site.terrain.material) other_ = name;
+    ASSERT_FALSE(other_.empty());
+    scenario_.site.terrain.zones = {
+        {other_, {{500000, 4000000}, {500200, 4000000}, {500200, 4000400}, {500000, 4000400}}}};
+    site_ = scene::Site::build(scenario_.site);
+    ASSERT_TRUE(site_->terrain_has_zones());
+  }
+
+  // The scene's materials, checked against the site's, triangle by triangle; how many triangles
+  // are in the zone's material.
+  std::size_t expect_site_materials(const Decoded& d) const {
+    std::vector<std::string> names;
+    for (const scene::Material& m : site_->materials()) names.push_back(m.name);
+    EXPECT_EQ(d.header.at("material_names"), Json(names));
+    EXPECT_EQ(d.header["arrays"]["terrain_material"]["type"], "u8");
+    const auto material = d.array<std::uint8_t>("terrain_material");
+    EXPECT_EQ(material.size(), site_->terrain_triangle_count());
+    std::size_t in_zone = 0;
+    for (std::uint32_t t = 0; t < material.size(); ++t) {
+      EXPECT_EQ(material[t], site_->terrain_triangle_material(t)) << t;
+      in_zone += names.at(material[t]) == other_;
+    }
+    return in_zone;
+  }
+
   fs::path dir_;
+  std::string other_;
   run::Scenario scenario_;
   std::shared_ptr<const scene::Site> site_;
 };
@@ -174,6 +225,35 @@ TEST_F(SceneFromRun, TrajectoriesCanBeLeftOutAndFewerThanAskedAreAllSent) {
   EXPECT_EQ(all.header["trajectories"], Json({{"recorded", 3}, {"sent", 3}}));
   EXPECT_EQ(all.array<std::uint32_t>("trajectory_offsets"),
             (std::vector<std::uint32_t>{0, 1, 3, 6}));
+}
+
+TEST_F(SceneFromRun, SiteSceneCarriesEachTriangleMaterial) {
+  const Decoded plain = decode(encode_scene(scene_from_site(*site_)));
+  EXPECT_EQ(expect_site_materials(plain), 0u);  // one material: every triangle the base one
+  zone_west_half();
+  // The 4 x 4 plane of 100 m cells: the two western columns, 16 of 32 triangles.
+  EXPECT_EQ(expect_site_materials(decode(encode_scene(scene_from_site(*site_)))), 16u);
+}
+
+TEST_F(SceneFromRun, ResultsSceneCarriesEachTriangleMaterial) {
+  zone_west_half();
+  const Decoded d = decode(encode_scene(scene_from_results(write(0), 0)));
+  EXPECT_EQ(expect_site_materials(d), 16u);
+}
+
+// A results.h5 of format < 4 has no /terrain/material: its scene has no materials, and loads.
+TEST_F(SceneFromRun, ResultsWithoutMaterialsStillLoad) {
+  zone_west_half();
+  const fs::path f = write(0);
+  const hid_t file = H5Fopen(f.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  EXPECT_GE(H5Ldelete(file, "/terrain/material", H5P_DEFAULT), 0);
+  EXPECT_GE(H5Ldelete(file, "/terrain/material_names", H5P_DEFAULT), 0);
+  H5Fclose(file);
+  const Decoded d = decode(encode_scene(scene_from_results(f, 0)));
+  EXPECT_FALSE(d.header["arrays"].contains("terrain_material"));
+  EXPECT_FALSE(d.header.contains("material_names"));
+  EXPECT_EQ(d.array<float>("density_per_m2").size(), site_->terrain_triangle_count());
 }
 
 TEST_F(SceneFromRun, AFileThatIsNotResultsIsAnError) {

@@ -1,11 +1,12 @@
-// Job view (#/jobs/<id>): 3-D PTN density map, hazardous-area contour, HFD, buildings, trajectories,
-// summary and buildings tables, density-vs-distance plot, downloads.
+// Job view (#/jobs/<id>): 3-D PTN density map (or the terrain's materials), hazardous-area contour,
+// HFD, buildings, trajectories, summary and buildings tables, density-vs-distance plot, downloads.
 
 import * as THREE from '../vendor/three.module.js';
 import { api, download, errorText } from './api.js';
 import { LogScale, lut, viridis, ylOrRd, rdPu, css, ZERO_GREY, BUILDING_GREY } from './colormap.js';
 import { el, fixed, sig, plusMinus, localTime, showError } from './format.js';
-import { densityLegend, keyItem, rampLegend } from './legend.js';
+import { colourControl, densityLegend, keyItem, materialLegend, rampLegend } from './legend.js';
+import { defaultColouring, hasMaterials, materialColors, materialEntries } from './materials.js';
 import * as meshes from './meshes.js';
 import { densityProfiles, drawDensityPlot } from './plot.js';
 import { parseScene } from './scene_format.js';
@@ -40,13 +41,12 @@ export async function enterJob(id, ctx) {
   renderBoundaryWarning(summary);
   const sv = jobSceneView();
   const built = buildJobScene(scene, summary);
-  state = { id, scene, summary, ...built };
+  state = { id, scene, summary, ...built, meshColouring: 'density', colouring: defaultColouring('job', built.materials) };
   sv.setContent(built.group);
   sv.offset = scene.offset;
-  sv.setTerrainLod(built.terrain, () =>
-    meshes.decimatedMesh(scene.arrays.terrain_vertices, scene.arrays.terrain_triangles, built.terrainColors, built.terrain));
   sv.setFrame(built.frame);
-  renderLegend(scene, summary, built);
+  applyColouring(state.colouring);
+  renderColourControl();
   renderLayerToggles(built.layers);
   renderBuildings(summary, built.buildingRgb);
   sv.render();
@@ -77,6 +77,7 @@ function resetPage(id) {
   $('downloads').replaceChildren();
   $('legend').replaceChildren();
   $('layers').replaceChildren();
+  $('colour-by').replaceChildren();
   const plot = $('density-plot');
   plot.getContext('2d').clearRect(0, 0, plot.width, plot.height);
   $('toggle-2d').textContent = 'Top view';
@@ -120,6 +121,7 @@ function buildJobScene(scene, summary) {
   const scale = new LogScale(thr / 100, dmax);
   const colors = meshes.densityColors(density, scale, lut(viridis), ZERO_GREY);
   const terrain = meshes.soupMesh(A.terrain_vertices, A.terrain_triangles, colors, { offsetSurface: true });
+  const materials = hasMaterials(scene) ? materialEntries(scene.materialNames, A.terrain_material) : [];
   group.add(terrain.mesh);
 
   const box = terrain.box, size = box.getSize(new THREE.Vector3());
@@ -145,7 +147,10 @@ function buildJobScene(scene, summary) {
   for (const obj of Object.values(layers)) group.add(obj);
 
   const frame = { target: [origin[0], origin[1], origin[2]], radius, zMax: box.max.z };
-  return { group, layers, frame, scale, vmax, terrain: terrain.mesh, terrainColors: colors, buildingMesh: b.mesh, buildingRgb: b.rgb, buildingRange: b.range };
+  return {
+    group, layers, frame, scale, vmax, terrain: terrain.mesh, densityColors: colors, materials,
+    buildingMesh: b.mesh, buildingRgb: b.rgb, buildingRange: b.range,
+  };
 }
 
 // The HFD circle and the per-sector distances. A distance that the site boundary cuts (a lower
@@ -194,6 +199,30 @@ function buildBuildings(scene, summary) {
   return { mesh, rgb, range };
 }
 
+// ---- terrain colouring: PTN density or material -------------------------------------------------
+
+// Colours the terrain by `mode` ('density' or 'material'); the overlays stay as they are.
+function applyColouring(mode) {
+  if (!state) return;
+  const A = state.scene.arrays, terrain = state.terrain;
+  state.colouring = mode;
+  const colors = mode === 'material' ? materialColors(A.terrain_material, state.materials) : state.densityColors;
+  if (mode !== state.meshColouring) meshes.setSoupColors(terrain, colors);  // built with the density's
+  state.meshColouring = mode;
+  view.setTerrainLod(terrain, () => meshes.decimatedMesh(A.terrain_vertices, A.terrain_triangles, colors, terrain));
+  renderLegend(state.scene, state.summary, state);
+  view.requestRender();
+}
+
+function renderColourControl() {
+  const old = !hasMaterials(state.scene);
+  $('colour-by').replaceChildren(colourControl('colour-select', [
+    { value: 'density', label: 'PTN density' },
+    { value: 'material', label: 'Material', disabled: old,
+      title: old ? 'results.h5 older than format 4: no material per triangle' : undefined },
+  ], state.colouring, applyColouring));
+}
+
 // ---- legend and layer toggles -------------------------------------------------------------------
 
 function renderLegend(scene, summary, built) {
@@ -203,7 +232,10 @@ function renderLegend(scene, summary, built) {
     ...hfdKeys(summary),
     keyItem(COLORS.launch, 'HFD origin', 'box'),
   ];
-  densityLegend($('legend'), { scale: built.scale, ramp: viridis, threshold: summary.hfd_threshold_per_m2, zeroColor: ZERO_GREY, keys });
+  if (built.colouring === 'material')
+    $('legend').replaceChildren(materialLegend(built.materials), el('div', { class: 'legend-keys' }, keys));
+  else
+    densityLegend($('legend'), { scale: built.scale, ramp: viridis, threshold: summary.hfd_threshold_per_m2, zeroColor: ZERO_GREY, keys });
   if (built.layers.trajectories)
     $('legend').append(rampLegend(`trajectories (${traj.sent} of ${traj.recorded} recorded), speed (m/s)`, rdPu, 0, built.vmax));
   if (built.buildingMesh) {

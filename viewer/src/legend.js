@@ -100,3 +100,26 @@ export function rampLegend(title, ramp, lo, hi, extra = []) {
     ]),
   ]);
 }
+
+// Terrain material legend: a swatch and the name of each material the terrain uses
+// (materials.js materialEntries), in index order, with its share of the triangles.
+export function materialLegend(entries) {
+  const total = entries.reduce((n, e) => n + e.triangles, 0) || 1;
+  return el('div', { class: 'legend-materials' }, [
+    el('div', { class: 'legend-title', text: 'Terrain material' }),
+    el('div', { class: 'legend-keys' }, entries.map((e) =>
+      el('span', { class: 'key-item material', dataset: { material: e.name }, title: `${e.triangles} triangles` }, [
+        swatch(css(e.color), 'box'), e.name,
+        el('span', { class: 'small muted', text: ` ${sig(100 * e.triangles / total, 2)} %` }),
+      ]))),
+  ]);
+}
+
+// "Colour: [select]": options [{value, label, disabled, title}], calls onChange(value).
+export function colourControl(id, options, value, onChange) {
+  const select = el('select', { id, 'aria-label': 'terrain colour' }, options.map((o) =>
+    el('option', { value: o.value, text: o.label, ...(o.disabled ? { disabled: '' } : {}), ...(o.title ? { title: o.title } : {}) })));
+  select.value = value;
+  select.addEventListener('change', () => onChange(select.value));
+  return el('label', { class: 'colour-by' }, ['Colour: ', select]);
+}

@@ -82,6 +82,16 @@ export function triangleSoup(verts, tris, triColor) {
   return { geometry, box };
 }
 
+// New per-triangle colours (Uint8Array m*3) for a soupMesh's geometry, in place.
+export function setSoupColors(mesh, triColor) {
+  const attr = mesh.geometry.attributes.color, col = attr.array, m = triColor.length / 3;
+  for (let t = 0, p = 0; t < m; t++)
+    for (let c = 0; c < 3; c++, p += 3) {
+      col[p] = triColor[3 * t]; col[p + 1] = triColor[3 * t + 1]; col[p + 2] = triColor[3 * t + 2];
+    }
+  attr.needsUpdate = true;
+}
+
 export function soupMesh(verts, tris, triColor, opts) {
   const { geometry, box } = triangleSoup(verts, tris, triColor);
   const mesh = new THREE.Mesh(geometry, flatMaterial(opts));

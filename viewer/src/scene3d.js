@@ -128,11 +128,22 @@ export class SceneView {
 
   // full: the terrain mesh (in the content group); build(): its decimated stand-in (a Mesh) or
   // null. Built when the page is idle, or at the first camera motion if that comes first.
+  // Called again with the same mesh after its colours changed: the old stand-in is dropped.
   setTerrainLod(full, build) {
+    this.dropCoarse();
     const lod = { full, build, coarse: undefined };
     this.lod = lod;
     const idle = window.requestIdleCallback || ((f) => setTimeout(f, 300));
     idle(() => this.lod === lod && this.ensureCoarse(), { timeout: 2000 });
+  }
+
+  dropCoarse() {
+    const lod = this.lod;
+    if (!lod || !lod.coarse) return;
+    lod.coarse.removeFromParent();
+    lod.coarse.geometry.dispose();  // its material is the full mesh's
+    lod.full.visible = true;
+    lod.coarse = undefined;
   }
 
   ensureCoarse() {

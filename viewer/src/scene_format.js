@@ -5,11 +5,11 @@
 //   12..12+H-1   header JSON {format, offset_m, arrays{name: {type, shape, offset, bytes}}, ...}
 //   12+H..       data block; array `name` at 12 + H + offset (8-byte aligned)
 //
-// Returns {offset, buildingIds, trajectories, header, arrays: {name: TypedArray}}; the typed
+// Returns {offset, buildingIds, materialNames, trajectories, header, arrays: {name: TypedArray}}; the typed
 // arrays are views into the buffer (copies if unaligned). Positions stay relative to offset_m.
 
 const MAGIC = 'FSSCENE1';
-const TYPES = { f32: Float32Array, u32: Uint32Array, u8: Uint8Array };
+const TYPES = { f32: Float32Array, u32: Uint32Array, u16: Uint16Array, u8: Uint8Array };
 
 export class SceneFormatError extends Error {}
 
@@ -55,6 +55,7 @@ export function parseScene(buf) {
     header,
     offset: header.offset_m || [0, 0, 0],
     buildingIds: header.building_ids || [],
+    materialNames: header.material_names || [],
     trajectories: header.trajectories || null,
     arrays,
   };

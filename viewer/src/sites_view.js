@@ -1,16 +1,19 @@
-// Sites view (#/sites) and site preview (#/sites/<id>): terrain shaded by elevation, buildings.
+// Sites view (#/sites) and site preview (#/sites/<id>): terrain coloured by elevation or by
+// material, buildings.
 
 import * as THREE from '../vendor/three.module.js';
 import { api } from './api.js';
 import { lut, terrain as terrainRamp, css, BUILDING_GREY } from './colormap.js';
 import { el, fixed, integer, localTime, showError } from './format.js';
-import { keyItem, rampLegend } from './legend.js';
+import { colourControl, keyItem, materialLegend, rampLegend } from './legend.js';
+import { defaultColouring, hasMaterials, materialColors, materialEntries } from './materials.js';
 import * as meshes from './meshes.js';
 import { parseScene } from './scene_format.js';
 import { SceneView } from './scene3d.js';
 
 const $ = (id) => document.getElementById(id);
 let view = null;
+let shown = null;  // the displayed site: {scene, built, colouring}
 
 // ---- list ---------------------------------------------------------------------------------------
 
@@ -57,6 +60,8 @@ export async function enterSite(id, ctx) {
   showError($('site-error'), '');
   $('site-table').tBodies[0].replaceChildren();
   $('site-legend').replaceChildren();
+  $('site-colour-by').replaceChildren();
+  shown = null;
   const sv = siteSceneView();
   sv.setContent(null);
   sv.setTopView(false);
@@ -67,14 +72,14 @@ export async function enterSite(id, ctx) {
   const built = buildSiteScene(scene);
   sv.setContent(built.group);
   sv.offset = scene.offset;
-  sv.setTerrainLod(built.terrain, () =>
-    meshes.decimatedMesh(scene.arrays.terrain_vertices, scene.arrays.terrain_triangles, built.terrainColors, built.terrain));
   sv.setFrame(built.frame);
   renderSiteTable(info, scene);
-  $('site-legend').append(
-    rampLegend('terrain elevation (m)', terrainRamp, built.zlo + scene.offset[2], built.zhi + scene.offset[2]),
-    el('div', { class: 'legend-keys' }, [keyItem(css(BUILDING_GREY), 'buildings', 'box')]),
-  );
+  shown = { scene, built, colouring: defaultColouring('site', built.materials), meshColouring: 'elevation' };
+  applySiteColouring(shown.colouring);
+  $('site-colour-by').replaceChildren(colourControl('site-colour-select', [
+    { value: 'elevation', label: 'Elevation' },
+    { value: 'material', label: 'Material', disabled: !hasMaterials(scene) },
+  ], shown.colouring, applySiteColouring));
   sv.render();
   ctx.firstFrame(scene.arrays.terrain_triangles.length / 3, sv);
   await new Promise((r) => requestAnimationFrame(r));
@@ -83,6 +88,24 @@ export async function enterSite(id, ctx) {
 
 export function leaveSite() {
   if (view) view.setContent(null);
+  shown = null;
+}
+
+// Colours the terrain by `mode` ('elevation' or 'material') and redraws the legend.
+function applySiteColouring(mode) {
+  if (!shown) return;
+  const { scene, built } = shown, A = scene.arrays;
+  const colors = mode === 'material' ? materialColors(A.terrain_material, built.materials) : built.elevationColors;
+  if (mode !== shown.meshColouring) meshes.setSoupColors(built.terrain, colors);  // built by elevation
+  shown.colouring = shown.meshColouring = mode;
+  view.setTerrainLod(built.terrain, () => meshes.decimatedMesh(A.terrain_vertices, A.terrain_triangles, colors, built.terrain));
+  $('site-legend').replaceChildren(
+    mode === 'material'
+      ? materialLegend(built.materials)
+      : rampLegend('terrain elevation (m)', terrainRamp, built.zlo + scene.offset[2], built.zhi + scene.offset[2]),
+    el('div', { class: 'legend-keys' }, [keyItem(css(BUILDING_GREY), 'buildings', 'box')]),
+  );
+  view.requestRender();
 }
 
 function buildSiteScene(scene) {
@@ -105,7 +128,11 @@ function buildSiteScene(scene) {
   }
   const box = terrain.box, c = box.getCenter(new THREE.Vector3()), size = box.getSize(new THREE.Vector3());
   const radius = Math.max(0.55 * Math.max(size.x, size.y), 1);
-  return { group, zlo, zhi, terrain: terrain.mesh, terrainColors: colors, frame: { target: [c.x, c.y, box.min.z], radius, zMax: box.max.z } };
+  const materials = hasMaterials(scene) ? materialEntries(scene.materialNames, A.terrain_material) : [];
+  return {
+    group, zlo, zhi, terrain: terrain.mesh, elevationColors: colors, materials,
+    frame: { target: [c.x, c.y, box.min.z], radius, zMax: box.max.z },
+  };
 }
 
 function renderSiteTable(info, scene) {

@@ -521,7 +521,8 @@ export function parseSceneBuffer(buf) {
   const arrays = {};
   for (const [name, a] of Object.entries(header.arrays)) {
     const ab = buf.buffer.slice(buf.byteOffset + start + a.offset, buf.byteOffset + start + a.offset + a.bytes);
-    arrays[name] = a.type === 'f32' ? new Float32Array(ab) : a.type === 'u32' ? new Uint32Array(ab) : new Uint8Array(ab);
+    const Type = { f32: Float32Array, u32: Uint32Array, u16: Uint16Array }[a.type] || Uint8Array;
+    arrays[name] = new Type(ab);
   }
   return { header, offset: header.offset_m || [0, 0, 0], buildingIds: header.building_ids || [], arrays };
 }
