@@ -5,9 +5,12 @@
 // scene of a large site (about 25 bytes per terrain triangle: 400 MB at 2^24) hold neither a
 // copy per request nor a rebuild each.
 //
-//   sites/<site_id>.scene.bin   removed with the site (SiteRegistry::remove)
-//   jobs/<job_id>/scene.bin     the default trajectory sample (api::kDefaultSceneTrajectories)
+//   sites/<site_id>.scene.v2.bin   removed with the site (SiteRegistry::remove)
+//   jobs/<job_id>/scene.v2.bin     the default trajectory sample (api::kDefaultSceneTrajectories)
 //
+// The names carry the version of what a scene holds (v2: the terrain's materials, issue 24), so
+// a daemon never serves a scene an older daemon cached without them: it builds the new one
+// beside it. Older versions' files (scene.bin) are removed with their site or job.
 // Files appear whole (api::OutputDir: a temporary renamed; a killed daemon's temporaries are
 // removed at the next start). One scene is built at a time (a mutex): a second request for the
 // same scene waits and finds the file. A job scene with another max_trajectories is built per
@@ -16,6 +19,7 @@
 #include <functional>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "api/scene_binary.h"
 
@@ -29,8 +33,14 @@ class SceneFiles {
   // An encoded scene built now, not stored.
   std::string encode_now(const std::function<api::SceneArrays()>& build);
 
-  static constexpr const char* kJobSceneName = "scene.bin";
-  static std::string site_scene_name(const std::string& site_id) { return site_id + ".scene.bin"; }
+  static constexpr const char* kJobSceneName = "scene.v2.bin";
+  static std::string site_scene_name(const std::string& site_id) {
+    return site_id + ".scene.v2.bin";
+  }
+  // Every name a site's scene has had (removed with the site).
+  static std::vector<std::string> site_scene_names(const std::string& site_id) {
+    return {site_id + ".scene.bin", site_scene_name(site_id)};
+  }
 
  private:
   std::mutex mutex_;

@@ -7,6 +7,7 @@
 #include "api/output_dir.h"
 #include "api/scenario_json.h"
 #include "server/log.h"
+#include "server/scene_files.h"
 
 namespace fragsim::server {
 
@@ -121,7 +122,8 @@ bool SiteRegistry::remove(const std::string& site_id) {
   order_.erase(std::remove(order_.begin(), order_.end(), site_id), order_.end());
   store_.delete_site(site_id);
   std::error_code ec;
-  std::filesystem::remove(dir_ / (site_id + ".scene.bin"), ec);  // server/scene_files.h
+  for (const std::string& name : SceneFiles::site_scene_names(site_id))
+    std::filesystem::remove(dir_ / name, ec);
   std::filesystem::remove(dir_ / (site_id + ".json"), ec);
   if (ec)
     log(LogLevel::kWarn, "site file not removed", {{"site_id", site_id}, {"error", ec.message()}});

@@ -1618,6 +1618,24 @@ TEST_F(ServiceViewer, CorsIsOffByDefaultAndOnlyForConfiguredOrigins) {
   expect_error(call("OPTIONS", "/v1/jobs", {}, {}, preflight, false), 405, "method_not_allowed");
 }
 
+// A scene an older daemon cached (sites/<id>.scene.bin: no terrain materials) is not served: the
+// current version is built beside it, and both go with the site.
+TEST_F(ServiceViewer, AnOlderDaemonsCachedSceneIsNotServed) {
+  start();
+  const std::string site = add_site();
+  const fs::path dir = fs::path(config().data_dir) / "sites";
+  const fs::path old_scene = dir / (site + ".scene.bin");
+  { std::ofstream(old_scene) << "FSSCENE1 an older daemon's scene"; }
+  const Response r = get("/v1/sites/" + site + "/scene");
+  ASSERT_EQ(r.status, 200) << r.body;
+  ASSERT_TRUE(r.file.has_value());
+  EXPECT_EQ(fs::weakly_canonical(*r.file), fs::weakly_canonical(dir / (site + ".scene.v2.bin")));
+  EXPECT_NE(api::testing::read_text(*r.file).find("material_names"), std::string::npos);
+  EXPECT_EQ(del("/v1/sites/" + site).status, 204);
+  EXPECT_FALSE(fs::exists(old_scene));
+  EXPECT_FALSE(fs::exists(dir / (site + ".scene.v2.bin")));
+}
+
 // The scene of a site and of a done job (the format itself: tests/api/scene_binary_test.cpp).
 TEST_F(ServiceViewer, ScenesOfSitesAndDoneJobs) {
   start();
@@ -1627,7 +1645,7 @@ TEST_F(ServiceViewer, ScenesOfSitesAndDoneJobs) {
   ASSERT_EQ(r.status, 200) << r.body;
   EXPECT_EQ(r.content_type, "application/vnd.fragsim.scene");
   ASSERT_TRUE(r.file.has_value());
-  const fs::path site_scene = fs::path(config().data_dir) / "sites" / (site + ".scene.bin");
+  const fs::path site_scene = fs::path(config().data_dir) / "sites" / (site + ".scene.v2.bin");
   EXPECT_EQ(fs::weakly_canonical(*r.file), fs::weakly_canonical(site_scene));
   const std::string site_bytes = api::testing::read_text(site_scene);
   EXPECT_EQ(site_bytes.substr(0, 8), "FSSCENE1");
@@ -1643,7 +1661,7 @@ TEST_F(ServiceViewer, ScenesOfSitesAndDoneJobs) {
   r = get("/v1/jobs/" + id + "/scene");
   ASSERT_EQ(r.status, 200) << r.body;
   ASSERT_TRUE(r.file.has_value());
-  const fs::path job_scene = fs::path(config().data_dir) / "jobs" / id / "scene.bin";
+  const fs::path job_scene = fs::path(config().data_dir) / "jobs" / id / "scene.v2.bin";
   EXPECT_EQ(fs::weakly_canonical(*r.file), fs::weakly_canonical(job_scene));
   EXPECT_NE(api::testing::read_text(job_scene).find("\"sent\":200"), std::string::npos);
   r = get("/v1/jobs/" + id + "/scene", {{"max_trajectories", "5"}});
