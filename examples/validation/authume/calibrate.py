@@ -60,8 +60,21 @@ def main():
     ap.add_argument("--grid-spacing", type=float, default=0.5)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--write", default=os.path.join(HERE, "calibration.json"))
+    ap.add_argument("--write", help="output (default: calibration.json here for P1, OUT/calibration_P2_hindsight.json for P2)")
+    ap.add_argument("--profile", choices=lib.PROFILES, default="P1",
+                    help="P2: the hindsight calibration, only once calibration.json is committed")
     args = ap.parse_args()
+    allow_p2 = False
+    if args.profile == "P2":
+        sys.path.insert(0, HERE)
+        from run import calibration_committed
+
+        if not calibration_committed():
+            sys.exit("--profile P2: calibration.json is not committed (blind protocol: README.md)")
+        allow_p2 = True
+    if not args.write:
+        args.write = (os.path.join(HERE, "calibration.json") if args.profile == "P1"
+                      else os.path.join(args.out, "calibration_P2_hindsight.json"))
     os.makedirs(args.out, exist_ok=True)
     if args.site:
         with open(args.site) as f:
@@ -70,8 +83,8 @@ def main():
         site = lib.import_site(args.fragsim, args.data, os.path.dirname(args.out.rstrip("/")) or ".", args.grid_spacing)
     with open(os.path.join(HERE, "start_params.json")) as f:
         start = {z: v for z, v in json.load(f).items() if z in lib.ZONES}
-    drops = lib.read_drop_points(args.data, "P1")
-    meas, masses, boxes = lib.read_endpoints(args.data, "P1")
+    drops = lib.read_drop_points(args.data, args.profile)
+    meas, masses, boxes = lib.read_endpoints(args.data, args.profile, allow_p2)
     c, u = lib.geometry(drops, meas)
     groups = lib.fragment_groups(drops, masses, boxes, args.samples)
     rows = []
@@ -94,13 +107,15 @@ def main():
         json.dump({"grid": {f"{z}.{p}": v for (z, p), v in GRID.items()}, "rows": rows}, f, indent=1)
     best = params_at(start, rows[0]["point"])
     for z in ("Blue", "Gray"):
-        best[z]["source"] = "calibrated on Authume P1 (examples/validation/authume/calibrate.py); " + best[z].get("source", "")
+        best[z]["source"] = f"calibrated on Authume {args.profile} (examples/validation/authume/calibrate.py); " + best[z].get("source", "")
     sha = subprocess.run([args.fragsim, "--version"], capture_output=True, text=True).stdout.strip()
     cal = {
-        "_note": "Calibrated on profile P1 only, committed before any P2 run (blind protocol, README.md). "
-        "Never to be adjusted after P2 is seen.",
+        "_note": ("Calibrated on profile P1 only, committed before any P2 run (blind protocol, README.md). "
+                  "Never to be adjusted after P2 is seen." if args.profile == "P1" else
+                  "HINDSIGHT: calibrated on P2 after the blind prediction; not used for any prediction."),
+        "profile": args.profile,
         "materials": best,
-        "objective": "KS distance + |median error| / measured median, P1 run-out from the drop points' centre",
+        "objective": f"KS distance + |median error| / measured median, {args.profile} run-out from the drop points' centre",
         "fit": {k: rows[0][k] for k in ("objective", "ks_d", "ks_p", "median_rel_error", "sim", "left_site")},
         "runner_up": [{"point": r["point"], "objective": r["objective"]} for r in rows[1:6]],
         "grid": {f"{z}.{p}": v for (z, p), v in GRID.items()},
