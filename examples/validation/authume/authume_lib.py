@@ -127,26 +127,60 @@ def zone_at(dtm, pts):
 # ------------------------------------------------------------------------- site and scenarios
 
 
+# The skirt: a flat rectangle this far below the DTM's lowest point, over the DTM's plan bounds and
+# this much beyond. `fragsim site import` resamples to a grid only where every node has a mesh
+# above it (no fill yet) and the TIN does not cover its bounding box (11,396 of 97,020 nodes at
+# 0.5 m, docs/gis.md); the skirt is the surface under those nodes. A block that reaches the DTM's
+# rim falls off it into this pit and is counted as not stopped on the DTM.
+SKIRT_DROP_M = 10.0
+SKIRT_MARGIN_M = 2.0
+SKIRT_MATERIAL = "off_dtm"
+
+
+def write_skirt(data, path):
+    """An ASCII STL (file axes, y up) of the skirt: two facets."""
+    v = np.concatenate([read_stl(os.path.join(data, "Geometries", "STL", f"DTM_{z}_zone.stl")).reshape(-1, 3) for z in ZONES])
+    lo, hi = v.min(axis=0) - SKIRT_MARGIN_M, v.max(axis=0) + SKIRT_MARGIN_M
+    y = v[:, 1].min() - SKIRT_DROP_M
+    c = [(lo[0], y, lo[2]), (hi[0], y, lo[2]), (hi[0], y, hi[2]), (lo[0], y, hi[2])]
+    with open(path, "w") as f:
+        f.write("solid skirt\n")
+        for tri in ((0, 2, 1), (0, 3, 2)):
+            f.write("facet normal 0 1 0\nouter loop\n")
+            for k in tri:
+                f.write("vertex %.4f %.4f %.4f\n" % c[k])
+            f.write("endloop\nendfacet\n")
+        f.write("endsolid skirt\n")
+
+
 def write_import(data, path, grid_spacing_m):
     """The `fragsim site import` file of the DTM: the three zone meshes, y up, each with its
-    zone's material (placeholder values: every run sets its own, `set_materials`)."""
+    zone's material (placeholder values: every run sets its own, `set_materials`), and the skirt
+    below them (written next to the import file)."""
     stl = os.path.join(os.path.abspath(data), "Geometries", "STL")
+    skirt = os.path.join(os.path.dirname(os.path.abspath(path)), "skirt.stl")
+    write_skirt(data, skirt)
     imp = {
         "schema": "fragsim.site_import/1",
         "description": "Authume quarry DTM (richefeu/AuthumeQuarryRockfalls_Data-in-Brief), "
-        "three substratum zones",
+        "three substratum zones over a skirt",
         "terrain": {
             "meshes": [
                 {"path": os.path.join(stl, f"DTM_{z}_zone.stl"), "material": ZONE_MATERIAL[z]}
                 for z in ZONES
-            ],
+            ]
+            + [{"path": skirt, "material": SKIRT_MATERIAL}],
             "axes": "y_up",
             "weld_m": 1e-6,
             "grid_spacing_m": grid_spacing_m,
         },
         "materials": {
-            ZONE_MATERIAL[z]: {"friction": 0.5, "restitution": 0.3, "rolling_resistance": 0.1}
-            for z in ZONES
+            **{
+                ZONE_MATERIAL[z]: {"friction": 0.5, "restitution": 0.3, "rolling_resistance": 0.1}
+                for z in ZONES
+            },
+            # Off the DTM: a block stops where it lands (no data about that ground).
+            SKIRT_MATERIAL: {"friction": 1.0, "restitution": 0.0, "rolling_resistance": 1.0},
         },
     }
     with open(path, "w") as f:

@@ -35,17 +35,19 @@ import authume_lib as lib  # noqa: E402
 # The grid (illustrative bounds, around the literature boxes of README.md "Starting values"; the
 # hard zone's box is widened downward in e and upward in mu because a rigid-body impulse with
 # rotation and a real shape needs other e than the lumped-mass tables).
-GRID = {
-    ("Gray", "restitution"): [0.2, 0.35, 0.5, 0.65],
-    ("Gray", "friction"): [0.4, 0.55, 0.7, 0.85],
-    ("Blue", "restitution"): [0.15, 0.25, 0.35],
-    ("Blue", "friction"): [0.5, 0.65, 0.8],
-}
+# Stage 1 spans the starting box; its best point lay on the box's edge in three of the four
+# constants (lowest e, highest mu on Gray, lowest mu on Blue; P1 only), so stage 2 extends the grid
+# beyond that edge. The best of both stages is taken.
+KEYS = [("Gray", "restitution"), ("Gray", "friction"), ("Blue", "restitution"), ("Blue", "friction")]
+STAGES = [
+    [[0.2, 0.35, 0.5, 0.65], [0.4, 0.55, 0.7, 0.85], [0.15, 0.25, 0.35], [0.5, 0.65, 0.8]],
+    [[0.05, 0.1, 0.2], [0.85, 1.0, 1.2], [0.15, 0.25], [0.35, 0.42, 0.5]],
+]
 
 
 def params_at(start, point):
     p = json.loads(json.dumps(start))
-    for (zone, key), v in zip(GRID, point):
+    for (zone, key), v in zip(KEYS, point):
         p[zone][key] = v
     return p
 
@@ -89,8 +91,21 @@ def main():
     groups = lib.fragment_groups(drops, masses, boxes, args.samples)
     rows = []
     t0 = time.time()
-    points = list(itertools.product(*GRID.values()))
+    points = []
+    for stage in STAGES:
+        points += [p for p in itertools.product(*stage) if p not in points]
+    # Points already run with the same samples and seed (OUT/grid.json) are not run again.
+    cache = {}
+    gp = os.path.join(args.out, "grid.json")
+    if os.path.exists(gp):
+        with open(gp) as f:
+            old = json.load(f)
+        if old.get("samples") == args.samples and old.get("seed") == args.seed and old.get("profile", "P1") == args.profile:
+            cache = {tuple(r["point"]): r for r in old["rows"]}
     for k, point in enumerate(points):
+        if tuple(point) in cache:
+            rows.append(cache[tuple(point)])
+            continue
         params = params_at(start, point)
         scen = lib.scenario(lib.set_materials(site, params), groups, seed=args.seed)
         _, end, outcome, summary, _ = lib.run_fragsim(args.fragsim, scen, os.path.join(args.out, "run"), args.threads)
@@ -99,12 +114,13 @@ def main():
         rows.append({"point": list(point), "objective": lib.objective(cmp), "ks_d": cmp["ks_d"], "ks_p": cmp["ks_p"],
                      "median_rel_error": cmp["median_rel_error"], "sim": cmp["sim"], "left_site": left,
                      "wall_s": summary["timing"]["wall_s"]})
-        print(f"[{k + 1}/{len(points)}] {dict(zip([f'{z}.{p}' for z, p in GRID], point))} -> "
+        print(f"[{k + 1}/{len(points)}] {dict(zip([f'{z}.{p}' for z, p in KEYS], point))} -> "
               f"objective {rows[-1]['objective']:.3f} (KS D {cmp['ks_d']:.3f}, median {100 * cmp['median_rel_error']:+.1f} %)"
               f"  [{time.time() - t0:.0f} s]", flush=True)
     rows.sort(key=lambda r: r["objective"])
     with open(os.path.join(args.out, "grid.json"), "w") as f:
-        json.dump({"grid": {f"{z}.{p}": v for (z, p), v in GRID.items()}, "rows": rows}, f, indent=1)
+        json.dump({"stages": STAGES, "keys": [f"{z}.{p}" for z, p in KEYS], "samples": args.samples,
+                   "seed": args.seed, "profile": args.profile, "rows": rows}, f, indent=1)
     best = params_at(start, rows[0]["point"])
     for z in ("Blue", "Gray"):
         best[z]["source"] = f"calibrated on Authume {args.profile} (examples/validation/authume/calibrate.py); " + best[z].get("source", "")
@@ -118,7 +134,7 @@ def main():
         "objective": f"KS distance + |median error| / measured median, {args.profile} run-out from the drop points' centre",
         "fit": {k: rows[0][k] for k in ("objective", "ks_d", "ks_p", "median_rel_error", "sim", "left_site")},
         "runner_up": [{"point": r["point"], "objective": r["objective"]} for r in rows[1:6]],
-        "grid": {f"{z}.{p}": v for (z, p), v in GRID.items()},
+        "grid": {"keys": [f"{z}.{p}" for z, p in KEYS], "stages": STAGES},
         "grid_points": len(rows),
         "samples_per_group": args.samples,
         "histories_per_point": len(masses) * len(drops) * args.samples,
