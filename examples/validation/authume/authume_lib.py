@@ -128,10 +128,12 @@ def zone_at(dtm, pts):
 
 
 # The skirt: a flat rectangle this far below the DTM's lowest point, over the DTM's plan bounds and
-# this much beyond. `fragsim site import` resamples to a grid only where every node has a mesh
-# above it (no fill yet) and the TIN does not cover its bounding box (11,396 of 97,020 nodes at
-# 0.5 m, docs/gis.md); the skirt is the surface under those nodes. A block that reaches the DTM's
-# rim falls off it into this pit and is counted as not stopped on the DTM.
+# this much beyond. The TIN does not cover its bounding box (11,396 of 97,020 nodes at 0.5 m); when
+# this was written, `fragsim site import` refused to resample such meshes to a grid, and the skirt
+# is the surface under those nodes. The importer now drops the uncovered cells instead
+# (docs/gis.md); the skirt is kept so that the committed calibration's site is reproduced bit for
+# bit. A block that reaches the DTM's rim falls off it into this pit (rather than leaving the site)
+# and is counted as not stopped on the DTM either way.
 SKIRT_DROP_M = 10.0
 SKIRT_MARGIN_M = 2.0
 SKIRT_MATERIAL = "off_dtm"

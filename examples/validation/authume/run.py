@@ -52,9 +52,10 @@ def load_params(path):
 
 
 def polyhedron_shape(fragsim, data, out):
-    """`fragsim shape import` of the scanned boulder SP3A (data README: the elongated shape used in
-    the tests), with a density so that the hull follows each block's mass. Returns a function
-    block index -> shape, cycling over the four scans so that every scanned shape is used."""
+    """`fragsim shape import` of the four scanned boulders (SP1A, SP2A, SP2B, SP3A), each with a
+    density so that its convex hull is scaled to each block's measured mass. The data do not say
+    which measured block had which shape (only that P2's block 37 is SP3A): block b gets scan b mod 4.
+    Returns a function block index -> shape."""
     shapes = []
     for name in lib.ROCKABLE_SHAPES:
         stl = os.path.join(data, "Geometries", "STL", f"{name}.stl")
@@ -63,7 +64,7 @@ def polyhedron_shape(fragsim, data, out):
         )
         s = json.loads(r.stdout)
         s.pop("dims_m", None)
-        s["density_kg_m3"] = 2650.0  # limestone (illustrative: no density is given in the data)
+        s["density_kg_m3"] = 2650.0  # a typical limestone (illustrative: rock type and density not given)
         shapes.append(s)
     with open(os.path.join(out, "polyhedra.json"), "w") as f:
         json.dump(shapes, f)
