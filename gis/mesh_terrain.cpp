@@ -124,7 +124,8 @@ std::vector<std::uint32_t> group_materials(const MeshData& m, const MeshSource& 
     }
     out.push_back(name_index(names, mat));
   }
-  for (const auto& [group, mat] : src.material_by_group) {
+  for (const auto& entry : src.material_by_group) {
+    const std::string& group = entry.first;
     const bool found = std::any_of(m.groups.begin(), m.groups.end(), [&](const FaceGroup& g) {
       return g.material == group || g.group == group || g.object == group;
     });

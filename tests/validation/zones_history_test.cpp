@@ -25,7 +25,7 @@ run::Scenario thrown(double azimuth_deg) {
   sc.settings.bounce = true;
   sc.settings.record_fragments = true;
   sc.settings.harmless_cutoff = false;  // 62 J: below the hazardous threshold, tracked anyway
-  scene::MaterialSpec grass;  // illustrative test materials
+  scene::MaterialSpec grass;            // illustrative test materials
   grass.friction = 0.8;
   grass.rolling_resistance = 0.3;
   grass.restitution.constant = 0.2;
