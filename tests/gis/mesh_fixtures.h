@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,8 @@ void put(std::ofstream& out, T v) {
 // Writes `m` as `path` (+ the format's extension) and returns the path written.
 inline std::filesystem::path write_mesh(const std::filesystem::path& stem, const MeshFixture& m,
                                         MeshFormat f) {
+  if (!m.group.empty() && m.group.size() != m.triangles.size())
+    throw std::logic_error("mesh fixture: one group per triangle, or none");
   std::filesystem::path path = stem;
   path += extension(f);
   std::ofstream out(path, std::ios::binary);

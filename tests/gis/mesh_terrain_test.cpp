@@ -139,6 +139,7 @@ TEST_F(MeshTerrainTest, AMeshThatIsNoHeightSurfaceIsRefusedNamingTheFacet) {
   MeshFixture p = pyramid();
   p.vertices.push_back({4, 4, 2});
   p.triangles.push_back({1, 2, 5});  // a vertical facet on the east edge
+  p.group.push_back(9);
   write_mesh(dir_ / "wall", p, MeshFormat::kStlAscii);
   EXPECT_EQ(error_of(import_file({{{"path", "wall.stl"}, {"material", "rock"}}})),
             "terrain.meshes[0]: wall.stl: facet 4: vertical (its plan projection has no area; 1 "
@@ -147,6 +148,7 @@ TEST_F(MeshTerrainTest, AMeshThatIsNoHeightSurfaceIsRefusedNamingTheFacet) {
   p = pyramid();
   p.vertices.push_back({2, 1, 5});
   p.triangles.push_back({0, 1, 5});  // over face 0: an overhang
+  p.group.push_back(9);
   write_mesh(dir_ / "fold", p, MeshFormat::kObj);
   write_mesh(dir_ / "ok", plane(10, 14), MeshFormat::kPlyAscii);
   EXPECT_EQ(error_of(import_file({{{"path", "ok.ply"}, {"material", "rock"}},
