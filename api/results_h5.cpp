@@ -400,6 +400,8 @@ void write_results_h5(const std::filesystem::path& path, const run::RunResult& r
   w.attribute(root, "wall_s", r.timing.wall_s);
   w.attribute(root, "threads", std::int32_t{r.timing.threads});
   w.attribute(root, "hfd_bound", r.site_boundary.hfd_cut ? "lower" : "none");
+  // The figures exactly as summary.json holds them (the report reads them from here).
+  w.attribute(root, "summary_json", summary_to_json(r, scenario, provenance).dump());
 
   write_terrain(w, site);
 

@@ -14,6 +14,7 @@
 #include "core/common/error.h"
 #include "gis/gdal_support.h"
 #include "gis/plan_raster.h"
+#include "gis/results_file.h"
 #include "gis/vtkhdf_export.h"
 
 namespace fragsim::gis {
@@ -25,165 +26,7 @@ using Json = nlohmann::json;
 
 constexpr double kNoData = -1.0;  // densities and errors are >= 0
 
-struct Building {
-  std::string id;
-  double impacts = 0, impacts_se = 0, penetrations = 0, penetrations_se = 0;
-  std::vector<std::array<Vec2, 3>> plan;  // its triangles seen from above
-};
-
-// What the exports need from results.h5, in the site's CRS (input + origin offset).
-struct Results {
-  std::vector<Vec3> vertices;
-  std::vector<std::array<std::size_t, 3>> triangles;
-  std::vector<double> density, std_error;
-  double threshold = 0, hfd_m = 0, band_lo = 0, band_hi = 0;
-  std::vector<double> by_sector;
-  // Where the terrain's boundary cuts the HFD (results.h5 /hfd/*bound*, format 2): "lower" or
-  // "none" each; "unknown" from a results.h5 of format 1, which does not say.
-  std::string hfd_bound = "unknown", band_lower_bound = "unknown", band_upper_bound = "unknown";
-  std::vector<std::string> sector_bound = std::vector<std::string>(36, "unknown");
-  std::string hfd_note;
-  double left_hazardous = 0, left_hazardous_se = 0;  // real fragments (format 2)
-  std::vector<double> left_hazardous_by_sector = std::vector<double>(36, 0.0);
-  Vec3 hfd_origin;
-  std::vector<Building> buildings;
-  std::string crs;            // "" when the site has none
-  Vec2 offset{0, 0};          // site.origin easting, northing
-  double terrain_cell_m = 0;  // grid spacing / plane cell; 0 for a mesh
-  // A grid terrain: its vertices are the DEM's samples (docs/gis.md): the raster's cells are
-  // centred on them, as the DEM's own cells were.
-  std::optional<std::array<double, 2>> grid_origin;
-  int grid_nx = 0, grid_ny = 0;
-};
-
-std::vector<Vec3> read_points(const fs::path& f, const std::string& name, const Vec2& offset) {
-  const auto v = api::read_dataset_double(f, name);
-  std::vector<Vec3> out(v.size() / 3);
-  for (std::size_t k = 0; k < out.size(); ++k)
-    out[k] = Vec3(v[3 * k] + offset.x(), v[3 * k + 1] + offset.y(), v[3 * k + 2]);
-  return out;
-}
-
-std::vector<std::array<std::size_t, 3>> read_triangles(const fs::path& f, const std::string& name) {
-  const auto t = api::read_dataset_int64(f, name);
-  std::vector<std::array<std::size_t, 3>> out(t.size() / 3);
-  for (std::size_t k = 0; k < out.size(); ++k)
-    for (std::size_t c = 0; c < 3; ++c) out[k][c] = static_cast<std::size_t>(t[3 * k + c]);
-  return out;
-}
-
-void read_site_of_scenario(const fs::path& f, Results& r) {
-  const Json sc = Json::parse(api::read_attribute_string(f, "/", "scenario_json"));
-  const Json& site = sc.at("site");
-  if (const auto o = site.find("origin"); o != site.end()) {
-    r.crs = o->value("crs", "");
-    r.offset = Vec2(o->value("easting_m", 0.0), o->value("northing_m", 0.0));
-  }
-  const Json& terrain = site.at("terrain");
-  if (terrain.contains("grid")) {
-    const Json& g = terrain["grid"];
-    r.terrain_cell_m = g.at("spacing_m").get<double>();
-    r.grid_origin = std::array<double, 2>{g.at("origin_m")[0].get<double>() + r.offset.x(),
-                                          g.at("origin_m")[1].get<double>() + r.offset.y()};
-    r.grid_nx = g.at("nx").get<int>();
-    r.grid_ny = g.at("ny").get<int>();
-  }
-  if (terrain.contains("plane")) r.terrain_cell_m = terrain["plane"].value("cell_m", 10.0);
-}
-
-void read_buildings(const fs::path& f, Results& r) {
-  const auto ids = api::read_dataset_strings(f, "/buildings/id");
-  const auto imp = api::read_dataset_double(f, "/buildings/expected_impacts");
-  const auto imp_se = api::read_dataset_double(f, "/buildings/impacts_std_error");
-  const auto pen = api::read_dataset_double(f, "/buildings/expected_penetrations");
-  const auto pen_se = api::read_dataset_double(f, "/buildings/penetrations_std_error");
-  r.buildings.resize(ids.size());
-  for (std::size_t k = 0; k < ids.size(); ++k)
-    r.buildings[k] = {ids[k], imp[k], imp_se[k], pen[k], pen_se[k], {}};
-  if (ids.empty()) return;
-  const auto v = read_points(f, "/buildings/vertices_m", r.offset);
-  const auto t = read_triangles(f, "/buildings/triangles");
-  const auto owner = api::read_dataset_int64(f, "/buildings/triangle_building");
-  for (std::size_t k = 0; k < t.size(); ++k)
-    r.buildings[static_cast<std::size_t>(owner[k])].plan.push_back(
-        {v[t[k][0]].head<2>(), v[t[k][1]].head<2>(), v[t[k][2]].head<2>()});
-}
-
-const char* bound_name(double flag) {
-  return flag != 0.0 ? "lower" : "none";
-}
-
-void read_hfd_bounds(const fs::path& f, Results& r) {
-  if (api::read_attribute_int64(f, "/", "format_version") < 2) return;
-  r.hfd_bound = bound_name(api::read_dataset_double(f, "/hfd/bound").at(0));
-  const auto band = api::read_dataset_double(f, "/hfd/band_bound");
-  r.band_lower_bound = bound_name(band.at(0));
-  r.band_upper_bound = bound_name(band.at(1));
-  const auto sectors = api::read_dataset_double(f, "/hfd/by_sector_bound");
-  for (std::size_t k = 0; k < r.sector_bound.size() && k < sectors.size(); ++k)
-    r.sector_bound[k] = bound_name(sectors[k]);
-  r.hfd_note = api::read_attribute_string(f, "/hfd", "note");
-  r.left_hazardous = api::read_dataset_double(f, "/hfd/left_site_hazardous_fragments").at(0);
-  r.left_hazardous_se =
-      api::read_dataset_double(f, "/hfd/left_site_hazardous_fragments_std_error").at(0);
-  r.left_hazardous_by_sector = api::read_dataset_double(f, "/hfd/left_site_hazardous_by_sector");
-  r.left_hazardous_by_sector.resize(36, 0.0);
-}
-
-Results read_results(const fs::path& f) {
-  Results r;
-  try {
-    if (api::read_attribute_string(f, "/", "file_type") != api::kResultsFileType)
-      throw std::runtime_error("not a fragsim results file");
-    read_site_of_scenario(f, r);
-    r.vertices = read_points(f, "/terrain/vertices_m", r.offset);
-    r.triangles = read_triangles(f, "/terrain/triangles");
-    r.density = api::read_dataset_double(f, "/ptn/density_per_m2");
-    r.std_error = api::read_dataset_double(f, "/ptn/std_error_per_m2");
-    r.threshold = api::read_dataset_double(f, "/hfd/threshold_per_m2").at(0);
-    r.hfd_m = api::read_dataset_double(f, "/hfd/hazardous_fragment_distance_m").at(0);
-    const auto band = api::read_dataset_double(f, "/hfd/band_m");
-    r.band_lo = band.at(0);
-    r.band_hi = band.at(1);
-    r.by_sector = api::read_dataset_double(f, "/hfd/by_sector_m");
-    const auto o = api::read_dataset_double(f, "/hfd/origin_m");
-    r.hfd_origin = Vec3(o.at(0) + r.offset.x(), o.at(1) + r.offset.y(), o.at(2));
-    read_hfd_bounds(f, r);
-    read_buildings(f, r);
-  } catch (const std::exception& e) {
-    throw InputError("RESULTS.h5", f.string() + ": " + e.what());
-  }
-  return r;
-}
-
 // ---- Rasters ----
-
-double default_cell(const Results& r) {
-  if (r.terrain_cell_m > 0) return r.terrain_cell_m;
-  double area = 0;  // a mesh: cells about the size of a triangle pair
-  for (const auto& t : r.triangles) {
-    const Vec2 a = r.vertices[t[0]].head<2>(), b = r.vertices[t[1]].head<2>(),
-               c = r.vertices[t[2]].head<2>();
-    area += 0.5 * std::abs((b - a).x() * (c - a).y() - (c - a).x() * (b - a).y());
-  }
-  return std::sqrt(2.0 * area / static_cast<double>(std::max<std::size_t>(1, r.triangles.size())));
-}
-
-PlanRaster rasterise(const Results& r, double cell_m, bool on_grid_samples) {
-  PlanRaster pr = on_grid_samples ? make_plan_raster_at((*r.grid_origin)[0] - 0.5 * cell_m,
-                                                        (*r.grid_origin)[1] - 0.5 * cell_m, cell_m,
-                                                        r.grid_nx, r.grid_ny, 2)
-                                  : make_plan_raster(r.vertices, cell_m, 2);
-  std::vector<double> values(2);
-  for (std::size_t k = 0; k < r.triangles.size(); ++k) {
-    const auto& t = r.triangles[k];
-    values[0] = r.density[k];
-    values[1] = r.std_error[k];
-    add_triangle(pr, r.vertices[t[0]].head<2>(), r.vertices[t[1]].head<2>(),
-                 r.vertices[t[2]].head<2>(), values);
-  }
-  return pr;
-}
 
 // While alive, GDAL keeps everything in the TIFF itself: no .aux.xml sidecar (it would be
 // named after the temporary file and left behind by the rename).
@@ -207,7 +50,7 @@ GDALDatasetUniquePtr create_tif(const fs::path& path, const PlanRaster& pr, int 
 }
 
 // Row r of the file is raster row rows-1-r (GeoTIFF rows run north to south).
-void write_density_tif(const fs::path& path, const PlanRaster& pr, const Results& res,
+void write_density_tif(const fs::path& path, const PlanRaster& pr, const ResultsFile& res,
                        const OGRSpatialReference* srs) {
   const NoAuxXml no_aux;
   GDALDatasetUniquePtr ds = create_tif(path, pr, 2, GDT_Float64, srs);
@@ -286,36 +129,6 @@ void write_classes_tif(const fs::path& path, const PlanRaster& pr, double t,
 
 // ---- Vectors ----
 
-std::unique_ptr<OGRGeometry> union_of(const std::vector<std::array<Vec2, 3>>& triangles) {
-  OGRMultiPolygon all;
-  for (const auto& t : triangles) {
-    const double a2 = (t[1] - t[0]).x() * (t[2] - t[0]).y() - (t[2] - t[0]).x() * (t[1] - t[0]).y();
-    if (std::abs(a2) < 1e-9) continue;  // a wall seen from above
-    auto ring = std::make_unique<OGRLinearRing>();
-    for (int k = 0; k <= 3; ++k) ring->addPoint(t[k % 3].x(), t[k % 3].y());
-    auto poly = std::make_unique<OGRPolygon>();
-    poly->addRingDirectly(ring.release());
-    all.addGeometryDirectly(poly.release());
-  }
-  if (all.IsEmpty()) return std::make_unique<OGRMultiPolygon>();
-  std::unique_ptr<OGRGeometry> u(all.UnionCascaded());
-  if (!u) throw std::runtime_error("polygon union failed (GEOS)");
-  return u;
-}
-
-// Terrain triangles where density + s * std_error >= threshold, merged.
-std::unique_ptr<OGRGeometry> hazard_area(const Results& r, double s, std::size_t* count) {
-  std::vector<std::array<Vec2, 3>> tris;
-  for (std::size_t k = 0; k < r.triangles.size(); ++k) {
-    if (!(r.density[k] + s * r.std_error[k] >= r.threshold)) continue;
-    const auto& t = r.triangles[k];
-    tris.push_back(
-        {r.vertices[t[0]].head<2>(), r.vertices[t[1]].head<2>(), r.vertices[t[2]].head<2>()});
-  }
-  if (count != nullptr) *count = tris.size();
-  return union_of(tris);
-}
-
 struct LayerSet {
   std::unique_ptr<OGRGeometry> estimate, lower, upper;
   std::vector<std::unique_ptr<OGRGeometry>> buildings;
@@ -350,7 +163,7 @@ void add_feature(OGRLayer& l, const OGRGeometry& g, const std::function<void(OGR
   if (l.CreateFeature(&f) != OGRERR_NONE) throw std::runtime_error("cannot write a feature");
 }
 
-void write_hazard_layer(GDALDataset& ds, const Results& r, const LayerSet& g,
+void write_hazard_layer(GDALDataset& ds, const ResultsFile& r, const LayerSet& g,
                         const OGRSpatialReference* srs, OGRCoordinateTransformation* tr) {
   OGRLayer* l = new_layer(ds, "hazardous_area", srs, wkbMultiPolygon,
                           {{"band", OFTString},
@@ -376,7 +189,7 @@ void write_hazard_layer(GDALDataset& ds, const Results& r, const LayerSet& g,
         tr);
 }
 
-void write_buildings_layer(GDALDataset& ds, const Results& r, const LayerSet& g,
+void write_buildings_layer(GDALDataset& ds, const ResultsFile& r, const LayerSet& g,
                            const OGRSpatialReference* srs, OGRCoordinateTransformation* tr) {
   OGRLayer* l = new_layer(ds, "buildings", srs, wkbMultiPolygon,
                           {{"id", OFTString},
@@ -385,7 +198,7 @@ void write_buildings_layer(GDALDataset& ds, const Results& r, const LayerSet& g,
                            {"expected_penetrations", OFTReal},
                            {"penetrations_std_error", OFTReal}});
   for (std::size_t k = 0; k < r.buildings.size(); ++k) {
-    const Building& b = r.buildings[k];
+    const ResultsBuilding& b = r.buildings[k];
     add_feature(
         *l, *g.buildings[k],
         [&](OGRFeature& f) {
@@ -399,7 +212,7 @@ void write_buildings_layer(GDALDataset& ds, const Results& r, const LayerSet& g,
   }
 }
 
-void write_hfd_layers(GDALDataset& ds, const Results& r, const OGRSpatialReference* srs,
+void write_hfd_layers(GDALDataset& ds, const ResultsFile& r, const OGRSpatialReference* srs,
                       OGRCoordinateTransformation* tr) {
   OGRLayer* p = new_layer(ds, "hfd", srs, wkbPoint,
                           {{"hfd_m", OFTReal},
@@ -494,7 +307,7 @@ void stage_paraview(const fs::path& h5, const Vec2& offset,
 }  // namespace
 
 ExportReport export_results(const ExportOptions& o) {
-  const Results r = read_results(o.results_h5);
+  const ResultsFile r = read_results_file(o.results_h5);
   ExportReport report;
   if (r.hfd_bound == "lower") report.notes.push_back(r.hfd_note);  // on every export, first
   // site.origin.crs is informational in a scenario: a label PROJ does not know (e.g. "local")

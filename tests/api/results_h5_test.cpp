@@ -114,7 +114,12 @@ class ResultsH5 : public ::testing::Test {
 TEST_F(ResultsH5, RootAttributes) {
   const fs::path f = write("r.h5", result_);
   EXPECT_EQ(read_attribute_string(f, "/", "file_type"), "fragsim.results");
-  EXPECT_EQ(read_attribute_int64(f, "/", "format_version"), 4);
+  EXPECT_EQ(read_attribute_int64(f, "/", "format_version"), 5);
+  // summary_json (format 5): summary.json's figures, the same function's output.
+  Provenance p = build_provenance();
+  p.scenario_sha256 = std::string(64, 'a');
+  EXPECT_EQ(read_attribute_string(f, "/", "summary_json"),
+            summary_to_json(result_, scenario_, p).dump());
   EXPECT_EQ(read_attribute_string(f, "/", "hfd_bound"), "none");
   EXPECT_EQ(read_attribute_string(f, "/", "fragsim_version"), kVersion);
   EXPECT_EQ(read_attribute_string(f, "/", "git_sha"), kGitSha);
