@@ -12,6 +12,7 @@
 #include <type_traits>
 
 #include "api/h5_writer.h"
+#include "api/machine.h"
 
 namespace fragsim::api {
 
@@ -399,6 +400,7 @@ void write_results_h5(const std::filesystem::path& path, const run::RunResult& r
   w.attribute(root, "created_utc", utc_now_iso8601());
   w.attribute(root, "wall_s", r.timing.wall_s);
   w.attribute(root, "threads", std::int32_t{r.timing.threads});
+  w.attribute(root, "machine", machine_description());
   w.attribute(root, "hfd_bound", r.site_boundary.hfd_cut ? "lower" : "none");
   // The figures exactly as summary.json holds them (the report reads them from here).
   w.attribute(root, "summary_json", summary_to_json(r, scenario, provenance).dump());

@@ -3,8 +3,8 @@
 //
 //   /                      attributes: file_type "fragsim.results", format_version 1,
 //                          fragsim_version, git_sha, seed, samples, histories_done,
-//                          real_fragments, cancelled, scenario_json, summary_json (format 5),
-//                          created_utc, wall_s, threads
+//                          real_fragments, cancelled, scenario_json, summary_json and machine
+//                          (format 5), created_utc, wall_s, threads
 //   /terrain/              vertices_m (n x 3, input coordinates), triangles (m x 3 uint32),
 //                          area_m2 (m)
 //   /ptn/                  density_per_m2 (m), std_error_per_m2 (m)
@@ -48,7 +48,8 @@ inline constexpr const char* kResultsFileType = "fragsim.results";
 // /ground_bracket with settings.ground_bracket (rows: constants, widest HFD swing first;
 // columns: the low and high end).
 // 4: /terrain/material (each triangle's material, an index into /terrain/material_names).
-// 5: the root attribute summary_json (summary.json's figures, compact), read by `fragsim report`.
+// 5: the root attributes summary_json (summary.json's figures, compact) and machine (host, CPU,
+// kernel: api/machine.h), read by `fragsim report`.
 inline constexpr int kResultsFormatVersion = 5;
 
 // Writes a new file at `path` (fails if it exists). Throws std::runtime_error on HDF5 errors and

@@ -28,12 +28,12 @@ struct Presented {
   double value = 0.0;
   const char* unit = "";
 };
-Presented present_length(double m, UnitSystem u);                // m | ft
-Presented present_energy(double j, UnitSystem u);                // J | ft-lb
-Presented present_mass(double kg, UnitSystem u);                 // kg | lb
-Presented present_speed(double mps, UnitSystem u);               // m/s | ft/s
-Presented present_area(double m2, UnitSystem u);                 // m² | ft²
-Presented present_areal_density(double per_m2, UnitSystem u);   // per m² | per 600 ft²
+Presented present_length(double m, UnitSystem u);              // m | ft
+Presented present_energy(double j, UnitSystem u);              // J | ft-lb
+Presented present_mass(double kg, UnitSystem u);               // kg | lb
+Presented present_speed(double mps, UnitSystem u);             // m/s | ft/s
+Presented present_area(double m2, UnitSystem u);               // m² | ft²
+Presented present_areal_density(double per_m2, UnitSystem u);  // per m² | per 600 ft²
 
 // "138.8 m" / "455.3 ft" with `decimals` digits after the point.
 std::string format_length(double m, UnitSystem u, int decimals = 1);

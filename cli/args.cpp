@@ -154,6 +154,19 @@ bool take_file_command_option(const std::vector<std::string>& args, std::size_t&
   return take_nonempty(args, k, "--out", "file name", o.out);
 }
 
+// Options of report; true when args[k] was one.
+bool take_report_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
+  std::string value;
+  if (take_value(args, k, "--units", value)) {
+    if (value != "si" && value != "us")
+      throw UsageError("--units: expected si or us, got \"" + value + "\"");
+    o.report_units = value;
+    return true;
+  }
+  if (take_nonempty(args, k, "--pdf", "file name", o.pdf)) return true;
+  return take_nonempty(args, k, "--out", "file name", o.out);
+}
+
 // An option of o.command at args[k], or an operand (the scenario or input file, or merge's
 // partial files); k is advanced past an option's value.
 void take_argument(const std::vector<std::string>& args, std::size_t& k, Options& o) {
@@ -173,6 +186,9 @@ void take_argument(const std::vector<std::string>& args, std::size_t& k, Options
     case Command::kSubmit:
       if (take_submit_option(args, k, o)) return;
       break;
+    case Command::kReport:
+      if (take_report_option(args, k, o)) return;
+      break;
     case Command::kExport:
     case Command::kSiteImport:
     case Command::kSiteExportGis:
@@ -189,11 +205,12 @@ void take_argument(const std::vector<std::string>& args, std::size_t& k, Options
 // The command named by args[0] (and args[1] for "site ..."); returns the number of words it took.
 std::size_t parse_command(const std::vector<std::string>& args, Options& o) {
   static const std::map<std::string, Command> commands = {
-      {"run", Command::kRun},           {"validate", Command::kValidate},
-      {"submit", Command::kSubmit},     {"export", Command::kExport},
-      {"merge", Command::kMerge},       {"--help", Command::kHelp},
-      {"-h", Command::kHelp},           {"help", Command::kHelp},
-      {"--version", Command::kVersion}, {"version", Command::kVersion}};
+      {"run", Command::kRun},        {"validate", Command::kValidate},
+      {"submit", Command::kSubmit},  {"export", Command::kExport},
+      {"merge", Command::kMerge},    {"report", Command::kReport},
+      {"--help", Command::kHelp},    {"-h", Command::kHelp},
+      {"help", Command::kHelp},      {"--version", Command::kVersion},
+      {"version", Command::kVersion}};
   const std::string& first = args[0];
   if (first == "site") {
     if (args.size() < 2 || (args[1] != "import" && args[1] != "export-gis"))
@@ -218,6 +235,10 @@ std::size_t parse_command(const std::vector<std::string>& args, Options& o) {
 // The operands and options each command needs.
 void check_complete(const Options& o) {
   switch (o.command) {
+    case Command::kReport:
+      if (o.scenario.empty()) throw UsageError("report: missing RESULTS.h5");
+      if (o.out.empty()) throw UsageError("report needs --out REPORT.html");
+      return;
     case Command::kExport:
       if (o.scenario.empty()) throw UsageError("export: missing RESULTS.h5");
       if (o.out.empty()) throw UsageError("export needs --out DIR");
@@ -274,6 +295,7 @@ Usage:
   fragsim site export-gis SITE.json --out DIR
   fragsim shape import FILE [--axes z_up|y_up|x,-z,y]
   fragsim export RESULTS.h5 --out DIR [--pixel-m X]
+  fragsim report RESULTS.h5 --out REPORT.html [--pdf REPORT.pdf] [--units si|us]
   fragsim submit SCENARIO.json [--server URL] [--token-file FILE] [--priority N]
                  [--idempotency-key KEY] [--no-wait] [--out DIR [--maps]] [--quiet]
   fragsim --version
@@ -304,6 +326,11 @@ Commands:
   export     Write a run's results as GIS files into DIR (docs/gis.md): the PTN density as
              GeoTIFF (and in classes with a colour table), the hazardous area, buildings and
              HFD as GeoPackage, GeoJSON (RFC 7946) and KML, in the site's CRS / WGS 84.
+  report     Write the study report of a run (docs/report.md): one self-contained HTML page
+             (figures, tables, provenance, limitations, the normalised scenario; no network
+             needed to view it) and, with --pdf, the same page as PDF printed by headless
+             chromium. --units us shows ft, ft-lb, lb and densities per 600 ft² (SI stays
+             in the files). Refuses a cancelled run's results.
   submit     Run the scenario on a fragsimd server (docs/http-api.md): an inline site is
              uploaded first (POST /v1/sites) and the job names it by site_id; then the job's
              progress is followed and its summary printed (--out DIR also downloads

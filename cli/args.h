@@ -24,7 +24,8 @@ enum class Command {
   kSiteExportGis,
   kShapeImport,
   kExport,
-  kMerge
+  kMerge,
+  kReport
 };
 
 struct ShardArg {
@@ -53,6 +54,9 @@ struct Options {
   std::optional<double> pixel_m;
   // shape import (FILE in `scenario`): --axes z_up | y_up | x,-z,y
   std::string axes = "z_up";
+  // report (RESULTS.h5 in `scenario`, --out REPORT.html in `out`): --pdf FILE, --units si|us
+  std::string pdf;
+  std::string report_units = "si";
 };
 
 Options parse_args(const std::vector<std::string>& args);  // args without argv[0]

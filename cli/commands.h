@@ -53,6 +53,9 @@ int site_export_gis_command(const Options& options);
 int shape_import_command(const Options& options);
 // `fragsim export`: results.h5 to GIS files (gis/results_export.h).
 int export_command(const Options& options);
+
+// `fragsim report`: results.h5 to the study report (report/report.h).
+int report_command(const Options& options);
 // `cancel` is set by the SIGINT/SIGTERM handler.
 int run_command(const Options& options, const std::atomic<bool>& cancel);
 // `fragsim merge`: the partial files of `run --shard` into run's outputs (docs/cluster.md).

@@ -13,6 +13,7 @@
 #include "gis/results_export.h"
 #include "gis/site_import.h"
 #include "gis/site_to_gis.h"
+#include "report/report.h"
 
 namespace fragsim::cli {
 
@@ -125,6 +126,19 @@ int export_command(const Options& o) {
             << " m; " << r.hazardous_triangles << " terrain triangles at or above the threshold)\n";
   for (const auto& f : r.files) std::cout << "  " << (fs::path(o.out) / f).string() << "\n";
   for (const auto& n : r.notes) std::cout << "note: " << n << "\n";
+  return kExitOk;
+}
+
+int report_command(const Options& o) {
+  report::ReportOptions options;
+  options.results_h5 = o.scenario;
+  options.out_html = o.out;
+  if (!o.pdf.empty()) options.out_pdf = o.pdf;
+  options.units = *api::parse_unit_system(o.report_units);
+  const report::ReportWritten w = report::write_report(options);
+  std::cout << "ok: " << o.out << " (" << w.html_bytes / 1024 << " KiB, " << w.html_s << " s)";
+  if (!o.pdf.empty()) std::cout << " and " << o.pdf << " (" << w.pdf_s << " s)";
+  std::cout << "\n";
   return kExitOk;
 }
 

@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
       case Command::kValidate: return validate_command(options);
       case Command::kSiteImport: return site_import_command(options);
       case Command::kExport: return export_command(options);
+      case Command::kReport: return report_command(options);
       case Command::kSiteExportGis: return site_export_gis_command(options);
       case Command::kShapeImport: return shape_import_command(options);
       case Command::kRun: install_cancel_handlers(); return run_command(options, cancel_flag());

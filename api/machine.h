@@ -1,0 +1,12 @@
+#pragma once
+// A one-line description of the machine a run ran on, stored in results.h5 (root attribute
+// `machine`, format 5) and shown in the study report: host name, CPU model and count, kernel.
+#include <string>
+
+namespace fragsim::api {
+
+// "host01: Intel(R) Xeon(R) Gold 6248 CPU @ 2.50GHz, 2 CPUs, Linux 6.1.0-26-amd64 x86_64";
+// parts that cannot be read are left out.
+std::string machine_description();
+
+}  // namespace fragsim::api
