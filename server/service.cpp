@@ -50,6 +50,8 @@ enum class RouteId {
   kJobResults,
   kJobMaps,
   kJobMap,
+  kJobReportHtml,
+  kJobReportPdf,
   kJobScene
 };
 
@@ -171,7 +173,8 @@ std::size_t clean_stale_temporaries(const std::filesystem::path& data_dir) {
   for (std::filesystem::directory_iterator it(data_dir / "jobs", ec), end; !ec && it != end;
        it.increment(ec)) {
     if (it->is_directory(ec))
-      n += api::remove_stale_temporaries(it->path()) + JobMaps::remove_stale(it->path());
+      n += api::remove_stale_temporaries(it->path()) + JobMaps::remove_stale(it->path()) +
+           JobReports::remove_stale(it->path());
   }
   return n;
 }
@@ -247,6 +250,8 @@ const std::vector<Service::Route>& routes() {
       {RouteId::kJobResults, "/v1/jobs/{id}/results.h5", {"GET"}},
       {RouteId::kJobMaps, "/v1/jobs/{id}/maps", {"GET"}},
       {RouteId::kJobMap, "/v1/jobs/{id}/maps/{name}", {"GET"}},
+      {RouteId::kJobReportHtml, "/v1/jobs/{id}/report.html", {"GET"}},
+      {RouteId::kJobReportPdf, "/v1/jobs/{id}/report.pdf", {"GET"}},
       {RouteId::kJobScene, "/v1/jobs/{id}/scene", {"GET"}},
   };
   return kRoutes;
@@ -450,6 +455,8 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
     bad = check_query(req, {"format", "min_density_per_m2"});
   } else if (route.id == RouteId::kJobScene) {
     bad = check_query(req, {"max_trajectories"});
+  } else if (route.id == RouteId::kJobReportHtml || route.id == RouteId::kJobReportPdf) {
+    bad = check_query(req, {"units"});
   } else {
     bad = check_query(req, {});
   }
@@ -478,6 +485,8 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
     case RouteId::kJobResults: return job_results_h5(id);
     case RouteId::kJobMaps: return job_maps(id);
     case RouteId::kJobMap: return job_map_file(id, name);
+    case RouteId::kJobReportHtml: return job_report(req, id, false);
+    case RouteId::kJobReportPdf: return job_report(req, id, true);
     default: return error_response(404, "not_found", "no route " + req.path);
   }
 }
@@ -955,6 +964,39 @@ Response Service::job_maps(const std::string& id) {
                                   {"hazardous_triangles", m.hazardous_triangles},
                                   {"files", std::move(files)},
                                   {"notes", m.notes}});
+}
+
+// The study report (server/job_reports.h): ?units=si (default) or us.
+Response Service::job_report(const Request& req, const std::string& id, bool pdf) {
+  std::optional<api::UnitSystem> units = api::UnitSystem::kSi;
+  if (const auto it = req.query.find("units"); it != req.query.end()) {
+    units = api::parse_unit_system(it->second);
+    if (!units)
+      return error_response(400, "bad_parameter", "must be si or us (got \"" + it->second + "\")",
+                            "units");
+  }
+  auto job = finished_job(id);
+  if (auto* r = std::get_if<Response>(&job)) return *r;
+  Response r;
+  try {
+    r.file = reports_.ensure(scheduler_.job_dir(id), *units, pdf);
+  } catch (const InputError& e) {
+    if (e.field() == "--pdf")
+      return error_response(503, "pdf_unavailable", "the PDF could not be printed: " + e.message());
+    return error_response(409, "report_unavailable", e.message());
+  } catch (const std::exception& e) {
+    return error_response(503, "pdf_unavailable",
+                          std::string("the report could not be made: ") + e.what());
+  }
+  r.content_type = pdf ? "application/pdf" : "text/html; charset=utf-8";
+  // The page runs only its own inline script (the figures) and fetches nothing.
+  r.headers.emplace_back("Content-Security-Policy",
+                         "default-src 'none'; script-src 'unsafe-inline'; style-src "
+                         "'unsafe-inline'; img-src data: blob:; frame-ancestors 'none'");
+  r.headers.emplace_back("Content-Disposition", std::string(pdf ? "attachment" : "inline") +
+                                                    "; filename=\"" + id + "_" +
+                                                    JobReports::file_name(*units, pdf) + "\"");
+  return r;
 }
 
 Response Service::job_map_file(const std::string& id, const std::string& name) {

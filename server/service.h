@@ -19,6 +19,7 @@
 #include "api/job_request.h"
 #include "server/config.h"
 #include "server/job_maps.h"
+#include "server/job_reports.h"
 #include "server/metrics.h"
 #include "server/scene_files.h"
 #include "server/scheduler.h"
@@ -115,6 +116,7 @@ class Service {
   Response job_scene(const Request& req, const std::string& id);
   Response job_maps(const std::string& id);
   Response job_map_file(const std::string& id, const std::string& name);
+  Response job_report(const Request& req, const std::string& id, bool pdf);
 
   bool authorised(const Request& req) const;
   void check_terrain_size(const scene::TerrainSpec& terrain, const std::string& field) const;
@@ -150,6 +152,7 @@ class Service {
   Scheduler scheduler_;
   Metrics metrics_;
   JobMaps maps_;
+  JobReports reports_;
   SceneFiles scenes_;
   // Site deletion and job submission check and change "which jobs use which site" together.
   std::mutex catalogue_mutex_;

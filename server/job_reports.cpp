@@ -1,0 +1,40 @@
+// Reports of finished jobs, made once and kept (job_reports.h).
+#include "server/job_reports.h"
+
+#include "api/output_dir.h"
+#include "api/run_outputs.h"
+#include "report/report.h"
+
+namespace fragsim::server {
+
+namespace fs = std::filesystem;
+
+std::string JobReports::file_name(api::UnitSystem units, bool pdf) {
+  return std::string("report-") + api::unit_system_name(units) + (pdf ? ".pdf" : ".html");
+}
+
+fs::path JobReports::ensure(const fs::path& job_dir, api::UnitSystem units, bool pdf) {
+  const fs::path dir = job_dir / kDirName;
+  const fs::path target = dir / file_name(units, pdf);
+  const std::lock_guard<std::mutex> lock(mutex_);
+  std::error_code ec;
+  if (fs::is_regular_file(target, ec)) return target;
+  report::ReportOptions o;
+  o.results_h5 = job_dir / api::kResultsFileName;
+  o.units = units;
+  if (pdf) {
+    // The HTML of the same units is written too (kept: a later request for it is served).
+    o.out_html = dir / file_name(units, false);
+    o.out_pdf = target;
+  } else {
+    o.out_html = target;
+  }
+  report::write_report(o);
+  return target;
+}
+
+std::size_t JobReports::remove_stale(const fs::path& job_dir) noexcept {
+  return api::remove_stale_temporaries(job_dir / kDirName);
+}
+
+}  // namespace fragsim::server
