@@ -81,16 +81,19 @@ Json map_raster(const ReportInputs& in, const Frame& f, double half) {
     value[0] = r.density[k];
     gis::add_triangle(pr, a, b, c, value);
   }
-  Json classes = Json::array();  // row 0 at the top (north), as Plot's raster expects
+  // One digit per cell, row 0 at the top (north), as Plot's raster expects; '0': no fragment.
+  std::string classes;
+  classes.reserve(static_cast<std::size_t>(n) * static_cast<std::size_t>(n));
   const double t = r.threshold;
   for (int row = n - 1; row >= 0; --row)
     for (int col = 0; col < n; ++col) {
       const double d = pr.mean(0, col, row);
-      if (!(d > 0)) {
-        classes.push_back(nullptr);
-        continue;
-      }
-      classes.push_back(d < t / 100 ? 2 : d < t / 10 ? 3 : d < t ? 4 : d < 10 * t ? 5 : 6);
+      classes += !(d > 0)      ? '0'
+                 : d < t / 100 ? '2'
+                 : d < t / 10  ? '3'
+                 : d < t       ? '4'
+                 : d < 10 * t  ? '5'
+                               : '6';
     }
   const double h = f.len(half);
   return {{"x1", -h},

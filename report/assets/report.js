@@ -42,9 +42,9 @@
       x: { domain: [r.x1, r.x2], label: `east of the HFD origin (${u.length})` },
       y: { domain: [r.y1, r.y2], label: `north (${u.length})` },
       marks: [
-        Plot.raster(r.classes, {
+        Plot.raster(Array.from(r.classes, Number), {
           width: r.width, height: r.height, x1: r.x1, x2: r.x2, y1: r.y2, y2: r.y1,
-          fill: (d) => (d === null ? null : COLOUR[d]), imageRendering: 'pixelated',
+          fill: (d) => (d === 0 ? null : COLOUR[d]), imageRendering: 'pixelated',
         }),
         Plot.line(buildings, { x: 'x', y: 'y', z: 'ring', fill: '#888', stroke: '#555', strokeWidth: 0.5 }),
         Plot.text(labels, { x: 'x', y: 'y', text: 'id', dy: -8, fontSize: 9, fill: '#333' }),
@@ -115,7 +115,7 @@
     return Plot.plot({
       width, height: 300, marginLeft: 60,
       x: { label: `distance from the HFD origin (${u.length})` },
-      y: { type: 'log', label: `PTN density (${u.density})` },
+      y: { type: 'log', label: `PTN density (${u.density})`, tickFormat: '~g' },
       color: { legend: true, domain: ['largest triangle density', 'area-weighted mean'], range: ['#b2182b', '#2166ac'] },
       marks: [
         Plot.rectX([data.band], { x1: (b) => b[0], x2: (b) => b[1], fill: '#eee' }),
