@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "api/units.h"
+
 namespace fragsim::cli {
 
 // A malformed command line (exit code 2, like invalid input).
@@ -41,7 +43,9 @@ struct Options {
   bool quiet = false;                   // run, submit, merge: no progress, no report
   std::optional<ShardArg> shard;        // run: --shard I/N writes DIR/partial.fsp
   std::string progress_file;            // run: --progress-file FILE (JSON, rewritten atomically)
-  std::vector<std::string> parts;       // merge: the partial files
+  // run, merge, submit: the printed summary's units; export: US fields beside the SI ones
+  api::UnitSystem units = api::UnitSystem::kSi;  // --units si|us (docs/units.md)
+  std::vector<std::string> parts;                // merge: the partial files
   // submit
   std::string server = "http://127.0.0.1:8080";
   std::string token_file;
