@@ -180,14 +180,15 @@ std::string bounded_length(double m, const std::string& bound, api::UnitSystem u
   return (bound == "lower" ? "≥ " : "") + api::format_length(m, u);
 }
 
-void set_us_hazard_fields(OGRFeature& f, const ResultsFile& r, const char* rule,
+// "estimate: density >= threshold (1 per 600 ft²); reaches the site boundary".
+void set_us_hazard_fields(OGRFeature& f, const ResultsFile& r, const char* band, const char* rule,
                           const std::string& bound, api::UnitSystem u) {
   if (u != api::UnitSystem::kUs) return;
   f.SetField("threshold_per_600ft2", api::present_areal_density(r.threshold, u).value);
-  f.SetField("description", (std::string(rule) + ", the threshold being " +
-                             api::format_areal_density(r.threshold, u) +
-                             (bound == "lower" ? "; reaches the site boundary" : ""))
-                                .c_str());
+  f.SetField("description",
+             (std::string(band) + ": " + rule + " (" + api::format_areal_density(r.threshold, u) +
+              ")" + (bound == "lower" ? "; reaches the site boundary" : ""))
+                 .c_str());
 }
 
 void set_us_hfd_fields(OGRFeature& f, const ResultsFile& r, api::UnitSystem u) {
@@ -244,7 +245,7 @@ void write_hazard_layer(GDALDataset& ds, const ResultsFile& r, const LayerSet& g
           f.SetField("threshold_per_m2", r.threshold);
           f.SetField("rule", rule);
           f.SetField("extent_bound", bound->c_str());
-          set_us_hazard_fields(f, r, rule, *bound, u);
+          set_us_hazard_fields(f, r, band, rule, *bound, u);
         },
         tr);
 }
