@@ -31,12 +31,19 @@ std::string fmt(const char* format, double a, double b = 0.0, double c = 0.0) {
   return buf;
 }
 
+// A length as "%.1f m" / "%.1f ft".
+std::string length_text(double m, UnitSystem u) {
+  const Presented p = present_length(m, u);
+  return fmt("%.1f ", p.value) + p.unit;
+}
+
 // "422 m (low 0) … 139 m (high 5)": the HFD at both ends, with a "≥" where the boundary cuts it.
-std::string ends_text(const Json& row) {
+// The constants' values stay as the scenario gives them (SI).
+std::string ends_text(const Json& row, UnitSystem u) {
   const auto end = [&](const char* which) {
     const Json e = row.value(which, Json::object());
     const bool lower = e.value("hfd_bound", std::string()) == "lower";
-    return (lower ? "≥ " : "") + fmt("%.1f m", number(e, "hfd_m")) + " at " +
+    return (lower ? "≥ " : "") + length_text(number(e, "hfd_m"), u) + " at " +
            fmt("%g", number(e, "value"));
   };
   return end("low") + ", " + end("high");
@@ -73,7 +80,8 @@ Json ground_bracket_json(const run::GroundBracket* b) {
           {"rows", std::move(rows)}};
 }
 
-std::vector<std::pair<std::string, std::string>> ground_bracket_text(const Json& summary) {
+std::vector<std::pair<std::string, std::string>> ground_bracket_text(const Json& summary,
+                                                                     UnitSystem u) {
   std::vector<std::pair<std::string, std::string>> lines;
   const auto it = summary.find("ground_bracket");
   if (it == summary.end() || !it->is_object()) return lines;
@@ -82,15 +90,16 @@ std::vector<std::pair<std::string, std::string>> ground_bracket_text(const Json&
   if (range.is_array() && range.size() == 2) {
     const bool lower = b.value("hfd_range_bound", std::string()) == "lower";
     lines.emplace_back("  ground-model bracket",
-                       fmt("HFD %.1f … %.1f m", range[0].get<double>(), range[1].get<double>()) +
+                       fmt("HFD %.1f … ", present_length(range[0].get<double>(), u).value) +
+                           length_text(range[1].get<double>(), u) +
                            (lower ? " (some ends are lower bounds)" : "") + " over the ranges of " +
                            b.value("material", std::string()) + "'s constants; nominal " +
-                           fmt("%.1f m", number(b.value("nominal", Json::object()), "hfd_m")) +
+                           length_text(number(b.value("nominal", Json::object()), "hfd_m"), u) +
                            " at the same " + fmt("%.0f", number(b, "histories_per_run")) +
                            " histories per run");
   }
   for (const Json& row : b.value("rows", Json::array()))
-    lines.emplace_back("    " + row.value("constant", std::string()), ends_text(row));
+    lines.emplace_back("    " + row.value("constant", std::string()), ends_text(row, u));
   if (b.value("cancelled", false)) lines.emplace_back("    (incomplete)", "cancelled");
   return lines;
 }

@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "api/units.h"
 #include "core/run/result.h"
 
 namespace fragsim::api {
@@ -16,6 +17,6 @@ nlohmann::ordered_json ground_bracket_json(const run::GroundBracket* bracket);
 
 // (label, value) lines of the text summary from a summary's "ground_bracket" (none without one).
 std::vector<std::pair<std::string, std::string>> ground_bracket_text(
-    const nlohmann::ordered_json& summary);
+    const nlohmann::ordered_json& summary, UnitSystem units = UnitSystem::kSi);
 
 }  // namespace fragsim::api

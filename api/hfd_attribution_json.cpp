@@ -71,7 +71,8 @@ std::string shares_text(std::vector<std::pair<double, std::string>> shares, std:
 }
 
 // "ground 498.0 m, after_ricochet ≥ 310.2 m": each field's HFD alone, the farthest `limit`.
-std::string alone_text(std::vector<std::pair<std::string, Json>> fields, std::size_t limit) {
+std::string alone_text(std::vector<std::pair<std::string, Json>> fields, std::size_t limit,
+                       UnitSystem u) {
   std::stable_sort(fields.begin(), fields.end(), [](const auto& a, const auto& b) {
     return a.second.value("hfd_m", 0.0) > b.second.value("hfd_m", 0.0);
   });
@@ -81,7 +82,7 @@ std::string alone_text(std::vector<std::pair<std::string, Json>> fields, std::si
     const auto& [name, f] = fields[k];
     const bool lower = f.value("hfd_bound", std::string()) == "lower";
     out += (out.empty() ? "" : ", ") + name + " " + (lower ? "≥ " : "") +
-           f1(f.value("hfd_m", 0.0)) + " m";
+           f1(present_length(f.value("hfd_m", 0.0), u).value) + " " + present_length(0.0, u).unit;
   }
   return out;
 }
@@ -116,7 +117,7 @@ nlohmann::ordered_json hfd_attribution_json(const run::HfdAttribution& a,
 }
 
 std::vector<std::pair<std::string, std::string>> hfd_attribution_text(
-    const nlohmann::ordered_json& summary) {
+    const nlohmann::ordered_json& summary, UnitSystem u) {
   std::vector<std::pair<std::string, std::string>> lines;
   const auto it = summary.find("hfd_attribution");
   if (it == summary.end() || !it->is_object()) return lines;
@@ -141,9 +142,9 @@ std::vector<std::pair<std::string, std::string>> hfd_attribution_text(
   for (const auto& [name, f] : by_mechanism.items()) mechanisms.emplace_back(name, f);
   for (const auto& g : by_group) groups.emplace_back(quoted(g.value("group", std::string())), g);
   if (!mechanisms.empty())
-    lines.emplace_back("  HFD by mechanism alone", alone_text(mechanisms, 3));
+    lines.emplace_back("  HFD by mechanism alone", alone_text(mechanisms, 3, u));
   if (names.size() > 1 && !groups.empty())
-    lines.emplace_back("  HFD by group alone", alone_text(groups, 4));
+    lines.emplace_back("  HFD by group alone", alone_text(groups, 4, u));
   if (const Json reason = a.value("by_group_omitted_reason", Json()); reason.is_string())
     lines.emplace_back("  HFD by group alone", "omitted: " + reason.get<std::string>());
   return lines;

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "api/units.h"
 #include "core/run/result.h"
 #include "core/run/scenario.h"
 
@@ -19,6 +20,6 @@ nlohmann::ordered_json hfd_attribution_json(const run::HfdAttribution& attributi
 // (label, value) lines of the text summary from a summary's "hfd_attribution" (none without
 // one): what sets the HFD at its triangle, and the HFD of each mechanism and group alone.
 std::vector<std::pair<std::string, std::string>> hfd_attribution_text(
-    const nlohmann::ordered_json& summary);
+    const nlohmann::ordered_json& summary, UnitSystem units = UnitSystem::kSi);
 
 }  // namespace fragsim::api

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <vector>
 
 #include "api/ground_bracket_json.h"
 #include "api/hfd_attribution_json.h"
@@ -83,6 +84,27 @@ std::string f1(double v) {
   return std::isfinite(v) ? printf_string("%.1f", v) : "n/a";
 }
 
+// A length in the presentation unit to one decimal, without its unit; and the unit.
+std::string length1(double m, UnitSystem u) {
+  return f1(present_length(m, u).value);
+}
+const char* length_unit(UnitSystem u) {
+  return present_length(0.0, u).unit;
+}
+// An areal density in the presentation unit: "0.01794 per m²" / "1 per 600 ft²".
+std::string density_text(double per_m2, UnitSystem u) {
+  const Presented p = present_areal_density(per_m2, u);
+  return g4(p.value) + " " + p.unit;
+}
+
+// "HFD ≥ 278.1 m: hazardous density reaches the site boundary in 36 of 36 sectors; extend the
+// terrain".
+std::string bound_note_text(double hfd_m, int sectors_cut, UnitSystem u) {
+  return "HFD ≥ " + length1(hfd_m, u) + " " + length_unit(u) +
+         ": hazardous density reaches the site boundary in " + std::to_string(sectors_cut) +
+         " of 36 sectors; extend the terrain";
+}
+
 std::string vec3_text(const Json& j) {
   if (!j.is_array() || j.size() != 3) return "n/a";
   std::string out = "(";
@@ -91,6 +113,11 @@ std::string vec3_text(const Json& j) {
     out += f1(j[k].get<double>());
   }
   return out + ")";
+}
+
+// Site coordinates stay in the site's CRS unit, the metre; in US units they say so.
+std::string coordinates_text(const Json& j, UnitSystem u) {
+  return vec3_text(j) + (u == UnitSystem::kUs ? " m" : "");
 }
 
 // Characters as displayed: UTF-8 continuation bytes ("±" is two bytes) take no column.
@@ -115,8 +142,23 @@ std::string plus_minus(double mean, double se) {
   return g4(mean) + " ± " + g4(se);
 }
 
+// A target's figure, value and allowed value as read: in US units a length target ("..._m")
+// loses its suffix and its values are in ft.
+struct TargetText {
+  std::string figure, value, allowed;
+};
+TargetText target_text(const Json& t, UnitSystem u) {
+  std::string figure = t.value("figure", "");
+  const bool length =
+      u == UnitSystem::kUs && figure.size() > 2 && figure.compare(figure.size() - 2, 2, "_m") == 0;
+  if (!length) return {figure, g4(num(t, "value")), g4(num(t, "allowed"))};
+  figure.resize(figure.size() - 2);
+  return {figure, g4(present_length(num(t, "value"), u).value) + " ft",
+          g4(present_length(num(t, "allowed"), u).value) + " ft"};
+}
+
 // One line per target kind; building figures summarised by the worst one (largest value/allowed).
-std::string precision_text(const Json& p) {
+std::string precision_text(const Json& p, UnitSystem u) {
   const std::string state = p.value("all_met", false)          ? "all met"
                             : p.value("any_unmeetable", false) ? "not all can be met"
                                                                : "not all met";
@@ -141,9 +183,9 @@ std::string precision_text(const Json& p) {
     const std::string verdict = t.value("met", false)          ? "  met"
                                 : t.value("unmeetable", false) ? "  UNMEETABLE"
                                                                : "  NOT MET";
-    out += "  " + pad_right(t.value("figure", ""), 28) + g4(num(t, "value")) + " (allowed " +
-           g4(allowed) + ")" + verdict + (note.is_string() ? ": " + note.get<std::string>() : "") +
-           "\n";
+    const TargetText text = target_text(t, u);
+    out += "  " + pad_right(text.figure, 28) + text.value + " (allowed " + text.allowed + ")" +
+           verdict + (note.is_string() ? ": " + note.get<std::string>() : "") + "\n";
   }
   if (buildings > 0) {
     out += "  " + pad_right("building figures", 28) + std::to_string(buildings_met) + " of " +
@@ -162,37 +204,51 @@ const Json* object_at(const Json& j, const char* key) {
   return it != j.end() && it->is_object() ? &*it : nullptr;
 }
 
-// A distance that the site boundary may make a lower bound: "≥ 278.1".
-std::string bounded(double m, const Json& bound) {
-  return (bound.is_string() && bound.get<std::string>() == "lower" ? "≥ " : "") + f1(m);
+// A distance that the site boundary may make a lower bound: "≥ 278.1" (no unit).
+std::string bounded(double m, const Json& bound, UnitSystem u) {
+  return (bound.is_string() && bound.get<std::string>() == "lower" ? "≥ " : "") + length1(m, u);
+}
+
+// The site boundary's line: how many sectors it cuts (in US units with their bearings) and the
+// density on it.
+std::string site_boundary_text(const Json& s, const Json& sb, double threshold, UnitSystem u) {
+  const double edge = num(sb, "max_boundary_density_per_m2");
+  const int cut = sb.value("hfd_sectors_cut", 0);
+  std::string where = cut > 0 ? "hazardous in " + std::to_string(cut) + " of 36 sectors"
+                              : std::string("not reached");
+  if (const auto bounds = s.find("hfd_by_sector_bound");
+      u == UnitSystem::kUs && cut > 0 && bounds != s.end() && bounds->is_array()) {
+    std::vector<bool> lower;
+    for (const auto& b : *bounds) lower.push_back(b == "lower");
+    where += ", bearings " + sector_bearing_arcs(lower);
+  }
+  return where + " (density there up to " + density_text(edge, u) + ", " +
+         printf_string("%.2g", edge / threshold) + " × the threshold)";
 }
 
 // The HFD lines: the distance and its band (each a lower bound where the site boundary cuts
 // it), the threshold, the site boundary, the hazardous fragments that left the site.
 template <class Line>
-void hfd_text(const Json& s, const Line& line) {
+void hfd_text(const Json& s, const Line& line, UnitSystem u) {
+  const std::string unit = length_unit(u);
   const Json bound = s.value("hfd_bound", Json());
-  std::string hfd = bounded(num(s, "hazardous_fragment_distance_m"), bound) + " m";
+  std::string hfd = bounded(num(s, "hazardous_fragment_distance_m"), bound, u) + " " + unit;
   if (bound == "lower") hfd += ", a lower bound";
   const Json band_bound = s.value("hfd_band_bound", Json::array({nullptr, nullptr}));
   if (const auto band = s.find("hazardous_fragment_distance_band_m");
       band != s.end() && band->is_array() && band->size() == 2 && band_bound.size() == 2)
-    hfd += "  (±1 se band " + bounded((*band)[0].get<double>(), band_bound[0]) + " .. " +
-           bounded((*band)[1].get<double>(), band_bound[1]) + " m)";
+    hfd += "  (±1 se band " + bounded((*band)[0].get<double>(), band_bound[0], u) + " .. " +
+           bounded((*band)[1].get<double>(), band_bound[1], u) + " " + unit + ")";
   line("Hazardous fragment distance", hfd);
   const double threshold = num(s, "hfd_threshold_per_m2");
-  line("  threshold", g4(threshold) + " per m² (1 per " + f1(1.0 / threshold) + " m²), from " +
-                          vec3_text(s.value("hfd_origin_m", Json())));
-  for (const auto& [label, value] : hfd_attribution_text(s)) line(label, value);
-  for (const auto& [label, value] : ground_bracket_text(s)) line(label, value);
+  const Presented area = present_area(1.0 / threshold, u);
+  line("  threshold", density_text(threshold, u) + " (1 per " + f1(area.value) + " " + area.unit +
+                          "), from " + coordinates_text(s.value("hfd_origin_m", Json()), u));
+  for (const auto& [label, value] : hfd_attribution_text(s, u)) line(label, value);
+  for (const auto& [label, value] : ground_bracket_text(s, u)) line(label, value);
   const Json* sb = object_at(s, "site_boundary");
   if (sb == nullptr) return;
-  const double edge = num(*sb, "max_boundary_density_per_m2");
-  const int cut = sb->value("hfd_sectors_cut", 0);
-  line("  site boundary", (cut > 0 ? "hazardous in " + std::to_string(cut) + " of 36 sectors"
-                                   : std::string("not reached")) +
-                              " (density there up to " + g4(edge) + " per m², " +
-                              printf_string("%.2g", edge / threshold) + " × the threshold)");
+  line("  site boundary", site_boundary_text(s, *sb, threshold, u));
   if (const Json* left = object_at(*sb, "left_site_hazardous")) {
     const auto histories = left->value("histories", std::int64_t{0});
     line("  left site while hazardous",
@@ -230,9 +286,7 @@ Json site_boundary_json(const run::RunResult& r) {
 std::string hfd_bound_note(const run::RunResult& r) {
   const run::SiteBoundary& b = r.site_boundary;
   if (!b.hfd_cut) return "";
-  return "HFD ≥ " + f1(r.hazardous_fragment_distance_m) +
-         " m: hazardous density reaches the site boundary in " + std::to_string(b.hfd_sectors_cut) +
-         " of 36 sectors; extend the terrain";
+  return bound_note_text(r.hazardous_fragment_distance_m, b.hfd_sectors_cut, UnitSystem::kSi);
 }
 
 Provenance build_provenance() {
@@ -341,7 +395,7 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
   return out;
 }
 
-std::string render_summary_text(const nlohmann::ordered_json& s) {
+std::string render_summary_text(const nlohmann::ordered_json& s, UnitSystem u) {
   std::string out;
   const auto line = [&](const std::string& label, const std::string& value) {
     out += pad_right(label + " ", 30) + value + "\n";  // a space after a long label
@@ -349,8 +403,13 @@ std::string render_summary_text(const nlohmann::ordered_json& s) {
   if (s.value("cancelled", false))
     out += "CANCELLED: partial result of " + std::to_string(s.value("histories_done", 0)) +
            " histories, not a final result\n";
+  // The stored note is in metres: in US units it is said again in feet.
   if (const Json* sb = object_at(s, "site_boundary"); sb && sb->value("note", Json()).is_string())
-    out += "WARNING: " + (*sb)["note"].get<std::string>() + "\n";
+    out += "WARNING: " +
+           (u == UnitSystem::kSi ? (*sb)["note"].get<std::string>()
+                                 : bound_note_text(num(s, "hazardous_fragment_distance_m"),
+                                                   sb->value("hfd_sectors_cut", 0), u)) +
+           "\n";
   std::string samples = std::to_string(s.value("samples", std::int64_t{0}));
   if (s.value("stop_reason", std::string("samples")) != "samples")
     samples += " (" + std::to_string(s.value("batches", std::int64_t{1})) +
@@ -359,10 +418,10 @@ std::string render_summary_text(const nlohmann::ordered_json& s) {
   line("Real fragments", g4(num(s, "real_fragments")));
   line("Seed", std::to_string(s.value("seed", std::uint64_t{0})));
 
-  hfd_text(s, line);
-  std::string max_ptn = g4(num(s, "max_ptn_density_per_m2")) + " per m²";
+  hfd_text(s, line, u);
+  std::string max_ptn = density_text(num(s, "max_ptn_density_per_m2"), u);
   if (s.contains("max_ptn_location_m") && s["max_ptn_location_m"].is_array())
-    max_ptn += " at " + vec3_text(s["max_ptn_location_m"]) + " (terrain triangle " +
+    max_ptn += " at " + coordinates_text(s["max_ptn_location_m"], u) + " (terrain triangle " +
                std::to_string(s.value("max_ptn_triangle", std::int64_t{-1})) + ")";
   line("Max PTN density", max_ptn);
 
@@ -396,7 +455,8 @@ std::string render_summary_text(const nlohmann::ordered_json& s) {
     }
   }
 
-  if (s.contains("precision") && s["precision"].is_object()) out += precision_text(s["precision"]);
+  if (s.contains("precision") && s["precision"].is_object())
+    out += precision_text(s["precision"], u);
 
   if (s.contains("timing") && s["timing"].is_object()) {
     const Json& t = s["timing"];

@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "api/units.h"
 #include "core/run/precision.h"
 #include "core/run/result.h"
 #include "core/run/scenario.h"
@@ -36,7 +37,9 @@ nlohmann::ordered_json precision_report_json(const run::PrecisionReport& report)
 
 // A plain-text report of a summary (as made by summary_to_json): headline figures, a table of
 // buildings (expected impacts and penetrations, each +/- one standard error), outcome counts,
-// run time and throughput.
-std::string render_summary_text(const nlohmann::ordered_json& summary);
+// run time and throughput. In US units (docs/units.md) distances are in ft, densities per
+// 600 ft², the site boundary's cut sectors named by bearing; site coordinates stay in metres.
+std::string render_summary_text(const nlohmann::ordered_json& summary,
+                                UnitSystem units = UnitSystem::kSi);
 
 }  // namespace fragsim::api

@@ -1,8 +1,10 @@
 // Presentation units (units.h).
 #include "api/units.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 namespace fragsim::api {
 
@@ -69,8 +71,9 @@ std::string format_areal_density(double per_m2, UnitSystem u) {
 }
 
 double bearing_deg(double azimuth_ccw_from_x_deg) {
-  const double b = std::fmod(90.0 - azimuth_ccw_from_x_deg, 360.0);
-  return b < 0.0 ? b + 360.0 : b;
+  double b = std::fmod(90.0 - azimuth_ccw_from_x_deg, 360.0) + 0.0;  // + 0.0: no "-0"
+  if (b < 0.0) b += 360.0;
+  return b >= 360.0 ? 0.0 : b;  // a tiny negative b + 360 rounds to 360
 }
 
 std::string sector_bearing_range(int sector) {
@@ -79,6 +82,31 @@ std::string sector_bearing_range(int sector) {
   double to = bearing_deg(10.0 * sector);
   if (to == 0.0) to = 360.0;
   return printf_value("%03.0f", from) + "°–" + printf_value("%03.0f", to) + "°";
+}
+
+std::string sector_bearing_arcs(const std::vector<bool>& sectors) {
+  const int n = static_cast<int>(sectors.size());
+  const auto on = [&](int k) { return sectors[static_cast<std::size_t>(((k % n) + n) % n)]; };
+  int count = 0;
+  for (int k = 0; k < n; ++k) count += on(k) ? 1 : 0;
+  if (count == 0) return "";
+  if (count == n) return "000°–360°";
+  // Runs of adjacent sectors, each started where its azimuth-wise predecessor is off (so a run
+  // across azimuth 0 is one run); listed in the order of their first bearing.
+  std::vector<std::pair<double, std::string>> arcs;
+  for (int first = 0; first < n; ++first) {
+    if (!on(first) || on(first - 1)) continue;
+    int last = first;
+    while (on(last + 1)) ++last;
+    const double from = bearing_deg(10.0 * last + 10.0);
+    double to = bearing_deg(10.0 * first);
+    if (to == 0.0) to = 360.0;
+    arcs.emplace_back(from, printf_value("%03.0f", from) + "°–" + printf_value("%03.0f", to) + "°");
+  }
+  std::sort(arcs.begin(), arcs.end());
+  std::string out;
+  for (const auto& [from, text] : arcs) out += (out.empty() ? "" : ", ") + text;
+  return out;
 }
 
 }  // namespace fragsim::api

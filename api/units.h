@@ -5,10 +5,11 @@
 // these functions only convert a figure for display and name its unit.
 //
 // Factors (exact by definition, NIST SP 811 Appendix B): 1 ft = 0.3048 m; 1 lb = 0.45359237 kg;
-// 1 lbf = 4.4482216152605 N, so 1 ft-lb = 1.3558179483314004 J; 600 ft^2 = 55.74192 m^2.
+// 1 lbf = 4.4482216152605 N, so 1 ft-lb = 1.3558179483314004 J; 600 ft^2 = 55.741824 m^2.
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace fragsim::api {
 
@@ -17,7 +18,7 @@ enum class UnitSystem { kSi, kUs };
 inline constexpr double kFootM = 0.3048;
 inline constexpr double kPoundKg = 0.45359237;
 inline constexpr double kFootPoundJ = 1.3558179483314004;
-inline constexpr double k600SqFtM2 = 600.0 * kFootM * kFootM;  // 55.74192 m^2
+inline constexpr double k600SqFtM2 = 600.0 * kFootM * kFootM;  // 55.741824 m^2
 
 // "si" or "us"; nullopt otherwise.
 std::optional<UnitSystem> parse_unit_system(std::string_view name);
@@ -35,7 +36,7 @@ Presented present_speed(double mps, UnitSystem u);             // m/s | ft/s
 Presented present_area(double m2, UnitSystem u);               // m² | ft²
 Presented present_areal_density(double per_m2, UnitSystem u);  // per m² | per 600 ft²
 
-// "138.8 m" / "455.3 ft" with `decimals` digits after the point.
+// "138.8 m" / "455.4 ft" with `decimals` digits after the point.
 std::string format_length(double m, UnitSystem u, int decimals = 1);
 // "79 J" / "58.3 ft-lb" with 3 significant digits.
 std::string format_energy(double j, UnitSystem u);
@@ -48,5 +49,9 @@ double bearing_deg(double azimuth_ccw_from_x_deg);
 // HFD sector k (azimuth [10k, 10k + 10) from +x toward +y) as the bearing range it covers,
 // clockwise: "080°–090°" for sector 0.
 std::string sector_bearing_range(int sector);
+// The sectors marked true (36 of them, as sector_bearing_range numbers them) as arcs of
+// adjacent sectors, clockwise, in order of bearing: "080°–100°, 350°–010°" (an arc may cross
+// north); "000°–360°" when all are; "" when none is.
+std::string sector_bearing_arcs(const std::vector<bool>& sectors);
 
 }  // namespace fragsim::api

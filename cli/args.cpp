@@ -75,10 +75,21 @@ ShardArg parse_shard(const std::string& v) {
   return s;
 }
 
+// --units si|us; true when args[k] was it (k advanced past its value).
+bool take_units(const std::vector<std::string>& args, std::size_t& k, Options& o) {
+  std::string value;
+  if (!take_value(args, k, "--units", value)) return false;
+  const auto units = api::parse_unit_system(value);
+  if (!units) throw UsageError("--units: expected si or us, got \"" + value + "\"");
+  o.units = *units;
+  return true;
+}
+
 // The options run and merge share; true when args[k] was one (k advanced past its value).
 bool take_run_output(const std::vector<std::string>& args, std::size_t& k, Options& o) {
   std::string value;
   if (take_nonempty(args, k, "--out", "directory name", o.out)) return true;
+  if (take_units(args, k, o)) return true;
   if (take_value(args, k, "--samples-scale", value)) {
     o.samples_scale = parse_scale(value);
     return true;
@@ -117,6 +128,7 @@ bool take_submit_option(const std::vector<std::string>& args, std::size_t& k, Op
   const std::string& a = args[k];
   std::string value;
   if (take_nonempty(args, k, "--out", "directory name", o.out)) return true;
+  if (take_units(args, k, o)) return true;
   if (take_value(args, k, "--server", value)) {
     if (value.rfind("http://", 0) != 0 && value.rfind("https://", 0) != 0)
       throw UsageError("--server: expected http://HOST:PORT, got \"" + value + "\"");
@@ -150,19 +162,14 @@ bool take_file_command_option(const std::vector<std::string>& args, std::size_t&
     o.pixel_m = x;
     return true;
   }
+  if (o.command == Command::kExport && take_units(args, k, o)) return true;
   if (o.command == Command::kShapeImport) return take_nonempty(args, k, "--axes", "axes", o.axes);
   return take_nonempty(args, k, "--out", "file name", o.out);
 }
 
 // Options of report; true when args[k] was one.
 bool take_report_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
-  std::string value;
-  if (take_value(args, k, "--units", value)) {
-    if (value != "si" && value != "us")
-      throw UsageError("--units: expected si or us, got \"" + value + "\"");
-    o.report_units = value;
-    return true;
-  }
+  if (take_units(args, k, o)) return true;
   if (take_nonempty(args, k, "--pdf", "file name", o.pdf)) return true;
   return take_nonempty(args, k, "--out", "file name", o.out);
 }
@@ -288,16 +295,18 @@ const char* usage_text() {
 
 Usage:
   fragsim run SCENARIO.json --out DIR [--threads N] [--samples-scale X] [--quiet]
-              [--shard I/N] [--progress-file FILE]
+              [--shard I/N] [--progress-file FILE] [--units si|us]
   fragsim merge SCENARIO.json PART.fsp... --out DIR [--samples-scale X] [--quiet]
+                [--units si|us]
   fragsim validate SCENARIO.json
   fragsim site import IMPORT.json --out SITE.json
   fragsim site export-gis SITE.json --out DIR
   fragsim shape import FILE [--axes z_up|y_up|x,-z,y]
-  fragsim export RESULTS.h5 --out DIR [--pixel-m X]
+  fragsim export RESULTS.h5 --out DIR [--pixel-m X] [--units si|us]
   fragsim report RESULTS.h5 --out REPORT.html [--pdf REPORT.pdf] [--units si|us]
   fragsim submit SCENARIO.json [--server URL] [--token-file FILE] [--priority N]
                  [--idempotency-key KEY] [--no-wait] [--out DIR [--maps]] [--quiet]
+                 [--units si|us]
   fragsim --version
   fragsim --help
 
@@ -348,6 +357,9 @@ Options (run):
                       Not with settings.precision.
   --progress-file F   Keep F (JSON: state, histories_done, histories_total, elapsed_s) up to
                       date, rewritten whole about every 0.5 s; for batch systems and fragsimd.
+  --units si|us       Units of the printed summary (run, merge, submit): si (default), or US
+                      customary: ft, per 600 ft², sectors by bearing (docs/units.md). The files
+                      stay SI. export --units us adds US fields (hfd_ft, ...) to the SI ones.
 
 Options (submit):
   --server URL        fragsimd address (default http://127.0.0.1:8080).

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "api/units.h"
+
 namespace fragsim::cli {
 
 // A malformed command line (exit code 2, like invalid input).
@@ -42,7 +44,10 @@ struct Options {
   bool quiet = false;                   // run, submit, merge: no progress, no report
   std::optional<ShardArg> shard;        // run: --shard I/N writes DIR/partial.fsp
   std::string progress_file;            // run: --progress-file FILE (JSON, rewritten atomically)
-  std::vector<std::string> parts;       // merge: the partial files
+  // run, merge, submit: the printed summary's units; export: US fields beside the SI ones;
+  // report: the units the page shows
+  api::UnitSystem units = api::UnitSystem::kSi;  // --units si|us (docs/units.md)
+  std::vector<std::string> parts;                // merge: the partial files
   // submit
   std::string server = "http://127.0.0.1:8080";
   std::string token_file;
@@ -54,9 +59,8 @@ struct Options {
   std::optional<double> pixel_m;
   // shape import (FILE in `scenario`): --axes z_up | y_up | x,-z,y
   std::string axes = "z_up";
-  // report (RESULTS.h5 in `scenario`, --out REPORT.html in `out`): --pdf FILE, --units si|us
+  // report (RESULTS.h5 in `scenario`, --out REPORT.html in `out`, `units`): --pdf FILE
   std::string pdf;
-  std::string report_units = "si";
 };
 
 Options parse_args(const std::vector<std::string>& args);  // args without argv[0]

@@ -166,7 +166,7 @@ int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result
   }
   out.commit();
   if (!o.quiet) {
-    std::cout << api::render_summary_text(summary) << "\nWrote "
+    std::cout << api::render_summary_text(summary, o.units) << "\nWrote "
               << (out.path() / "summary.json").string() << " and "
               << (out.path() / "results.h5").string() << "\n";
   }

@@ -120,6 +120,7 @@ int export_command(const Options& o) {
   options.results_h5 = o.scenario;
   options.out_dir = o.out;
   options.pixel_m = o.pixel_m;
+  options.units = o.units;
   const gis::ExportReport r = gis::export_results(options);
   std::cout << "ok: " << o.out << " (CRS " << (r.crs.empty() ? "none: local metres" : r.crs)
             << "; raster " << r.raster_cols << " x " << r.raster_rows << " cells of " << r.pixel_m
@@ -134,7 +135,7 @@ int report_command(const Options& o) {
   options.results_h5 = o.scenario;
   options.out_html = o.out;
   if (!o.pdf.empty()) options.out_pdf = o.pdf;
-  options.units = *api::parse_unit_system(o.report_units);
+  options.units = o.units;
   const report::ReportWritten w = report::write_report(options);
   std::cout << "ok: " << o.out << " (" << w.html_bytes / 1024 << " KiB, " << w.html_s << " s)";
   if (!o.pdf.empty()) std::cout << " and " << o.pdf << " (" << w.pdf_s << " s)";

@@ -198,7 +198,7 @@ void fetch_results(Client& client, const std::string& job_id, const Options& o) 
     if (o.maps) download_maps(client, job_id, dir / "maps");
   }
   if (o.quiet) return;
-  std::cout << api::render_summary_text(nlohmann::ordered_json::parse(summary_text));
+  std::cout << api::render_summary_text(nlohmann::ordered_json::parse(summary_text), o.units);
   if (!o.out.empty())
     std::cout << "\nWrote " << (dir / api::kSummaryFileName).string() << " and "
               << (dir / api::kResultsFileName).string()

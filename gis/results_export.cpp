@@ -8,6 +8,9 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "api/output_dir.h"
 #include "api/results_h5.h"
@@ -163,13 +166,70 @@ void add_feature(OGRLayer& l, const OGRGeometry& g, const std::function<void(OGR
   if (l.CreateFeature(&f) != OGRERR_NONE) throw std::runtime_error("cannot write a feature");
 }
 
+// ---- US customary fields (docs/units.md): beside the SI ones, never instead of them ----
+
+using Fields = std::vector<std::pair<const char*, OGRFieldType>>;
+
+Fields with_us(Fields si, const Fields& us, api::UnitSystem u) {
+  if (u == api::UnitSystem::kUs) si.insert(si.end(), us.begin(), us.end());
+  return si;
+}
+
+// "138.8 m" / "455.4 ft", "≥ " first when the site boundary cuts it.
+std::string bounded_length(double m, const std::string& bound, api::UnitSystem u) {
+  return (bound == "lower" ? "≥ " : "") + api::format_length(m, u);
+}
+
+// "estimate: density >= threshold (1 per 600 ft²); reaches the site boundary".
+void set_us_hazard_fields(OGRFeature& f, const ResultsFile& r, const char* band, const char* rule,
+                          const std::string& bound, api::UnitSystem u) {
+  if (u != api::UnitSystem::kUs) return;
+  f.SetField("threshold_per_600ft2", api::present_areal_density(r.threshold, u).value);
+  f.SetField("description",
+             (std::string(band) + ": " + rule + " (" + api::format_areal_density(r.threshold, u) +
+              ")" + (bound == "lower" ? "; reaches the site boundary" : ""))
+                 .c_str());
+}
+
+void set_us_hfd_fields(OGRFeature& f, const ResultsFile& r, api::UnitSystem u) {
+  if (u != api::UnitSystem::kUs) return;
+  f.SetField("hfd_ft", api::present_length(r.hfd_m, u).value);
+  f.SetField("band_lower_ft", api::present_length(r.band_lo, u).value);
+  f.SetField("band_upper_ft", api::present_length(r.band_hi, u).value);
+  f.SetField("threshold_per_600ft2", api::present_areal_density(r.threshold, u).value);
+  f.SetField("description",
+             ("HFD " + bounded_length(r.hfd_m, r.hfd_bound, u) + " (±1 se band " +
+              bounded_length(r.band_lo, r.band_lower_bound, u) + " .. " +
+              bounded_length(r.band_hi, r.band_upper_bound, u) + "), threshold " +
+              api::format_areal_density(r.threshold, u) +
+              (r.hfd_bound == "lower" ? "; a lower bound: the site boundary cuts it" : ""))
+                 .c_str());
+}
+
+void set_us_sector_fields(OGRFeature& f, const ResultsFile& r, std::size_t k, api::UnitSystem u) {
+  if (u != api::UnitSystem::kUs) return;
+  const int sector = static_cast<int>(k);
+  const std::string range = api::sector_bearing_range(sector);
+  f.SetField("hfd_ft", api::present_length(r.by_sector[k], u).value);
+  f.SetField("bearing_from_deg", api::bearing_deg(10.0 * sector + 10.0));
+  f.SetField("bearing_to_deg",
+             api::bearing_deg(10.0 * sector) == 0.0 ? 360.0 : api::bearing_deg(10.0 * sector));
+  f.SetField("bearing_range", range.c_str());
+  f.SetField("description",
+             ("bearing " + range + ": HFD " + bounded_length(r.by_sector[k], r.sector_bound[k], u))
+                 .c_str());
+}
+
 void write_hazard_layer(GDALDataset& ds, const ResultsFile& r, const LayerSet& g,
-                        const OGRSpatialReference* srs, OGRCoordinateTransformation* tr) {
-  OGRLayer* l = new_layer(ds, "hazardous_area", srs, wkbMultiPolygon,
-                          {{"band", OFTString},
-                           {"threshold_per_m2", OFTReal},
-                           {"rule", OFTString},
-                           {"extent_bound", OFTString}});
+                        const OGRSpatialReference* srs, OGRCoordinateTransformation* tr,
+                        api::UnitSystem u) {
+  OGRLayer* l =
+      new_layer(ds, "hazardous_area", srs, wkbMultiPolygon,
+                with_us({{"band", OFTString},
+                         {"threshold_per_m2", OFTReal},
+                         {"rule", OFTString},
+                         {"extent_bound", OFTString}},
+                        {{"threshold_per_600ft2", OFTReal}, {"description", OFTString}}, u));
   // extent_bound "lower": the area reaches the site boundary and goes on beyond the model.
   const std::array<std::tuple<const char*, const OGRGeometry*, const char*, const std::string*>, 3>
       rows = {{{"estimate", g.estimate.get(), "density >= threshold", &r.hfd_bound},
@@ -185,6 +245,7 @@ void write_hazard_layer(GDALDataset& ds, const ResultsFile& r, const LayerSet& g
           f.SetField("threshold_per_m2", r.threshold);
           f.SetField("rule", rule);
           f.SetField("extent_bound", bound->c_str());
+          set_us_hazard_fields(f, r, band, rule, *bound, u);
         },
         tr);
 }
@@ -213,18 +274,24 @@ void write_buildings_layer(GDALDataset& ds, const ResultsFile& r, const LayerSet
 }
 
 void write_hfd_layers(GDALDataset& ds, const ResultsFile& r, const OGRSpatialReference* srs,
-                      OGRCoordinateTransformation* tr) {
+                      OGRCoordinateTransformation* tr, api::UnitSystem u) {
   OGRLayer* p = new_layer(ds, "hfd", srs, wkbPoint,
-                          {{"hfd_m", OFTReal},
-                           {"hfd_bound", OFTString},
-                           {"band_lower_m", OFTReal},
-                           {"band_upper_m", OFTReal},
-                           {"band_lower_bound", OFTString},
-                           {"band_upper_bound", OFTString},
-                           {"threshold_per_m2", OFTReal},
-                           {"note", OFTString},
-                           {"left_site_hazardous", OFTReal},
-                           {"left_site_hazardous_se", OFTReal}});
+                          with_us({{"hfd_m", OFTReal},
+                                   {"hfd_bound", OFTString},
+                                   {"band_lower_m", OFTReal},
+                                   {"band_upper_m", OFTReal},
+                                   {"band_lower_bound", OFTString},
+                                   {"band_upper_bound", OFTString},
+                                   {"threshold_per_m2", OFTReal},
+                                   {"note", OFTString},
+                                   {"left_site_hazardous", OFTReal},
+                                   {"left_site_hazardous_se", OFTReal}},
+                                  {{"hfd_ft", OFTReal},
+                                   {"band_lower_ft", OFTReal},
+                                   {"band_upper_ft", OFTReal},
+                                   {"threshold_per_600ft2", OFTReal},
+                                   {"description", OFTString}},
+                                  u));
   const OGRPoint origin(r.hfd_origin.x(), r.hfd_origin.y());
   add_feature(
       *p, origin,
@@ -239,14 +306,21 @@ void write_hfd_layers(GDALDataset& ds, const ResultsFile& r, const OGRSpatialRef
         f.SetField("note", r.hfd_note.c_str());
         f.SetField("left_site_hazardous", r.left_hazardous);
         f.SetField("left_site_hazardous_se", r.left_hazardous_se);
+        set_us_hfd_fields(f, r, u);
       },
       tr);
   OGRLayer* s = new_layer(ds, "hfd_sectors", srs, wkbLineString,
-                          {{"azimuth_from_deg", OFTReal},
-                           {"azimuth_to_deg", OFTReal},
-                           {"hfd_m", OFTReal},
-                           {"hfd_bound", OFTString},
-                           {"left_site_hazardous", OFTReal}});
+                          with_us({{"azimuth_from_deg", OFTReal},
+                                   {"azimuth_to_deg", OFTReal},
+                                   {"hfd_m", OFTReal},
+                                   {"hfd_bound", OFTString},
+                                   {"left_site_hazardous", OFTReal}},
+                                  {{"hfd_ft", OFTReal},
+                                   {"bearing_from_deg", OFTReal},
+                                   {"bearing_to_deg", OFTReal},
+                                   {"bearing_range", OFTString},
+                                   {"description", OFTString}},
+                                  u));
   for (std::size_t k = 0; k < r.by_sector.size(); ++k) {
     const double a = (10.0 * static_cast<double>(k) + 5.0) * M_PI / 180.0;  // sector centre
     OGRLineString line;
@@ -261,6 +335,7 @@ void write_hfd_layers(GDALDataset& ds, const ResultsFile& r, const OGRSpatialRef
           f.SetField("hfd_m", r.by_sector[k]);
           f.SetField("hfd_bound", r.sector_bound[k].c_str());
           f.SetField("left_site_hazardous", r.left_hazardous_by_sector[k]);
+          set_us_sector_fields(f, r, k, u);
         },
         tr);
   }
@@ -346,9 +421,9 @@ ExportReport export_results(const ExportOptions& o) {
         [&](const fs::path& p) { write_classes_tif(p, pr, r.threshold, site_srs); });
   const auto all_layers = [&](GDALDataset& ds, const OGRSpatialReference* s,
                               OGRCoordinateTransformation* tr) {
-    write_hazard_layer(ds, r, g, s, tr);
+    write_hazard_layer(ds, r, g, s, tr, o.units);
     write_buildings_layer(ds, r, g, s, tr);
-    write_hfd_layers(ds, r, s, tr);
+    write_hfd_layers(ds, r, s, tr, o.units);
   };
   stage("hazard.gpkg", [&](const fs::path& p) {
     auto ds = create_vector(p, "GPKG");
@@ -380,8 +455,9 @@ ExportReport export_results(const ExportOptions& o) {
       g_rfc7946 = false;
     };
   };
-  stage("hazardous_area.geojson",
-        geojson([&](GDALDataset& ds) { write_hazard_layer(ds, r, g, site_srs, nullptr); }));
+  stage("hazardous_area.geojson", geojson([&](GDALDataset& ds) {
+          write_hazard_layer(ds, r, g, site_srs, nullptr, o.units);
+        }));
   stage("buildings.geojson",
         geojson([&](GDALDataset& ds) { write_buildings_layer(ds, r, g, site_srs, nullptr); }));
   stage("hazard.kml", [&](const fs::path& p) {

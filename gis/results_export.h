@@ -6,11 +6,15 @@
 //   hazardous_area.geojson, buildings.geojson   RFC 7946 (WGS 84)
 //   hazard.kml          the four layers for Google Earth (WGS 84)
 //   terrain.vtkhdf, buildings.vtkhdf, trajectories.vtkhdf   ParaView (gis/vtkhdf_export.h)
+// With units kUs the vector layers carry US customary fields beside the SI ones (hfd_ft,
+// threshold_per_600ft2, bearings, a description in ft; docs/units.md); the rasters stay SI.
 // results.h5 holds everything needed (terrain, densities, buildings, the scenario and its CRS).
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "api/units.h"
 
 namespace fragsim::gis {
 
@@ -18,6 +22,7 @@ struct ExportOptions {
   std::filesystem::path results_h5;
   std::filesystem::path out_dir;  // created if missing; files replaced atomically
   std::optional<double> pixel_m;  // raster cell size; default: the terrain's cell size
+  api::UnitSystem units = api::UnitSystem::kSi;  // kUs: US fields beside the SI ones
 };
 
 struct ExportReport {

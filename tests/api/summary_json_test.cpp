@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 
+#include "api/ground_bracket_json.h"
 #include "core/run/run.h"
 #include "fragsim/version.h"
 #include "test_support.h"
@@ -479,6 +480,89 @@ TEST(SummaryText, NoHfdNoSetByLine) {
   EXPECT_TRUE(s["hfd_attribution"]["at_hfd"].is_null());
   const std::string text = render_summary_text(s);
   EXPECT_EQ(text.find("set by"), std::string::npos) << text;
+}
+
+// US customary units (docs/units.md): distances in ft (m / 0.3048), densities per 600 ft²
+// (× 55.741824 m²), the cut sectors by bearing; site coordinates stay in metres and say so.
+TEST(SummaryText, UsUnits) {
+  const Json s = summary_to_json(synthetic_result(), run::Scenario{}, build_provenance());
+  EXPECT_EQ(render_summary_text(s, UnitSystem::kSi), render_summary_text(s));
+  const std::string text = render_summary_text(s, UnitSystem::kUs);
+  const auto has = [&](const std::string& part) {
+    EXPECT_NE(text.find(part), std::string::npos) << "missing \"" << part << "\" in\n" << text;
+  };
+  // 266.5 m = 874.34 ft; 248.0 m = 813.65 ft; 273.25 m = 896.49 ft.
+  has("Hazardous fragment distance   874.3 ft  (±1 se band 813.6 .. 896.5 ft)\n");
+  // The default threshold, 1/55.74 per m², is 1.00003 per 600 ft²; 55.74 m² = 599.98 ft².
+  has("  threshold                   1 per 600 ft² (1 per 600.0 ft²), from (0.0, 0.0, 1.0) m\n");
+  has("Max PTN density               5.574 per 600 ft² at (3.5, -2.0, 0.2) m (terrain triangle "
+      "0)\n");
+  has("  site boundary               not reached (density there up to 0 per 600 ft², 0 × the "
+      "threshold)\n");
+  has("  B1" + std::string(22, ' ') + "12.5 ± 0.25");  // counts are counts
+  EXPECT_EQ(text.find(" m²"), std::string::npos) << text;
+  EXPECT_EQ(text.find(" m)"), std::string::npos) << text;
+}
+
+TEST(SummaryText, UsUnitsOfAnHfdCutByTheSiteBoundary) {
+  const Json s = summary_to_json(cut_result(), run::Scenario{}, build_provenance());
+  const std::string text = render_summary_text(s, UnitSystem::kUs);
+  EXPECT_EQ(text.rfind("WARNING: HFD ≥ 874.3 ft: hazardous density reaches the site boundary in 2 "
+                       "of 36 sectors; extend the terrain\n",
+                       0),
+            0u)
+      << text;
+  // Sectors 0 (azimuth 0–10°, bearing 080°–090°) and 35 (bearing 090°–100°): one arc.
+  for (const char* part :
+       {"Hazardous fragment distance   ≥ 874.3 ft, a lower bound  (±1 se band 813.6 .. ≥ 896.5 "
+        "ft)",
+        "  site boundary               hazardous in 2 of 36 sectors, bearings 080°–100° (density "
+        "there up to 2.787 per 600 ft², 2.8 × the threshold)"})
+    EXPECT_NE(text.find(part), std::string::npos) << "missing \"" << part << "\" in\n" << text;
+}
+
+TEST(SummaryText, UsUnitsOfAttributionAndPrecisionTargets) {
+  run::Scenario sc;
+  run::RunResult r = attributed_result(sc);
+  auto report = std::make_shared<run::PrecisionReport>();
+  report->targets = {
+      run::TargetStatus{"hfd_half_band_m", "", "half_band_m", 4.5, 3.0, false, 31500.0, false, ""}};
+  r.precision = report;
+  const Json s = summary_to_json(r, sc, build_provenance());
+  const std::string text = render_summary_text(s, UnitSystem::kUs);
+  const auto has = [&](const std::string& part) {
+    EXPECT_NE(text.find(part), std::string::npos) << "missing \"" << part << "\" in\n" << text;
+  };
+  // 120 m = 393.70 ft, 80.5 m = 264.11 ft, 150 m = 492.13 ft.
+  has("  HFD by mechanism alone      ground ≥ 874.3 ft, direct_flight 393.7 ft, after_ricochet "
+      "264.1 ft\n");
+  has("  HFD by group alone          \"rear closure\" 874.3 ft, \"case\" 492.1 ft\n");
+  // 4.5 m = 14.76 ft, 3 m = 9.843 ft; the figure's "_m" goes with its metres.
+  has("  hfd_half_band" + std::string(15, ' ') + "14.76 ft (allowed 9.843 ft)  NOT MET\n");
+  EXPECT_NE(render_summary_text(s).find("hfd_half_band_m             4.5 (allowed 3)  NOT MET"),
+            std::string::npos);
+}
+
+// The ground-model bracket's lines in ft (139.24 m = 456.82 ft, 421.83 m = 1383.96 ft,
+// 156.91 m = 514.80 ft); the constants' values stay as the scenario gives them.
+TEST(SummaryText, UsUnitsOfTheGroundBracket) {
+  const Json s = Json::parse(R"({"ground_bracket": {
+      "material": "soil", "histories_per_run": 20, "cancelled": false,
+      "nominal": {"hfd_m": 156.91}, "hfd_range_m": [139.24, 421.83], "hfd_range_bound": "none",
+      "rows": [{"constant": "roughness_deg",
+                "low": {"value": 0, "hfd_m": 421.83, "hfd_bound": "none"},
+                "high": {"value": 5, "hfd_m": 139.24, "hfd_bound": "lower"}}]}})");
+  const auto us = ground_bracket_text(s, UnitSystem::kUs);
+  ASSERT_EQ(us.size(), 2u);
+  EXPECT_EQ(us[0].second,
+            "HFD 456.8 … 1384.0 ft over the ranges of soil's constants; nominal 514.8 ft at the "
+            "same 20 histories per run");
+  EXPECT_EQ(us[1].second, "1384.0 ft at 0, ≥ 456.8 ft at 5");
+  const auto si = ground_bracket_text(s);
+  EXPECT_EQ(si[0].second,
+            "HFD 139.2 … 421.8 m over the ranges of soil's constants; nominal 156.9 m at the same "
+            "20 histories per run");
+  EXPECT_EQ(si[1].second, "421.8 m at 0, ≥ 139.2 m at 5");
 }
 
 }  // namespace

@@ -103,6 +103,30 @@ TEST(Args, FileCommandsNeedTheirInputAndOut) {
   EXPECT_NE(usage_error({"shape", "export"}).find("shape: expected"), std::string::npos);
 }
 
+// --units si|us (docs/units.md): the printed summary of run, merge and submit; export's US
+// fields. SI by default; anything else names what it expected.
+TEST(Args, UnitsOnTheCommandsThatPresentFigures) {
+  EXPECT_EQ(parse_args({"run", "s.json", "--out", "d"}).units, api::UnitSystem::kSi);
+  EXPECT_EQ(parse_args({"run", "s.json", "--out", "d", "--units", "us"}).units,
+            api::UnitSystem::kUs);
+  EXPECT_EQ(parse_args({"run", "s.json", "--units=si", "--out", "d"}).units, api::UnitSystem::kSi);
+  EXPECT_EQ(parse_args({"merge", "s.json", "a.fsp", "--out", "d", "--units", "us"}).units,
+            api::UnitSystem::kUs);
+  EXPECT_EQ(parse_args({"submit", "s.json", "--units=us"}).units, api::UnitSystem::kUs);
+  EXPECT_EQ(parse_args({"export", "r.h5", "--out", "d", "--units", "us"}).units,
+            api::UnitSystem::kUs);
+  EXPECT_EQ(usage_error({"run", "s.json", "--out", "d", "--units", "imperial"}),
+            "--units: expected si or us, got \"imperial\"");
+  EXPECT_EQ(usage_error({"submit", "s.json", "--units", "US"}),
+            "--units: expected si or us, got \"US\"");
+  EXPECT_EQ(usage_error({"export", "r.h5", "--out", "d", "--units="}),
+            "--units: expected si or us, got \"\"");
+  EXPECT_EQ(usage_error({"run", "s.json", "--out", "d", "--units"}), "--units needs a value");
+  EXPECT_EQ(usage_error({"validate", "s.json", "--units", "us"}), "unknown option \"--units\"");
+  EXPECT_EQ(usage_error({"site", "import", "i.json", "--out", "s.json", "--units", "us"}),
+            "unknown option \"--units\"");
+}
+
 TEST(Args, HelpAndVersionWinAndEveryMistakeIsNamed) {
   for (const Args& a : {Args{"help"}, Args{"-h"}, Args{"--help"}, Args{"run", "s.json", "-h"}})
     EXPECT_EQ(parse_args(a).command, Command::kHelp);

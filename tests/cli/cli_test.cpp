@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -271,6 +272,38 @@ TEST_F(Cli, AnHfdCutByTheSiteBoundaryIsPrintedAsALowerBound) {
   EXPECT_EQ(e.out.find("WARNING"), std::string::npos) << e.out;
   EXPECT_EQ(e.out.find("≥"), std::string::npos) << e.out;
   EXPECT_NE(e.out.find("  site boundary               not reached"), std::string::npos) << e.out;
+}
+
+// --units us (docs/units.md): the printed summary in ft and per 600 ft², summary.json as SI as
+// without it; a unit system other than si or us is a usage error (exit 2).
+TEST_F(Cli, UnitsUsPrintsFeetAndWritesTheSameSiFiles) {
+  const std::string minimal = FRAGSIM_SOURCE_DIR "/examples/minimal/scenario.json";
+  const CliResult us = run({"run", minimal, "--out", (dir_ / "us").string(), "--threads", "1",
+                            "--samples-scale", "0.25", "--units", "us"});
+  ASSERT_EQ(us.exit_code, 0) << us.err;
+  const CliResult si = run({"run", minimal, "--out", (dir_ / "si").string(), "--threads", "1",
+                            "--samples-scale", "0.25"});
+  ASSERT_EQ(si.exit_code, 0) << si.err;
+  Json a = Json::parse(read_text(dir_ / "us/summary.json"));
+  Json b = Json::parse(read_text(dir_ / "si/summary.json"));
+  const double hfd_m = a["hazardous_fragment_distance_m"].get<double>();
+  ASSERT_GT(hfd_m, 0.0);
+  char ft[64];
+  std::snprintf(ft, sizeof ft, "Hazardous fragment distance   %.1f ft  (±1 se band ",
+                hfd_m / 0.3048);
+  EXPECT_NE(us.out.find(ft), std::string::npos) << ft << " missing in\n" << us.out;
+  EXPECT_NE(us.out.find("  threshold                   1 per 600 ft² (1 per 600.0 ft²), from "),
+            std::string::npos)
+      << us.out;
+  EXPECT_EQ(us.out.find(" per m²"), std::string::npos) << us.out;
+  EXPECT_NE(si.out.find(" per m²"), std::string::npos) << si.out;
+  for (Json* j : {&a, &b}) (*j).erase("timing");
+  EXPECT_EQ(a, b);  // the files do not depend on --units
+
+  const CliResult bad = run({"run", minimal, "--out", (dir_ / "bad").string(), "--units", "ft"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_EQ(bad.err.rfind("error: --units: expected si or us, got \"ft\"\n", 0), 0u) << bad.err;
+  EXPECT_FALSE(fs::exists(dir_ / "bad"));
 }
 
 TEST_F(Cli, QuietRunPrintsNothing) {

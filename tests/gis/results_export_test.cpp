@@ -250,6 +250,68 @@ TEST_F(ResultsExport, BuildingsCarryTheirFiguresAndGeoJsonIsRfc7946) {
     EXPECT_NE(e.path().filename().string()[0], '.') << "left behind: " << e.path();
 }
 
+// --units us (docs/units.md): the vector layers carry US fields beside the unchanged SI ones
+// (ft = m / 0.3048, per 600 ft² = per m² × 55.741824, sectors by bearing) and a description in
+// US units, which KML shows as the placemark's balloon; an SI export has none of them.
+TEST_F(ResultsExport, UsUnitsAddFeetBearingsAndDescriptionsBesideTheSiFields) {
+  const fs::path h5 = run_minimal("EPSG:32611");
+  export_results({h5, dir_ / "si", std::nullopt});
+  export_results({h5, dir_ / "us", std::nullopt, api::UnitSystem::kUs});
+  GDALDatasetUniquePtr si(GDALDataset::Open((dir_ / "si/hazard.gpkg").c_str(), GDAL_OF_VECTOR));
+  GDALDatasetUniquePtr us(GDALDataset::Open((dir_ / "us/hazard.gpkg").c_str(), GDAL_OF_VECTOR));
+  ASSERT_TRUE(si && us);
+  for (const char* layer : {"hfd", "hfd_sectors", "hazardous_area"})
+    EXPECT_LT(si->GetLayerByName(layer)->GetLayerDefn()->GetFieldIndex("description"), 0) << layer;
+
+  std::unique_ptr<OGRFeature> p(us->GetLayerByName("hfd")->GetNextFeature());
+  std::unique_ptr<OGRFeature> p_si(si->GetLayerByName("hfd")->GetNextFeature());
+  ASSERT_TRUE(p && p_si);
+  const double hfd_m = p->GetFieldAsDouble("hfd_m");
+  EXPECT_EQ(hfd_m, p_si->GetFieldAsDouble("hfd_m"));  // the SI field stays
+  EXPECT_GT(hfd_m, 0.0);
+  EXPECT_DOUBLE_EQ(p->GetFieldAsDouble("hfd_ft"), hfd_m / 0.3048);
+  EXPECT_DOUBLE_EQ(p->GetFieldAsDouble("band_lower_ft"),
+                   p->GetFieldAsDouble("band_lower_m") / 0.3048);
+  EXPECT_DOUBLE_EQ(p->GetFieldAsDouble("band_upper_ft"),
+                   p->GetFieldAsDouble("band_upper_m") / 0.3048);
+  const double threshold = p->GetFieldAsDouble("threshold_per_m2");
+  EXPECT_DOUBLE_EQ(p->GetFieldAsDouble("threshold_per_600ft2"), threshold * 55.741824);
+  const std::string description = p->GetFieldAsString("description");
+  EXPECT_EQ(description.rfind("HFD ≥ " + api::format_length(hfd_m, api::UnitSystem::kUs), 0), 0u)
+      << description;  // the small plane cuts it
+  EXPECT_NE(description.find("threshold 1 per 600 ft²"), std::string::npos) << description;
+
+  OGRLayer* sectors = us->GetLayerByName("hfd_sectors");
+  ASSERT_EQ(sectors->GetFeatureCount(), 36);
+  int k = 0;
+  for (auto& f : *sectors) {
+    EXPECT_DOUBLE_EQ(f->GetFieldAsDouble("hfd_ft"), f->GetFieldAsDouble("hfd_m") / 0.3048) << k;
+    EXPECT_EQ(std::string(f->GetFieldAsString("bearing_range")), api::sector_bearing_range(k));
+    EXPECT_EQ(f->GetFieldAsDouble("bearing_to_deg") - f->GetFieldAsDouble("bearing_from_deg"), 10.0)
+        << k;
+    ++k;
+  }
+  sectors->ResetReading();
+  std::unique_ptr<OGRFeature> east(sectors->GetNextFeature());  // azimuth 0–10° from +x
+  EXPECT_STREQ(east->GetFieldAsString("bearing_range"), "080°–090°");
+  EXPECT_EQ(east->GetFieldAsDouble("bearing_from_deg"), 80.0);
+
+  GDALDatasetUniquePtr area(
+      GDALDataset::Open((dir_ / "us/hazardous_area.geojson").c_str(), GDAL_OF_VECTOR));
+  ASSERT_TRUE(area);
+  for (auto& f : *area->GetLayer(0)) {
+    EXPECT_DOUBLE_EQ(f->GetFieldAsDouble("threshold_per_600ft2"), threshold * 55.741824);
+    EXPECT_NE(std::string(f->GetFieldAsString("description")).find("1 per 600 ft²"),
+              std::string::npos);
+  }
+  // KML: the description is the placemark's balloon text.
+  const std::string kml = api::testing::read_text(dir_ / "us/hazard.kml");
+  EXPECT_NE(kml.find("<description>HFD ≥ "), std::string::npos);
+  EXPECT_NE(kml.find("<description>bearing 080°–090°: HFD "), std::string::npos);
+  EXPECT_EQ(api::testing::read_text(dir_ / "si/hazard.kml").find("<description>"),
+            std::string::npos);
+}
+
 TEST_F(ResultsExport, WithoutACrsOnlyLocalFilesAreWrittenAndSaid) {
   const fs::path h5 = run_minimal("");
   const ExportReport rep = export_results({h5, dir_ / "gis", std::nullopt});

@@ -2,6 +2,7 @@
 #include <sqlite3.h>
 
 #include <atomic>
+#include <cstdio>
 #include <cstdlib>
 #include <set>
 
@@ -538,6 +539,23 @@ TEST(Daemon, SubmitCommandRunsAScenarioOnTheServer) {
   for (const char* name : {"ptn_density.tif", "ptn_classes.tif"})
     EXPECT_EQ(read_text(out / "maps" / name), read_text(dir / "local_maps" / name)) << name;
   EXPECT_TRUE(fs::is_regular_file(out / "maps" / "hazard.gpkg"));
+
+  // --units us (docs/units.md): the printed summary in ft and per 600 ft² (stdout to a file).
+  const fs::path printed = dir / "submit_us.txt";
+  ASSERT_EQ(run_process({"/bin/sh", "-c", "exec \"$0\" \"$@\" > " + printed.string(), FRAGSIM_CLI,
+                         "submit", scenario, "--server", url, "--token-file",
+                         (dir / "tokens").string(), "--units", "us"},
+                        dir / "submit_us.log"),
+            0)
+      << read_text(dir / "submit_us.log");
+  const double hfd_m =
+      Json::parse(read_text(out / "summary.json"))["hazardous_fragment_distance_m"].get<double>();
+  char hfd_ft[80];
+  std::snprintf(hfd_ft, sizeof hfd_ft, "Hazardous fragment distance   %.1f ft", hfd_m / 0.3048);
+  EXPECT_NE(read_text(printed).find(hfd_ft), std::string::npos) << read_text(printed);
+  EXPECT_NE(read_text(printed).find("  threshold                   1 per 600 ft²"),
+            std::string::npos)
+      << read_text(printed);
 
   // A wrong token is invalid input (exit 2); nothing is written.
   write_text(dir / "wrong", "not-the-token\n");

@@ -4,14 +4,15 @@
 import * as THREE from '../vendor/three.module.js';
 import { api, download, errorText } from './api.js';
 import { LogScale, lut, viridis, ylOrRd, rdPu, css, ZERO_GREY, BUILDING_GREY } from './colormap.js';
-import { el, fixed, sig, plusMinus, localTime, showError } from './format.js';
+import { el, sig, plusMinus, localTime, showError } from './format.js';
 import { colourControl, densityLegend, keyItem, materialLegend, rampLegend } from './legend.js';
 import { defaultColouring, hasMaterials, materialColors, materialEntries } from './materials.js';
 import * as meshes from './meshes.js';
 import { densityProfiles, drawDensityPlot } from './plot.js';
 import { parseScene } from './scene_format.js';
 import { SceneView } from './scene3d.js';
-import { attributionRow, attributionRows, boundaryNote, isLower, precisionStatus, sectorLowerBounds, summaryRow, summaryRows } from './summary_text.js';
+import { attributionRow, attributionRows, boundaryNote, isLower, lengthText, precisionStatus, sectorLowerBounds, summaryRow, summaryRows } from './summary_text.js';
+import { convert, currentUnits, energy, lengthUnit, onUnitsChange, speed } from './units.js';
 
 const $ = (id) => document.getElementById(id);
 const COLORS = { contour: '#111111', hfd: '#d6001c', sectors: '#ff7f0e', launch: '#d6001c' };
@@ -235,9 +236,11 @@ function renderLegend(scene, summary, built) {
   if (built.colouring === 'material')
     $('legend').replaceChildren(materialLegend(built.materials), el('div', { class: 'legend-keys' }, keys));
   else
-    densityLegend($('legend'), { scale: built.scale, ramp: viridis, threshold: summary.hfd_threshold_per_m2, zeroColor: ZERO_GREY, keys });
-  if (built.layers.trajectories)
-    $('legend').append(rampLegend(`trajectories (${traj.sent} of ${traj.recorded} recorded), speed (m/s)`, rdPu, 0, built.vmax));
+    densityLegend($('legend'), { scale: built.scale, ramp: viridis, threshold: summary.hfd_threshold_per_m2, zeroColor: ZERO_GREY, keys, units: currentUnits() });
+  if (built.layers.trajectories) {
+    const v = speed(built.vmax, currentUnits());
+    $('legend').append(rampLegend(`trajectories (${traj.sent} of ${traj.recorded} recorded), speed (${v.unit})`, rdPu, 0, v.value));
+  }
   if (built.buildingMesh) {
     const r = built.buildingRange;
     $('legend').append(r
@@ -249,10 +252,10 @@ function renderLegend(scene, summary, built) {
 
 // The HFD's and the sectors' keys; dashed ones say what the dashes mean (a lower bound).
 function hfdKeys(summary) {
-  const hfd = fixed(summary.hazardous_fragment_distance_m);
+  const hfd = lengthText(summary.hazardous_fragment_distance_m, currentUnits());
   const keys = [isLower(summary.hfd_bound)
-    ? keyItem(COLORS.hfd, `HFD ≥ ${hfd} m (lower bound: site boundary)`, 'dashed')
-    : keyItem(COLORS.hfd, `HFD ${hfd} m`)];
+    ? keyItem(COLORS.hfd, `HFD ≥ ${hfd} (lower bound: site boundary)`, 'dashed')
+    : keyItem(COLORS.hfd, `HFD ${hfd}`)];
   keys.push(keyItem(COLORS.sectors, 'HFD per 10° sector'));
   if (sectorLowerBounds(summary).some(Boolean))
     keys.push(keyItem(COLORS.sectors, 'sector HFD ≥ (lower bound: site boundary)', 'dashed'));
@@ -327,15 +330,17 @@ function hideRowHighlight() {
 // ---- tables -------------------------------------------------------------------------------------
 
 function renderSummary(s, scene) {
-  $('summary-table').tBodies[0].replaceChildren(...summaryRows(s, scene).map(summaryRow));
-  const rows = attributionRows(s);
+  const u = currentUnits();
+  $('summary-table').tBodies[0].replaceChildren(...summaryRows(s, scene, u).map(summaryRow));
+  $('hfd-alone-unit').textContent = lengthUnit(u);
+  const rows = attributionRows(s, u);
   $('hfd-attribution').hidden = rows.length === 0;
   $('hfd-attribution-table').tBodies[0].replaceChildren(...rows.map(attributionRow));
 }
 
 // A cut HFD changes what the whole study means, so its note heads the page, not a table row.
 function renderBoundaryWarning(summary) {
-  const note = boundaryNote(summary);
+  const note = boundaryNote(summary, currentUnits());
   const box = $('job-warning');
   box.replaceChildren(...(note ? [el('strong', { text: 'Warning: ' }), note] : []));
   box.hidden = !note;
@@ -343,6 +348,8 @@ function renderBoundaryWarning(summary) {
 
 function renderBuildings(s, rgb) {
   const ids = state.scene.buildingIds;
+  const ke = (j) => convert(j, energy, currentUnits());
+  $('residual-ke-unit').textContent = energy(0, currentUnits()).unit;
   const rows = (s.buildings || []).map((b) => {
     const i = ids.indexOf(b.id);
     const sw = el('span', { class: 'swatch box' });
@@ -352,7 +359,7 @@ function renderBuildings(s, rgb) {
       el('td', { class: 'mono', text: b.id }),
       el('td', { class: 'num impacts', text: plusMinus(b.expected_impacts, b.impacts_std_error) }),
       el('td', { class: 'num penetrations', text: plusMinus(b.expected_penetrations, b.penetrations_std_error) }),
-      el('td', { class: 'num residual-ke', text: plusMinus(b.residual_ke_j, b.residual_ke_std_error_j) }),
+      el('td', { class: 'num residual-ke', text: plusMinus(ke(b.residual_ke_j), ke(b.residual_ke_std_error_j)) }),
     ]);
   });
   $('buildings-table').tBodies[0].replaceChildren(...rows);
@@ -374,8 +381,20 @@ function drawPlot() {
   }
   drawDensityPlot($('density-plot'), plotCache.profile, {
     threshold: s.hfd_threshold_per_m2, hfd: s.hazardous_fragment_distance_m, hfdLower: isLower(s.hfd_bound),
+    units: currentUnits(),
   });
 }
+
+// ---- units (units.js): every figure the page shows again in the selected system -----------------
+
+onUnitsChange(() => {
+  if (!state) return;
+  renderSummary(state.summary, state.scene);
+  renderBoundaryWarning(state.summary);
+  renderLegend(state.scene, state.summary, state);
+  renderBuildings(state.summary, state.buildingRgb);
+  drawPlot();
+});
 
 window.addEventListener('resize', () => {
   if (state) drawPlot();

@@ -1,7 +1,8 @@
 // Legends drawn into a container: a colour bar (canvas) with ticks, and a key of line symbols.
 
-import { css } from './colormap.js';
+import { css, LogScale } from './colormap.js';
 import { el, sig } from './format.js';
+import { arealDensity, densityUnit } from './units.js';
 
 const BAR_W = 280, BAR_H = 14, PAD = 10;
 
@@ -72,16 +73,27 @@ export function keyItem(color, label, kind = 'line') {
   return el('span', { class: 'key-item' }, [swatch(color, kind), label]);
 }
 
-// PTN density legend: colour bar, threshold, zero swatch, and `keys` (line symbols).
-export function densityLegend(container, { scale, ramp, threshold, zeroColor, keys = [] }) {
+// The threshold as the legend says it: "threshold 0.01794 per m² (1 per 55.74 m²)", or in US
+// units "threshold 1 per 600 ft²" (the threshold's own unit: 1 per 600 ft² is the definition).
+export function thresholdLabel(threshold, units = 'si') {
+  if (units !== 'us') return `threshold ${sig(threshold, 4)} per m² (1 per ${sig(1 / threshold, 4)} m²)`;
+  return `threshold ${sig(arealDensity(threshold, units).value, 4)} ${densityUnit(units)}`;
+}
+
+// PTN density legend: colour bar, threshold, zero swatch, and `keys` (line symbols). The scale
+// is per m² (the colours); in US units the bar is labelled per 600 ft² (the same colours: a log
+// scale times a constant).
+export function densityLegend(container, { scale, ramp, threshold, zeroColor, keys = [], units = 'si' }) {
+  const k = arealDensity(1, units).value;
+  const shown = k === 1 ? scale : new LogScale(scale.lo * k, scale.hi * k);
   container.replaceChildren(
-    el('div', { class: 'legend-title', text: 'PTN hazardous fragment density (per m²), log scale' }),
-    logBar(scale, ramp, { value: threshold, label: 'threshold' }),
+    el('div', { class: 'legend-title', text: `PTN hazardous fragment density (${densityUnit(units)}), log scale` }),
+    logBar(shown, ramp, { value: threshold * k, label: 'threshold' }),
     el('div', { class: 'legend-row' }, [
       keyItem(css(zeroColor), '0', 'box'),
-      el('span', { class: 'threshold', text: `threshold ${sig(threshold, 4)} per m² (1 per ${sig(1 / threshold, 4)} m²)` }),
+      el('span', { class: 'threshold', text: thresholdLabel(threshold, units) }),
     ]),
-    el('div', { class: 'legend-row small muted', text: `below ${sig(scale.lo)}: lowest colour` }),
+    el('div', { class: 'legend-row small muted', text: `below ${sig(shown.lo)}: lowest colour` }),
     el('div', { class: 'legend-keys' }, keys),
   );
 }

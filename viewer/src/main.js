@@ -7,6 +7,7 @@ import { enterJobs, leaveJobs } from './jobs_view.js';
 import { enterSite, enterSites, leaveSite } from './sites_view.js';
 import { frameTimeStats } from './scene3d.js';
 import { showError } from './format.js';
+import { currentUnits, setUnits } from './units.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -120,6 +121,14 @@ async function showVersion() {
   }
 }
 
+// The units selector in the header (units.js): the views listen for the change.
+function wireUnits() {
+  const select = $('units-select');
+  select.value = currentUnits();
+  select.addEventListener('change', () => setUnits(select.value));
+}
+
 window.addEventListener('hashchange', dispatch);
+wireUnits();
 showVersion();
 dispatch();

@@ -2,6 +2,7 @@
 // triangle centroids (area-weighted mean per distance bin) and drawn on a 2-D canvas.
 
 import { decadeLabel } from './legend.js';
+import { arealDensity, densityUnit, length, lengthUnit } from './units.js';
 
 export const SECTORS = ['E', 'NE', 'N', 'NW', 'W', 'SW', 'S', 'SE'];  // 45° each, centred
 const COLORS = ['#0072b2', '#e69f00', '#009e73', '#cc79a7', '#56b4e9', '#d55e00', '#000000', '#999933'];
@@ -58,9 +59,22 @@ function setupCanvas(canvas) {
   return { ctx, w, h };
 }
 
+// A profile (m, per m²), its threshold and HFD in units u: the plot is drawn in them.
+function inUnits(profile, threshold, hfd, u) {
+  if (u !== 'us') return { profile, threshold, hfd };
+  const d = arealDensity(1, u).value, l = length(1, u).value;
+  return {
+    profile: { binWidth: profile.binWidth * l, rMax: profile.rMax * l, means: profile.means.map((s) => s.map((v) => v * d)) },
+    threshold: threshold * d,
+    hfd: hfd * l,
+  };
+}
+
 // profile from densityProfiles; threshold and hfd (m) marked, "HFD ≥" when hfdLower (the site
-// boundary cuts it: the curves stop at the terrain's edge, not where the density falls).
-export function drawDensityPlot(canvas, profile, { threshold, hfd, hfdLower = false }) {
+// boundary cuts it: the curves stop at the terrain's edge, not where the density falls). Axes
+// and labels in `units` ('si': m, per m²; 'us': ft, per 600 ft²).
+export function drawDensityPlot(canvas, profileM, { threshold: thresholdM, hfd: hfdM, hfdLower = false, units = 'si' }) {
+  const { profile, threshold, hfd } = inUnits(profileM, thresholdM, hfdM, units);
   const { ctx, w, h } = setupCanvas(canvas);
   const M = { l: 56, r: 74, t: 12, b: 40 };
   const pw = w - M.l - M.r, ph = h - M.t - M.b;
@@ -90,11 +104,14 @@ export function drawDensityPlot(canvas, profile, { threshold, hfd, hfdLower = fa
     ctx.beginPath(); ctx.moveTo(x, M.t); ctx.lineTo(x, M.t + ph); ctx.stroke();
     ctx.fillText(String(Math.round(r)), x, M.t + ph + 4);
   }
-  ctx.fillText('distance from the HFD origin (m)', M.l + pw / 2, M.t + ph + 20);
+  const xLabel = `distance from the HFD origin (${lengthUnit(units)})`, yLabel = `density (${densityUnit(units)})`;
+  canvas.dataset.xLabel = xLabel;  // what the axes say, for the tests
+  canvas.dataset.yLabel = yLabel;
+  ctx.fillText(xLabel, M.l + pw / 2, M.t + ph + 20);
   ctx.save();
   ctx.translate(12, M.t + ph / 2);
   ctx.rotate(-Math.PI / 2);
-  ctx.fillText('density (per m²)', 0, -6);
+  ctx.fillText(yLabel, 0, -6);
   ctx.restore();
 
   ctx.save();
@@ -113,7 +130,7 @@ export function drawDensityPlot(canvas, profile, { threshold, hfd, hfdLower = fa
   ctx.textAlign = 'left';
   ctx.textBaseline = 'bottom';
   ctx.fillText('threshold', M.l + 4, Y(threshold) - 2);
-  const label = `HFD ${hfdLower ? '≥ ' : ''}${hfd.toFixed(1)} m`;
+  const label = `HFD ${hfdLower ? '≥ ' : ''}${hfd.toFixed(1)} ${lengthUnit(units)}`;
   canvas.dataset.hfdLabel = hfd > 0 ? label : '';  // what the canvas says, for the tests
   if (hfd > 0 && hfd < profile.rMax) {
     // Left of its line when it would run past the plot's right edge into the key.

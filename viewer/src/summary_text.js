@@ -2,8 +2,11 @@
 // that the site boundary cuts carry "≥" (issue 22: the terrain ends, so nothing is known beyond
 // it and the distance is only a lower bound), stop reasons and precision targets in words.
 // Summaries of older jobs lack the bound keys: their figures read as they always did.
+// Every function takes the presentation units u ('si' by default, or 'us': units.js); the
+// summary itself is SI.
 
 import { el, fixed, sig, plusMinus, integer } from './format.js';
+import { area, arealDensity, convert, densityUnit, length, lengthUnit, sectorBearingArcs } from './units.js';
 
 export const LOWER_BOUND_NOTE = 'lower bound: the hazardous density reaches the site boundary';
 
@@ -11,9 +14,14 @@ export function isLower(bound) {
   return bound === 'lower';
 }
 
-// A distance (m) to one decimal, "≥ 266.4" when it is a lower bound.
-export function bounded(m, bound) {
-  return (isLower(bound) ? '≥ ' : '') + fixed(m, 1);
+// A distance (m) to one decimal in units u, "≥ 266.4" when it is a lower bound.
+export function bounded(m, bound, u = 'si') {
+  return (isLower(bound) ? '≥ ' : '') + fixed(convert(m, length, u), 1);
+}
+
+// A distance with its unit: "138.8 m", "455.4 ft".
+export function lengthText(m, u = 'si') {
+  return `${fixed(convert(m, length, u), 1)} ${lengthUnit(u)}`;
 }
 
 // Per sector k, is hfd_by_sector_m[k] a lower bound? (36 booleans; none for older summaries)
@@ -24,9 +32,14 @@ export function sectorLowerBounds(s) {
 
 // The note of a cut HFD, e.g. "HFD ≥ 266.4 m: hazardous density reaches the site boundary in 19
 // of 36 sectors; extend the terrain"; null when it is not cut (or the summary predates the key).
-export function boundaryNote(s) {
-  const note = s.site_boundary && s.site_boundary.note;
-  return typeof note === 'string' && note ? note : null;
+// The stored note is in metres: in US units it is said again in feet, in the same words.
+export function boundaryNote(s, u = 'si') {
+  const sb = s.site_boundary;
+  const note = sb && sb.note;
+  if (!(typeof note === 'string' && note)) return null;
+  if (u === 'si') return note;
+  return `HFD ≥ ${lengthText(s.hazardous_fragment_distance_m, u)}: hazardous density reaches the ` +
+    `site boundary in ${sb.hfd_sectors_cut} of 36 sectors; extend the terrain`;
 }
 
 const STOP_REASONS = {
@@ -52,9 +65,20 @@ export function targetVerdict(t) {
   return t.unmeetable ? 'UNMEETABLE' : 'not met';
 }
 
+// A length target ("..._m") in US units: its figure without "_m", its values in ft.
+function isLengthTarget(t, u) {
+  return u === 'us' && /_m$/.test(String(t.figure || ''));
+}
+
+function targetFigure(t, u) {
+  return isLengthTarget(t, u) ? t.figure.slice(0, -2) : t.figure;
+}
+
 // "10.57 (allowed 1) UNMEETABLE", with the target's note (why) as a sub-line when it has one.
-function targetLine(t) {
-  const line = `${sig(t.value, 4)} (allowed ${sig(t.allowed, 4)}) ${targetVerdict(t)}`;
+function targetLine(t, u) {
+  const ft = isLengthTarget(t, u);
+  const v = (x) => (ft ? `${sig(convert(x, length, u), 4)} ft` : sig(x, 4));
+  const line = `${v(t.value)} (allowed ${v(t.allowed)}) ${targetVerdict(t)}`;
   return typeof t.note === 'string' && t.note ? [line, t.note] : line;
 }
 
@@ -69,12 +93,12 @@ function overallVerdict(p) {
 
 // Summary-table rows [key, label, value, flagged] of a precision report: the overall verdict,
 // a row per non-building target, one for the building targets (met of all, like the CLI's text).
-export function precisionRows(p) {
+export function precisionRows(p, u = 'si') {
   if (!p) return [];
   const targets = p.targets || [];
   const rows = [['precision', 'Precision targets', overallVerdict(p), !!p.any_unmeetable]];
   for (const t of targets.filter((x) => !isBuildingTarget(x)))
-    rows.push([`target-${t.figure}`, `target: ${t.figure}`, targetLine(t), !!t.unmeetable]);
+    rows.push([`target-${t.figure}`, `target: ${targetFigure(t, u)}`, targetLine(t, u), !!t.unmeetable]);
   const b = targets.filter(isBuildingTarget);
   if (b.length) {
     const met = b.filter((t) => t.met).length;
@@ -96,13 +120,16 @@ export function precisionStatus(p) {
 
 // ---- summary table ------------------------------------------------------------------------------
 
-// "hazardous in 19 of 36 sectors (density there up to 0.0471 per m², 2.6 × the threshold)".
-function boundaryText(sb, thr) {
+// "hazardous in 19 of 36 sectors (density there up to 0.0471 per m², 2.6 × the threshold)"; in
+// US units the cut sectors are named by bearing and the density is per 600 ft².
+function boundaryText(s, sb, thr, u) {
   const cut = sb.hfd_sectors_cut || 0;
   const edge = sb.max_boundary_density_per_m2;
-  const where = cut > 0 ? `hazardous in ${cut} of 36 sectors` : 'not reached';
+  let where = cut > 0 ? `hazardous in ${cut} of 36 sectors` : 'not reached';
+  if (u === 'us' && cut > 0 && Array.isArray(s.hfd_by_sector_bound))
+    where += `, bearings ${sectorBearingArcs(s.hfd_by_sector_bound.map(isLower))}`;
   if (!(edge > 0)) return `${where} (no hazardous density on its triangles)`;
-  return `${where} (density there up to ${sig(edge, 4)} per m², ${sig(edge / thr, 2)} × the threshold)`;
+  return `${where} (density there up to ${sig(convert(edge, arealDensity, u), 4)} ${densityUnit(u)}, ${sig(edge / thr, 2)} × the threshold)`;
 }
 
 function leftSiteText(left) {
@@ -113,19 +140,20 @@ function leftSiteText(left) {
 
 // The HFD rows: distance, band, and (newer summaries) the site boundary and the hazardous
 // fragments that left the site.
-function hfdRows(s) {
+function hfdRows(s, u) {
   const band = s.hazardous_fragment_distance_band_m || [null, null];
   const bb = s.hfd_band_bound || [];
   const cut = isLower(s.hfd_bound);
-  const hfd = bounded(s.hazardous_fragment_distance_m, s.hfd_bound);
+  const hfd = bounded(s.hazardous_fragment_distance_m, s.hfd_bound, u);
+  const unit = lengthUnit(u);
   const rows = [
-    ['hfd', 'Hazardous fragment distance (m)', cut ? [hfd, LOWER_BOUND_NOTE] : hfd, cut],
-    ['hfd_band', 'HFD band, mean ∓ 1 se (m)', `${bounded(band[0], bb[0])} – ${bounded(band[1], bb[1])}`, bb.some(isLower)],
+    ['hfd', `Hazardous fragment distance (${unit})`, cut ? [hfd, LOWER_BOUND_NOTE] : hfd, cut],
+    ['hfd_band', `HFD band, mean ∓ 1 se (${unit})`, `${bounded(band[0], bb[0], u)} – ${bounded(band[1], bb[1], u)}`, bb.some(isLower)],
   ];
-  const bracket = groundBracketRow(s);
+  const bracket = groundBracketRow(s, u);
   if (bracket) rows.push(bracket);
   const sb = s.site_boundary, left = sb && sb.left_site_hazardous;
-  if (sb) rows.push(['site_boundary', 'Site boundary', boundaryText(sb, s.hfd_threshold_per_m2), sb.hfd_sectors_cut > 0]);
+  if (sb) rows.push(['site_boundary', 'Site boundary', boundaryText(s, sb, s.hfd_threshold_per_m2, u), sb.hfd_sectors_cut > 0]);
   if (left) rows.push(['left_site_hazardous', 'Left the site while hazardous', leftSiteText(left), left.histories > 0]);
   return rows;
 }
@@ -133,37 +161,45 @@ function hfdRows(s) {
 // settings.ground_bracket (issue 23): the HFD over the ground model's uncertain constants, e.g.
 // "139.2 – 421.8" with the widest row as a sub-line; flagged, since the nominal HFD alone would
 // read as more certain than the ground model is. null without a bracket.
-export function groundBracketRow(s) {
+export function groundBracketRow(s, u = 'si') {
   const b = s.ground_bracket;
   if (!b || !Array.isArray(b.hfd_range_m)) return null;
   const lower = isLower(b.hfd_range_bound);
-  const range = `${bounded(b.hfd_range_m[0], b.hfd_range_bound)} – ${bounded(b.hfd_range_m[1], b.hfd_range_bound)}`;
+  const range = `${bounded(b.hfd_range_m[0], b.hfd_range_bound, u)} – ${bounded(b.hfd_range_m[1], b.hfd_range_bound, u)}`;
   const top = (b.rows || [])[0];
+  // The constants' values stay as the scenario gives them (SI).
   const widest = top
-    ? `widest: ${top.constant} ${fixed(top.low.hfd_m, 1)} m at ${top.low.value}, ${fixed(top.high.hfd_m, 1)} m at ${top.high.value}`
+    ? `widest: ${top.constant} ${lengthText(top.low.hfd_m, u)} at ${top.low.value}, ${lengthText(top.high.hfd_m, u)} at ${top.high.value}`
     : 'no rows';
   const note = `${widest}${b.cancelled ? ' (incomplete: cancelled)' : ''}${lower ? '; some ends are lower bounds' : ''}`;
   // Its runs may have fewer histories than the study, and the HFD depends on that: the range is
   // read against its own nominal run, which is said with it.
-  const nominal = `nominal ${fixed(b.nominal && b.nominal.hfd_m, 1)} m at ${integer(b.histories_per_run)} histories per run`;
-  return ['ground_bracket', 'HFD over the ground model’s ranges (m)', [range, nominal, note], true];
+  const nominal = `nominal ${lengthText(b.nominal && b.nominal.hfd_m, u)} at ${integer(b.histories_per_run)} histories per run`;
+  return ['ground_bracket', `HFD over the ground model’s ranges (${lengthUnit(u)})`, [range, nominal, note], true];
 }
 
-// Rows [key, label, value, flagged] of the job view's summary table.
-export function summaryRows(s, scene) {
+// "0.01794 (1 per 55.74 m²)" / "1 (1 per 600 ft²)": the threshold in units u.
+export function thresholdText(thr, u = 'si') {
+  const a = area(1 / thr, u);
+  return `${sig(convert(thr, arealDensity, u), 4)} (1 per ${sig(a.value, 4)} ${a.unit})`;
+}
+
+// Rows [key, label, value, flagged] of the job view's summary table. The HFD origin is a
+// position in the site's coordinates: it stays in metres in either system.
+export function summaryRows(s, scene, u = 'si') {
   const thr = s.hfd_threshold_per_m2;
   const traj = scene.trajectories;
   const rows = [
-    ...hfdRows(s),
+    ...hfdRows(s, u),
     ['hfd_origin', 'HFD origin x, y, z (m)', (s.hfd_origin_m || []).map((v) => fixed(v, 1)).join(', ')],
-    ['threshold', 'Density threshold (per m²)', `${sig(thr, 4)} (1 per ${sig(1 / thr, 4)} m²)`],
-    ['max_density', 'Max PTN density (per m²)', sig(s.max_ptn_density_per_m2, 4)],
+    ['threshold', `Density threshold (${densityUnit(u)})`, thresholdText(thr, u)],
+    ['max_density', `Max PTN density (${densityUnit(u)})`, sig(convert(s.max_ptn_density_per_m2, arealDensity, u), 4)],
     ['buildings', 'Buildings', String((s.buildings || []).length)],
     ['samples', 'Samples', integer(s.samples)],
     ['histories', 'Histories simulated', integer(s.histories_done)],
     ['batches', 'Batches', integer(s.batches)],
     ['stop_reason', 'Stop reason', stopReasonText(s.stop_reason), s.stop_reason === 'targets_unmeetable'],
-    ...precisionRows(s.precision),
+    ...precisionRows(s.precision, u),
     ['real_fragments', 'Real fragments', sig(s.real_fragments, 6)],
     ['wall_time', 'Wall time (s)', fixed(s.timing && s.timing.wall_s, 2)],
     ['seed', 'Seed', String(s.seed)],
@@ -191,18 +227,18 @@ export function percent(x) {
 // Rows [key, label, HFD alone, share at the HFD's triangle] of the attribution table: a row per
 // mechanism and per group, and the reason when per-group figures were omitted. None for
 // summaries that predate hfd_attribution.
-export function attributionRows(s) {
+export function attributionRows(s, u = 'si') {
   const a = s.hfd_attribution;
   if (!a) return [];
   const at = a.at_hfd || null;
   const rows = [];
   for (const m of a.mechanisms || []) {
     const f = (a.by_mechanism || {})[m] || {};
-    rows.push([`mechanism-${m}`, MECHANISMS[m] || m, bounded(f.hfd_m, f.hfd_bound),
+    rows.push([`mechanism-${m}`, MECHANISMS[m] || m, bounded(f.hfd_m, f.hfd_bound, u),
       percent(at && at.share_by_mechanism ? at.share_by_mechanism[m] : null)]);
   }
   (a.by_group || []).forEach((g, i) => {
-    rows.push([`group-${i}`, `group ${g.group}`, bounded(g.hfd_m, g.hfd_bound),
+    rows.push([`group-${i}`, `group ${g.group}`, bounded(g.hfd_m, g.hfd_bound, u),
       percent(at && at.share_by_group ? at.share_by_group[i] : null)]);
   });
   if (typeof a.by_group_omitted_reason === 'string' && a.by_group_omitted_reason)
