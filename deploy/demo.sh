@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Quick start, command 1: build (installing dependencies if missing), start fragsimd with a data
 # directory under out/, upload the bundled demo site, submit the demo job, follow it, print its
-# summary, download its results and maps (out/demo/, out/demo/maps/), and stop the daemon.
+# summary, download its results and maps (out/demo/, out/demo/maps/), write the study report
+# (out/demo/report.html, and report.pdf with chromium), and stop the daemon.
 # With --keep-running the daemon stays up afterwards, serving the web viewer (docs/viewer.md) at
 # the printed URL until `kill $(cat out/fragsimd/pid)`.
 set -euo pipefail
@@ -56,6 +57,14 @@ echo "fragsimd listening on $url (log: $data/fragsimd.log)"
   --token-file "$data/tokens" --out out/demo --maps
 echo "results: out/demo/summary.json, out/demo/results.h5 (daemon data: $data); maps:"
 printf '  %s\n' out/demo/maps/*
+# The study report (docs/report.md): one self-contained HTML page, and its PDF when Debian's
+# chromium is installed (deploy/install-deps.sh installs it with the test dependencies).
+if [ -x "${CHROMIUM:-/usr/bin/chromium}" ]; then
+  ./build/cli/fragsim report out/demo/results.h5 --out out/demo/report.html --pdf out/demo/report.pdf
+else
+  ./build/cli/fragsim report out/demo/results.h5 --out out/demo/report.html
+  echo "no chromium: the PDF of the report was not printed (apt-get install chromium)"
+fi
 if $keep_running; then
   trap - EXIT
   echo "web viewer: $url/ui/  (token: the line in $data/tokens; the page asks for it once)"
