@@ -78,11 +78,13 @@ void findings(Page& p) {
                              p.num("/hazardous_fragment_distance_band_m/1", Kind::kLength));
   p.kv("Threshold density", p.num("/hfd_threshold_per_m2", Kind::kDensity) + " (" +
                                 threshold_words(p.summary(), p.units()) + ")");
+  // Where the site boundary cuts the HFD, the boundary drawn from the same field is cut too.
+  const std::string cut = p.bound_mark("/hfd_bound"), cut_upper = p.bound_mark("/hfd_band_bound/1");
   p.kv("Site-plan boundary: sector envelope",
-       p.value(b.envelope.max_radius_m, Kind::kLength) +
-           " (±1 se upper: " + p.value(b.envelope_upper.max_radius_m, Kind::kLength) + ")");
+       cut + p.value(b.envelope.max_radius_m, Kind::kLength) + " (+1 se: " + cut_upper +
+           p.value(b.envelope_upper.max_radius_m, Kind::kLength) + ")");
   p.kv("Site-plan boundary: smoothed contour",
-       p.value(b.smoothed_hfd_m, Kind::kLength) + " (closing radius " +
+       cut + p.value(b.smoothed_hfd_m, Kind::kLength) + " (closing radius " +
            p.value(b.smoothing_m, Kind::kLength) + "; never shorter than the HFD)");
   p.raw("</table></section>\n");
 }

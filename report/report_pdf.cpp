@@ -41,18 +41,17 @@ std::vector<std::string> chromium_args(const std::string& chromium, const fs::pa
           "file://" + fs::absolute(html).string()};
 }
 
-[[noreturn]] void exec_child(const std::vector<std::string>& args, const fs::path& log) {
+// The child's side of fork(): only async-signal-safe calls (the daemon forks from one of many
+// threads; another may hold malloc's lock), so argv and the log path are prepared before.
+[[noreturn]] void exec_child(char* const* argv, const char* log) {
   setpgid(0, 0);
-  const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  const int fd = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0600);
   if (fd >= 0) {
     dup2(fd, STDOUT_FILENO);
     dup2(fd, STDERR_FILENO);
     close(fd);
   }
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  execv(argv[0], argv.data());
+  execv(argv[0], argv);
   _exit(127);
 }
 
@@ -107,9 +106,13 @@ void print_pdf(const fs::path& html, const fs::path& pdf, const std::string& chr
   const fs::path profile(tmpl);
   const fs::path log = profile / "chromium.log";
   const auto args = chromium_args(chromium, html, pdf, profile / "profile");
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const std::string log_path = log.string();
   const pid_t pid = fork();
   if (pid < 0) throw std::runtime_error("cannot start chromium (fork failed)");
-  if (pid == 0) exec_child(args, log);
+  if (pid == 0) exec_child(argv.data(), log_path.c_str());
   int status = 0;
   try {
     status = wait_for(pid, timeout);

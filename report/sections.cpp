@@ -292,10 +292,10 @@ void sector_table(Page& p) {
   for (int k = 0; k < 36; ++k) {
     const auto uk = static_cast<std::size_t>(k);
     const std::string base = "/hfd_by_sector_m/" + std::to_string(k);
-    p.row({std::to_string(k), api::sector_bearing_range(k),
-           p.bound_mark("/hfd_by_sector_bound/" + std::to_string(k)) + p.num(base, Kind::kLength),
-           p.value(env.envelope.radius_m.at(uk), Kind::kLength),
-           p.value(env.envelope_upper.radius_m.at(uk), Kind::kLength)});
+    const std::string cut = p.bound_mark("/hfd_by_sector_bound/" + std::to_string(k));
+    p.row({std::to_string(k), api::sector_bearing_range(k), cut + p.num(base, Kind::kLength),
+           cut + p.value(env.envelope.radius_m.at(uk), Kind::kLength),
+           cut + p.value(env.envelope_upper.radius_m.at(uk), Kind::kLength)});
   }
   p.raw("</tbody></table>");
 }
