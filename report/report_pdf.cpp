@@ -67,13 +67,24 @@ std::string tail_of(const fs::path& log) {
   return out.empty() ? "no output" : out;
 }
 
+// Ends what is left of the browser's process group (helpers it started) and reaps those that
+// are our children: orphans become fragsimd's when it is PID 1 of a container. Waits up to 2 s.
+void end_group(pid_t pgid) {
+  kill(-pgid, SIGKILL);
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  int status = 0;
+  for (pid_t r; (r = waitpid(-pgid, &status, WNOHANG)) >= 0;) {
+    if (r == 0 && std::chrono::steady_clock::now() > end) break;
+    if (r == 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
 int wait_for(pid_t pid, std::chrono::seconds timeout) {
   const auto end = std::chrono::steady_clock::now() + timeout;
   int status = 0;
   while (waitpid(pid, &status, WNOHANG) == 0) {
     if (std::chrono::steady_clock::now() > end) {
-      kill(-pid, SIGKILL);
-      waitpid(pid, &status, 0);
+      end_group(pid);
       throw std::runtime_error("chromium did not finish the PDF within " +
                                std::to_string(timeout.count()) + " s");
     }
@@ -121,6 +132,7 @@ void print_pdf(const fs::path& html, const fs::path& pdf, const std::string& chr
     fs::remove_all(profile, ec);
     throw;
   }
+  end_group(pid);
   const std::string output = tail_of(log);
   std::error_code ec;
   fs::remove_all(profile, ec);
