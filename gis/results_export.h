@@ -2,9 +2,10 @@
 // GIS outputs of a run (docs/gis.md, "Outputs"): `fragsim export RESULTS.h5 --out DIR` writes
 //   ptn_density.tif     PTN density and its standard error (GeoTIFF, 2 float64 bands)
 //   ptn_classes.tif     the density in classes relative to the threshold, with a colour table
-//   hazard.gpkg         layers hazardous_area, buildings, hfd, hfd_sectors (the site's CRS)
-//   hazardous_area.geojson, buildings.geojson   RFC 7946 (WGS 84)
-//   hazard.kml          the four layers for Google Earth (WGS 84)
+//   hazard.gpkg         layers hazardous_area, buildings, hfd, hfd_sectors, and the site-plan
+//                       boundary (gis/plan_boundary.h): hfd_envelope, hazard_boundary
+//   hazardous_area.geojson, buildings.geojson, hazard_boundary.geojson   RFC 7946 (WGS 84)
+//   hazard.kml          the six layers for Google Earth (WGS 84)
 //   terrain.vtkhdf, buildings.vtkhdf, trajectories.vtkhdf   ParaView (gis/vtkhdf_export.h)
 // results.h5 holds everything needed (terrain, densities, buildings, the scenario and its CRS).
 #include <filesystem>
@@ -18,6 +19,8 @@ struct ExportOptions {
   std::filesystem::path results_h5;
   std::filesystem::path out_dir;  // created if missing; files replaced atomically
   std::optional<double> pixel_m;  // raster cell size; default: the terrain's cell size
+  // The site-plan boundary's closing radius (gis/plan_boundary.h); default: 2 raster cells.
+  std::optional<double> smoothing_m = std::nullopt;
 };
 
 struct ExportReport {
