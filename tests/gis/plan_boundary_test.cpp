@@ -8,7 +8,9 @@
 #include <gtest/gtest.h>
 #include <ogrsf_frmts.h>
 
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <map>
@@ -89,8 +91,7 @@ class PlanBoundaryTest : public ::testing::Test {
     r.hfd_upper_m = f.upper_m;
     r.hfd_by_sector_m = f.by_sector_m;
     const fs::path path = dir_ / name;
-    write_results_h5(path, r, *site, sc, api::scenario_to_json(sc).dump(),
-                     api::build_provenance());
+    write_results_h5(path, r, *site, sc, api::scenario_to_json(sc).dump(), api::build_provenance());
     return path;
   }
 
@@ -172,7 +173,8 @@ TEST_F(PlanBoundaryTest, EmptySectorsSplitTheEnvelopeIntoPartsFromTheOrigin) {
   const PlanBoundary a = plan_boundary(round);
   ASSERT_EQ(a.envelope.polygon.size(), 1u);  // every sector has some of the blob
   EXPECT_EQ(a.envelope.polygon[0].rings.size(), 1u);
-  for (const Vec2& v : a.envelope.polygon[0].rings[0]) EXPECT_GT((v - a.origin).norm(), 35.0);  // no origin vertex
+  for (const Vec2& v : a.envelope.polygon[0].rings[0])
+    EXPECT_GT((v - a.origin).norm(), 35.0);  // no origin vertex
 
   const ResultsFile east = read_results_file(write_field("east.h5", blob_east));
   const PlanBoundary b = plan_boundary(east);
@@ -221,8 +223,9 @@ TEST_F(PlanBoundaryTest, ABadSmoothingRadiusIsRefusedNamingTheOption) {
 }
 
 TEST_F(PlanBoundaryTest, NoHazardousTriangleGivesEmptyPolygons) {
-  const ResultsFile r = read_results_file(
-      write_field("zero.h5", [](const Vec2&) { return std::pair{0.0, 0.0}; }));
+  const ResultsFile r = read_results_file(write_field("zero.h5", [](const Vec2&) {
+    return std::pair{0.0, 0.0};
+  }));
   const PlanBoundary b = plan_boundary(r);
   EXPECT_TRUE(b.envelope.polygon.empty());
   EXPECT_TRUE(b.envelope_upper.polygon.empty());
@@ -273,8 +276,7 @@ TEST_F(PlanBoundaryTest, TheExportsWriteTheEnvelopeAndTheSmoothedContour) {
 }
 
 TEST_F(PlanBoundaryTest, ASiteWithNothingHazardousGetsEmptyLayersAndANote) {
-  const fs::path h5 =
-      write_field("zero.h5", [](const Vec2&) { return std::pair{0.0, 0.0}; });
+  const fs::path h5 = write_field("zero.h5", [](const Vec2&) { return std::pair{0.0, 0.0}; });
   const ExportReport rep = export_results({h5, dir_ / "maps", std::nullopt});
   GDALDatasetUniquePtr gpkg(GDALDataset::Open((dir_ / "maps/hazard.gpkg").c_str(), GDAL_OF_VECTOR));
   ASSERT_TRUE(gpkg);
@@ -283,6 +285,56 @@ TEST_F(PlanBoundaryTest, ASiteWithNothingHazardousGetsEmptyLayersAndANote) {
   bool noted = false;
   for (const auto& n : rep.notes) noted = noted || n.find("hfd_envelope") != std::string::npos;
   EXPECT_TRUE(noted);
+}
+
+// The cost on a Monte Carlo-like field of thousands of islands (docs/gis.md, "Site-plan
+// boundary"): not run by default (--gtest_also_run_disabled_tests). A 1 km plane of 2 m cells
+// (500,000 triangles), a solid blob of 100 m round the origin and, out to 400 m, each triangle
+// hazardous with probability 0.02 (a fixed sequence).
+TEST(PlanBoundaryCost, DISABLED_ThousandsOfIslands) {
+  ResultsFile r;
+  const int n = 500;
+  const double cell = 2.0;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) r.vertices.emplace_back(-500 + cell * i, -500 + cell * j, 0);
+  std::uint64_t state = 12345;
+  const auto uniform = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  };
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const std::size_t a = static_cast<std::size_t>(j * (n + 1) + i), b = a + 1,
+                        c = a + static_cast<std::size_t>(n + 1), d = c + 1;
+      for (const auto& t :
+           {std::array<std::size_t, 3>{a, b, d}, std::array<std::size_t, 3>{a, d, c}}) {
+        r.triangles.push_back(t);
+        Vec2 centroid(0, 0);
+        for (const std::size_t v : t) centroid += r.vertices[v].head<2>() / 3.0;
+        const double dist = centroid.norm();
+        const bool hot = dist < 100 || (dist < 400 && uniform() < 0.02);
+        r.density.push_back(hot ? 2.0 : 0.0);
+        r.std_error.push_back(0.5);
+        if (hot) r.hfd_m = std::max(r.hfd_m, dist);
+      }
+    }
+  r.threshold = 1.0;
+  r.terrain_cell_m = cell;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::size_t count = 0;
+  const auto exact = hazard_area(r, 0.0, &count);
+  const auto t1 = std::chrono::steady_clock::now();
+  const PlanBoundary b = plan_boundary(r);
+  const auto t2 = std::chrono::steady_clock::now();
+  const auto* m = dynamic_cast<const OGRGeometryCollection*>(exact.get());
+  std::printf(
+      "%zu hazardous triangles, exact area %d polygons: union %.2f s; plan_boundary %.2f s "
+      "(smoothing %.1f m: %zu polygons; HFD %.1f m, smoothed %.1f m, envelope %.1f m)\n",
+      count, m != nullptr ? m->getNumGeometries() : 1,
+      std::chrono::duration<double>(t1 - t0).count(),
+      std::chrono::duration<double>(t2 - t1).count(), b.smoothing_m, b.smoothed.size(), r.hfd_m,
+      b.smoothed_hfd_m, b.envelope.max_radius_m);
+  EXPECT_GE(b.smoothed_hfd_m, r.hfd_m);
 }
 
 }  // namespace
