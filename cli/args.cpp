@@ -151,15 +151,24 @@ bool take_submit_option(const std::vector<std::string>& args, std::size_t& k, Op
   return true;
 }
 
+// A length option's value: a finite number > 0.
+double positive_metres(const std::string& name, const std::string& value) {
+  char* end = nullptr;
+  const double x = std::strtod(value.c_str(), &end);
+  if (value.empty() || *end != '\0' || !std::isfinite(x) || !(x > 0))
+    throw UsageError(name + ": expected a number > 0, got \"" + value + "\"");
+  return x;
+}
+
 // Options of export, site import and site export-gis; true when args[k] was one.
 bool take_file_command_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
   std::string value;
   if (o.command == Command::kExport && take_value(args, k, "--pixel-m", value)) {
-    char* end = nullptr;
-    const double x = std::strtod(value.c_str(), &end);
-    if (value.empty() || *end != '\0' || !std::isfinite(x) || !(x > 0))
-      throw UsageError("--pixel-m: expected a number > 0, got \"" + value + "\"");
-    o.pixel_m = x;
+    o.pixel_m = positive_metres("--pixel-m", value);
+    return true;
+  }
+  if (o.command == Command::kExport && take_value(args, k, "--smoothing-m", value)) {
+    o.smoothing_m = positive_metres("--smoothing-m", value);
     return true;
   }
   if (o.command == Command::kExport && take_units(args, k, o)) return true;
@@ -302,7 +311,7 @@ Usage:
   fragsim site import IMPORT.json --out SITE.json
   fragsim site export-gis SITE.json --out DIR
   fragsim shape import FILE [--axes z_up|y_up|x,-z,y]
-  fragsim export RESULTS.h5 --out DIR [--pixel-m X] [--units si|us]
+  fragsim export RESULTS.h5 --out DIR [--pixel-m X] [--smoothing-m X] [--units si|us]
   fragsim report RESULTS.h5 --out REPORT.html [--pdf REPORT.pdf] [--units si|us]
   fragsim submit SCENARIO.json [--server URL] [--token-file FILE] [--priority N]
                  [--idempotency-key KEY] [--no-wait] [--out DIR [--maps]] [--quiet]
@@ -334,7 +343,9 @@ Commands:
              three of x,-x,y,-y,z,-z), centred on their mean. Fragsim uses their convex hull.
   export     Write a run's results as GIS files into DIR (docs/gis.md): the PTN density as
              GeoTIFF (and in classes with a colour table), the hazardous area, buildings and
-             HFD as GeoPackage, GeoJSON (RFC 7946) and KML, in the site's CRS / WGS 84.
+             HFD as GeoPackage, GeoJSON (RFC 7946) and KML, in the site's CRS / WGS 84, with
+             a site-plan boundary: the envelope of the sector HFDs and a smoothed contour
+             (closing radius --smoothing-m X, default 2 raster cells, at least 1 m).
   report     Write the study report of a run (docs/report.md): one self-contained HTML page
              (figures, tables, provenance, limitations, the normalised scenario; no network
              needed to view it) and, with --pdf, the same page as PDF printed by headless

@@ -57,6 +57,7 @@ struct Options {
   bool maps = false;  // with --out: also download the job's GIS maps into DIR/maps
   // export (RESULTS.h5 in `scenario`, DIR in `out`)
   std::optional<double> pixel_m;
+  std::optional<double> smoothing_m;  // export: the site-plan boundary's closing radius
   // shape import (FILE in `scenario`): --axes z_up | y_up | x,-z,y
   std::string axes = "z_up";
   // report (RESULTS.h5 in `scenario`, --out REPORT.html in `out`, `units`): --pdf FILE

@@ -121,6 +121,7 @@ int export_command(const Options& o) {
   options.out_dir = o.out;
   options.pixel_m = o.pixel_m;
   options.units = o.units;
+  options.smoothing_m = o.smoothing_m;
   const gis::ExportReport r = gis::export_results(options);
   std::cout << "ok: " << o.out << " (CRS " << (r.crs.empty() ? "none: local metres" : r.crs)
             << "; raster " << r.raster_cols << " x " << r.raster_rows << " cells of " << r.pixel_m

@@ -12,11 +12,15 @@
 //    area, so its HFD is never shorter; the lengthening is measured and reported.
 //
 // All geometry is in the site's CRS coordinates (gis/results_file.h: input + site origin offset).
+#include <memory>
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <vector>
 
 #include "core/common/types.h"
 #include "gis/results_file.h"
+
+class OGRMultiPolygon;
 
 namespace fragsim::gis {
 
@@ -34,23 +38,31 @@ struct PlanBoundaryOptions {
 };
 
 struct SectorEnvelope {
-  PlanMultiPolygon polygon;          // empty when no triangle is hazardous
-  std::vector<double> radius_m;      // 36: the arc's radius per sector (0: none hazardous)
-  double max_radius_m = 0.0;         // the envelope's HFD (>= the field's HFD)
+  PlanMultiPolygon polygon;      // empty when no triangle is hazardous
+  std::vector<double> radius_m;  // 36: the arc's radius per sector (0: none hazardous)
+  double max_radius_m = 0.0;     // the envelope's HFD (>= the field's HFD)
 };
 
 struct PlanBoundary {
-  SectorEnvelope envelope;           // density >= threshold
-  SectorEnvelope envelope_upper;     // density + se >= threshold
-  PlanMultiPolygon smoothed;         // the smoothed contour of density >= threshold
-  double smoothing_m = 0.0;          // the closing radius used
-  double exact_hfd_m = 0.0;          // results.h5 /hfd/hazardous_fragment_distance_m
-  double smoothed_hfd_m = 0.0;       // largest distance of the smoothed contour from the origin
+  SectorEnvelope envelope;        // density >= threshold
+  SectorEnvelope envelope_upper;  // density + se >= threshold
+  PlanMultiPolygon smoothed;      // the smoothed contour of density >= threshold
+  double smoothing_m = 0.0;       // the closing radius used
+  double exact_hfd_m = 0.0;       // results.h5 /hfd/hazardous_fragment_distance_m
+  double smoothed_hfd_m = 0.0;    // largest distance of the smoothed contour from the origin
   double smoothed_area_m2 = 0.0, exact_area_m2 = 0.0;
-  Vec2 origin{0, 0};                 // the HFD origin, plan
+  Vec2 origin{0, 0};  // the HFD origin, plan
 };
 
-// Throws InputError naming the option when smoothing_m is not finite and > 0.
+// Throws InputError("smoothing_m", ...) when smoothing_m is not finite and > 0.
 PlanBoundary plan_boundary(const ResultsFile& r, const PlanBoundaryOptions& options = {});
+
+// The polygons as OGR geometry (for the exports and the tests).
+std::unique_ptr<OGRMultiPolygon> to_ogr(const PlanMultiPolygon& m);
+
+// The boundary as the HTTP API answers it (docs/http-api.md, GET /v1/jobs/{id}/plan_boundary), in
+// the run's input coordinates: the site's CRS coordinates minus `offset` (the site origin's
+// easting and northing).
+nlohmann::ordered_json plan_boundary_json(const PlanBoundary& b, const Vec2& offset);
 
 }  // namespace fragsim::gis

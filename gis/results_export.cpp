@@ -3,19 +3,23 @@
 
 #include <ogrsf_frmts.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "api/output_dir.h"
 #include "api/results_h5.h"
 #include "core/common/error.h"
 #include "gis/gdal_support.h"
+#include "gis/plan_boundary.h"
 #include "gis/plan_raster.h"
 #include "gis/results_file.h"
 #include "gis/vtkhdf_export.h"
@@ -341,6 +345,123 @@ void write_hfd_layers(GDALDataset& ds, const ResultsFile& r, const OGRSpatialRef
   }
 }
 
+// ---- The site-plan boundary (gis/plan_boundary.h) ----
+
+// A polygon feature and its attributes; a layer's fields are its features' attributes, in order.
+using Attribute = std::pair<const char*, std::variant<double, std::string>>;
+struct PlanFeature {
+  const PlanMultiPolygon* polygon;
+  std::vector<Attribute> attributes;
+};
+
+// "143.2 m" / "469.8 ft".
+std::string length_text(double m, api::UnitSystem u) {
+  return api::format_length(m, u, 1);
+}
+
+// With US units, the figures again in ft beside the SI fields (docs/units.md).
+void add_feet(std::vector<Attribute>& a, api::UnitSystem u,
+              std::initializer_list<std::pair<const char*, double>> figures_m) {
+  if (u != api::UnitSystem::kUs) return;
+  for (const auto& figure : figures_m) {
+    Attribute& added = a.emplace_back();
+    added.first = figure.first;
+    added.second.emplace<double>(api::present_length(figure.second, u).value);
+  }
+}
+
+// The two sector envelopes: of the estimate and of the upper end of the +-1 se band.
+std::vector<PlanFeature> envelope_features(const ResultsFile& r, const PlanBoundary& b,
+                                           api::UnitSystem u) {
+  const auto one = [&](const SectorEnvelope& e, const char* band, const char* rule, double hfd) {
+    PlanFeature f{
+        &e.polygon,
+        {{"name", std::string("HFD sector envelope (") + band + ")"},
+         {"band", std::string(band)},
+         {"rule", std::string(rule)},
+         {"max_radius_m", e.max_radius_m},
+         {"exact_hfd_m", hfd},
+         {"description",
+          "Per 10-degree HFD sector, an arc through the farthest point of the sector's triangles "
+          "where " +
+              std::string(rule) +
+              ", joined radially: it contains every such triangle and "
+              "is never inside the sector's HFD arc. Largest radius " +
+              length_text(e.max_radius_m, u) + " (HFD " + length_text(hfd, u) + ")."}}};
+    add_feet(f.attributes, u, {{"max_radius_ft", e.max_radius_m}, {"exact_hfd_ft", hfd}});
+    return f;
+  };
+  return {one(b.envelope, "estimate", "density >= threshold", r.hfd_m),
+          one(b.envelope_upper, "upper_1se", "density + 1 standard error >= threshold", r.band_hi)};
+}
+
+PlanFeature smoothed_feature(const PlanBoundary& b, api::UnitSystem u) {
+  const double longer = b.smoothed_hfd_m - b.exact_hfd_m;
+  PlanFeature f{
+      &b.smoothed,
+      {{"name", std::string("hazard boundary (smoothed)")},
+       {"band", std::string("estimate")},
+       {"smoothing_m", b.smoothing_m},
+       {"hfd_m", b.smoothed_hfd_m},
+       {"exact_hfd_m", b.exact_hfd_m},
+       {"area_m2", b.smoothed_area_m2},
+       {"exact_area_m2", b.exact_area_m2},
+       {"description",
+        "The hazardous area (density >= threshold) closed with a disc of radius " +
+            length_text(b.smoothing_m, u) +
+            " (dilated, then eroded), holes filled, united with the exact area: it contains "
+            "every hazardous triangle. Its farthest point is " +
+            length_text(b.smoothed_hfd_m, u) + " from the HFD origin, " + length_text(longer, u) +
+            " beyond the HFD (" + length_text(b.exact_hfd_m, u) + ")."}}};
+  add_feet(f.attributes, u,
+           {{"smoothing_ft", b.smoothing_m},
+            {"hfd_ft", b.smoothed_hfd_m},
+            {"exact_hfd_ft", b.exact_hfd_m}});
+  return f;
+}
+
+// A layer of plan features (those with no polygon are left out: an empty layer).
+void write_plan_layer(GDALDataset& ds, const char* name, const std::vector<PlanFeature>& features,
+                      const OGRSpatialReference* srs, OGRCoordinateTransformation* tr) {
+  std::vector<std::pair<const char*, OGRFieldType>> fields;
+  for (const auto& f : features)
+    for (const auto& [field, value] : f.attributes) {
+      const auto same = [&, field = field](const auto& x) { return std::string(x.first) == field; };
+      if (std::none_of(fields.begin(), fields.end(), same))
+        fields.emplace_back(field, value.index() == 0 ? OFTReal : OFTString);
+    }
+  OGRLayer* l = new_layer(ds, name, srs, wkbMultiPolygon, fields);
+  for (const auto& pf : features) {
+    if (pf.polygon->empty()) continue;
+    add_feature(
+        *l, *to_ogr(*pf.polygon),
+        [&](OGRFeature& f) {
+          for (const auto& [field, value] : pf.attributes) {
+            if (const double* x = std::get_if<double>(&value))
+              f.SetField(field, *x);
+            else
+              f.SetField(field, std::get<std::string>(value).c_str());
+          }
+        },
+        tr);
+  }
+}
+
+void write_boundary_layers(GDALDataset& ds, const ResultsFile& r, const PlanBoundary& b,
+                           const OGRSpatialReference* srs, OGRCoordinateTransformation* tr,
+                           api::UnitSystem u) {
+  write_plan_layer(ds, "hfd_envelope", envelope_features(r, b, u), srs, tr);
+  write_plan_layer(ds, "hazard_boundary", {smoothed_feature(b, u)}, srs, tr);
+}
+
+// hazard_boundary.geojson: the three in one layer.
+void write_boundary_geojson(GDALDataset& ds, const ResultsFile& r, const PlanBoundary& b,
+                            const OGRSpatialReference* srs, api::UnitSystem u) {
+  std::vector<PlanFeature> all = envelope_features(r, b, u);
+  all.push_back(smoothed_feature(b, u));
+  write_plan_layer(ds, "hazard_boundary", all, srs, nullptr);
+}
+
 GDALDatasetUniquePtr create_vector(const fs::path& path, const char* driver,
                                    const std::vector<std::string>& options = {}) {
   ensure_gdal_registered();
@@ -409,6 +530,11 @@ ExportReport export_results(const ExportOptions& o) {
   g.lower = hazard_area(r, -1.0, nullptr);
   g.upper = hazard_area(r, 1.0, nullptr);
   for (const auto& b : r.buildings) g.buildings.push_back(union_of(b.plan));
+  const PlanBoundary boundary = plan_boundary(r, {o.smoothing_m});
+  if (boundary.smoothed.empty())
+    report.notes.push_back(
+        "no terrain triangle is at or above the threshold: the site-plan boundary layers "
+        "(hfd_envelope, hazard_boundary) are empty");
 
   GdalErrorCapture quiet;  // drivers' warnings (temporary file names) are not the user's
   api::OutputDir out(o.out_dir);
@@ -424,6 +550,7 @@ ExportReport export_results(const ExportOptions& o) {
     write_hazard_layer(ds, r, g, s, tr, o.units);
     write_buildings_layer(ds, r, g, s, tr);
     write_hfd_layers(ds, r, s, tr, o.units);
+    write_boundary_layers(ds, r, boundary, s, tr, o.units);
   };
   stage("hazard.gpkg", [&](const fs::path& p) {
     auto ds = create_vector(p, "GPKG");
@@ -460,6 +587,9 @@ ExportReport export_results(const ExportOptions& o) {
         }));
   stage("buildings.geojson",
         geojson([&](GDALDataset& ds) { write_buildings_layer(ds, r, g, site_srs, nullptr); }));
+  stage("hazard_boundary.geojson", geojson([&](GDALDataset& ds) {
+          write_boundary_geojson(ds, r, boundary, site_srs, o.units);
+        }));
   stage("hazard.kml", [&](const fs::path& p) {
     auto ds = create_vector(p, "KML");
     all_layers(*ds, &wgs84, to_wgs.get());

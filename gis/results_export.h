@@ -2,9 +2,10 @@
 // GIS outputs of a run (docs/gis.md, "Outputs"): `fragsim export RESULTS.h5 --out DIR` writes
 //   ptn_density.tif     PTN density and its standard error (GeoTIFF, 2 float64 bands)
 //   ptn_classes.tif     the density in classes relative to the threshold, with a colour table
-//   hazard.gpkg         layers hazardous_area, buildings, hfd, hfd_sectors (the site's CRS)
-//   hazardous_area.geojson, buildings.geojson   RFC 7946 (WGS 84)
-//   hazard.kml          the four layers for Google Earth (WGS 84)
+//   hazard.gpkg         layers hazardous_area, buildings, hfd, hfd_sectors, and the site-plan
+//                       boundary (gis/plan_boundary.h): hfd_envelope, hazard_boundary
+//   hazardous_area.geojson, buildings.geojson, hazard_boundary.geojson   RFC 7946 (WGS 84)
+//   hazard.kml          the six layers for Google Earth (WGS 84)
 //   terrain.vtkhdf, buildings.vtkhdf, trajectories.vtkhdf   ParaView (gis/vtkhdf_export.h)
 // With units kUs the vector layers carry US customary fields beside the SI ones (hfd_ft,
 // threshold_per_600ft2, bearings, a description in ft; docs/units.md); the rasters stay SI.
@@ -23,6 +24,8 @@ struct ExportOptions {
   std::filesystem::path out_dir;  // created if missing; files replaced atomically
   std::optional<double> pixel_m;  // raster cell size; default: the terrain's cell size
   api::UnitSystem units = api::UnitSystem::kSi;  // kUs: US fields beside the SI ones
+  // The site-plan boundary's closing radius (gis/plan_boundary.h); default: 2 raster cells.
+  std::optional<double> smoothing_m = std::nullopt;
 };
 
 struct ExportReport {

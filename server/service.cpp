@@ -24,6 +24,8 @@
 #include "core/scene/site_limits.h"
 #include "fragsim/version.h"
 #include "gis/gdal_support.h"
+#include "gis/plan_boundary.h"
+#include "gis/results_file.h"
 #include "server/log.h"
 #include "server/openapi_text.h"
 #include "server/ui_assets.h"
@@ -52,7 +54,8 @@ enum class RouteId {
   kJobMap,
   kJobReportHtml,
   kJobReportPdf,
-  kJobScene
+  kJobScene,
+  kJobPlanBoundary
 };
 
 constexpr const char* kJsonType = "application/json";
@@ -253,6 +256,7 @@ const std::vector<Service::Route>& routes() {
       {RouteId::kJobReportHtml, "/v1/jobs/{id}/report.html", {"GET"}},
       {RouteId::kJobReportPdf, "/v1/jobs/{id}/report.pdf", {"GET"}},
       {RouteId::kJobScene, "/v1/jobs/{id}/scene", {"GET"}},
+      {RouteId::kJobPlanBoundary, "/v1/jobs/{id}/plan_boundary", {"GET"}},
   };
   return kRoutes;
 }
@@ -457,6 +461,8 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
     bad = check_query(req, {"max_trajectories"});
   } else if (route.id == RouteId::kJobReportHtml || route.id == RouteId::kJobReportPdf) {
     bad = check_query(req, {"units"});
+  } else if (route.id == RouteId::kJobPlanBoundary) {
+    bad = check_query(req, {"smoothing_m"});
   } else {
     bad = check_query(req, {});
   }
@@ -478,6 +484,7 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
   if (!api::is_job_id(id)) return error_response(404, "not_found", "no job " + id);
   if (route.id == RouteId::kJobPtn) return job_ptn(req, id);
   if (route.id == RouteId::kJobScene) return job_scene(req, id);
+  if (route.id == RouteId::kJobPlanBoundary) return job_plan_boundary(req, id);
   switch (route.id) {
     case RouteId::kJob: return get ? get_job(id) : delete_job(id, owner_of(req));
     case RouteId::kJobSummary: return job_summary(id);
@@ -662,7 +669,8 @@ OJson Service::job_json(const JobRow& row) {
                 {"buildings", self + "/buildings"},
                 {"ptn", self + "/ptn"},
                 {"results_h5", self + "/results.h5"},
-                {"maps", self + "/maps"}};
+                {"maps", self + "/maps"},
+                {"plan_boundary", self + "/plan_boundary"}};
   return j;
 }
 
@@ -933,6 +941,31 @@ Response Service::job_scene(const Request& req, const std::string& id) {
   else
     r.body = scenes_.encode_now(build);
   return r;
+}
+
+// The site-plan boundary (gis/plan_boundary.h) of a done job, in its input coordinates; made on
+// each request (0.03 s on the demo; about 2 s on thousands of islands: docs/gis.md).
+Response Service::job_plan_boundary(const Request& req, const std::string& id) {
+  gis::PlanBoundaryOptions options;
+  if (const auto it = req.query.find("smoothing_m"); it != req.query.end()) {
+    std::size_t used = 0;
+    double v = 0.0;
+    try {
+      v = std::stod(it->second, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != it->second.size() || !std::isfinite(v) || !(v > 0.0))
+      return error_response(400, "bad_parameter", "must be a number > 0 (metres)", "smoothing_m");
+    options.smoothing_m = v;
+  }
+  auto job = finished_job(id);
+  if (auto* r = std::get_if<Response>(&job)) return *r;
+  const gis::ResultsFile results =
+      gis::read_results_file(scheduler_.job_dir(id) / api::kResultsFileName);
+  OJson j{{"job_id", id}};
+  j.update(gis::plan_boundary_json(gis::plan_boundary(results, options), results.offset));
+  return json_response(200, j);
 }
 
 Response Service::job_results_h5(const std::string& id) {

@@ -113,6 +113,7 @@ class Service {
   Response job_buildings(const std::string& id);
   Response job_ptn(const Request& req, const std::string& id);
   Response job_results_h5(const std::string& id);
+  Response job_plan_boundary(const Request& req, const std::string& id);
   Response job_scene(const Request& req, const std::string& id);
   Response job_maps(const std::string& id);
   Response job_map_file(const std::string& id, const std::string& name);

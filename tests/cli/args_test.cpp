@@ -77,6 +77,8 @@ TEST(Args, FileCommandsNeedTheirInputAndOut) {
   EXPECT_EQ(o.command, Command::kExport);
   EXPECT_EQ(o.scenario, "r.h5");
   EXPECT_EQ(o.pixel_m, 2.5);
+  EXPECT_EQ(o.smoothing_m, std::nullopt);
+  EXPECT_EQ(parse_args({"export", "r.h5", "--out", "d", "--smoothing-m=12.5"}).smoothing_m, 12.5);
   o = parse_args({"site", "import", "i.json", "--out", "s.json"});
   EXPECT_EQ(o.command, Command::kSiteImport);
   EXPECT_EQ(o.scenario, "i.json");
@@ -87,6 +89,12 @@ TEST(Args, FileCommandsNeedTheirInputAndOut) {
   EXPECT_EQ(usage_error({"export", "r.h5"}), "export needs --out DIR");
   EXPECT_EQ(usage_error({"export", "r.h5", "--out", "d", "--pixel-m", "0"}),
             "--pixel-m: expected a number > 0, got \"0\"");
+  EXPECT_EQ(usage_error({"export", "r.h5", "--out", "d", "--smoothing-m", "-1"}),
+            "--smoothing-m: expected a number > 0, got \"-1\"");
+  EXPECT_EQ(usage_error({"export", "r.h5", "--out", "d", "--smoothing-m", "inf"}),
+            "--smoothing-m: expected a number > 0, got \"inf\"");
+  EXPECT_EQ(usage_error({"run", "s.json", "--out", "d", "--smoothing-m", "1"}),
+            "unknown option \"--smoothing-m\"");
   EXPECT_EQ(usage_error({"site", "import", "i.json", "--pixel-m", "1"}),
             "unknown option \"--pixel-m\"");
   EXPECT_EQ(usage_error({"site", "import", "i.json"}), "site import needs --out SITE.json");

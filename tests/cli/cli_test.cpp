@@ -98,7 +98,8 @@ TEST_F(Cli, UsageErrorsExitTwo) {
         {"run", "x.json", "--out", "o", "--threads", "many"},
         {"run", "x.json", "--out", "o", "--samples-scale", "0"},
         {"validate", "x.json", "--bogus"},
-        {"submit", "x.json", "--maps"}}) {
+        {"submit", "x.json", "--maps"},
+        {"export", "r.h5", "--out", "o", "--smoothing-m", "-1"}}) {
     const CliResult r = run(args);
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_EQ(r.err.rfind("error: ", 0), 0u) << r.err;

@@ -25,7 +25,8 @@ class ReportCli : public fragsim::cli::testing::CliDirTest {
   ReportCli() : CliDirTest("fragsim_report_cli_test_") {}
 
   std::size_t entries(const fs::path& d) const {
-    return static_cast<std::size_t>(std::distance(fs::directory_iterator(d), fs::directory_iterator()));
+    return static_cast<std::size_t>(
+        std::distance(fs::directory_iterator(d), fs::directory_iterator()));
   }
 };
 

@@ -308,8 +308,14 @@ TEST_F(ResultsExport, UsUnitsAddFeetBearingsAndDescriptionsBesideTheSiFields) {
   const std::string kml = api::testing::read_text(dir_ / "us/hazard.kml");
   EXPECT_NE(kml.find("<description>HFD ≥ "), std::string::npos);
   EXPECT_NE(kml.find("<description>bearing 080°–090°: HFD "), std::string::npos);
-  EXPECT_EQ(api::testing::read_text(dir_ / "si/hazard.kml").find("<description>"),
-            std::string::npos);
+  // The site-plan boundary's descriptions follow the units too, with ft fields beside the SI.
+  EXPECT_NE(kml.find(" ft (HFD "), std::string::npos);
+  EXPECT_NE(kml.find("max_radius_ft"), std::string::npos);
+  // SI: no US field and no figure in ft anywhere.
+  const std::string si_kml = api::testing::read_text(dir_ / "si/hazard.kml");
+  EXPECT_EQ(si_kml.find(" ft"), std::string::npos);
+  EXPECT_EQ(si_kml.find("_ft"), std::string::npos);
+  EXPECT_NE(si_kml.find(" m (HFD "), std::string::npos);
 }
 
 TEST_F(ResultsExport, WithoutACrsOnlyLocalFilesAreWrittenAndSaid) {

@@ -97,8 +97,8 @@ class Report : public ::testing::Test {
 
   void check_figures(const fs::path& h5, bool us) {
     const Json summary = Json::parse(read_text(h5.parent_path() / api::kSummaryFileName));
-    const auto figures = keyed_figures(
-        report_html(h5, us ? api::UnitSystem::kUs : api::UnitSystem::kSi));
+    const auto figures =
+        keyed_figures(report_html(h5, us ? api::UnitSystem::kUs : api::UnitSystem::kSi));
     ASSERT_GE(figures.size(), 60u);  // identity, findings, sectors, buildings, outcomes, ...
     for (const Figure& f : figures) {
       SCOPED_TRACE(f.key + " shown " + f.shown);
@@ -152,9 +152,9 @@ TEST_F(Report, TheNormalisedScenarioIsInTheAppendixWhole) {
   std::string text = html.substr(start + 19, end - start - 19);
   for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
            {"&lt;", "<"}, {"&gt;", ">"}, {"&quot;", "\""}, {"&#39;", "'"}, {"&amp;", "&"}})
-    for (std::size_t at; (at = text.find(from)) != std::string::npos;) text.replace(at, from.size(), to);
-  EXPECT_EQ(Json::parse(text),
-            Json::parse(api::read_attribute_string(h5, "/", "scenario_json")));
+    for (std::size_t at; (at = text.find(from)) != std::string::npos;)
+      text.replace(at, from.size(), to);
+  EXPECT_EQ(Json::parse(text), Json::parse(api::read_attribute_string(h5, "/", "scenario_json")));
 }
 
 TEST_F(Report, RefusesWhatIsNotAResultsFileNamingIt) {
@@ -192,7 +192,8 @@ TEST_F(Report, AnUnwritableOutputIsRefusedAndLeavesNothing) {
   }
   // A PDF that cannot be printed (no such browser): neither file appears.
   try {
-    write_report({h5, dir_ / "r.html", dir_ / "r.pdf", api::UnitSystem::kSi, "/nonexistent/chromium"});
+    write_report(
+        {h5, dir_ / "r.html", dir_ / "r.pdf", api::UnitSystem::kSi, "/nonexistent/chromium"});
     ADD_FAILURE() << "printed without a browser";
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "--pdf");
@@ -204,7 +205,8 @@ TEST_F(Report, AnUnwritableOutputIsRefusedAndLeavesNothing) {
 }
 
 TEST(ReportText, PrettyJsonKeepsScalarArraysOnOneLine) {
-  const auto j = nlohmann::ordered_json::parse(R"({"a": [1, 2, 3], "b": {"c": "x<y"}, "d": [{"e": 1}]})");
+  const auto j =
+      nlohmann::ordered_json::parse(R"({"a": [1, 2, 3], "b": {"c": "x<y"}, "d": [{"e": 1}]})");
   EXPECT_EQ(pretty_json(j),
             "{\n  \"a\": [1, 2, 3],\n  \"b\": {\n    \"c\": \"x<y\"\n  },\n  \"d\": [\n    {\n"
             "      \"e\": 1\n    }\n  ]\n}");

@@ -251,7 +251,7 @@ TEST_F(ServiceRouting, MalformedOrUnknownIdsAre404) {
         "/v1/jobs/j_0123456789abcdef/summary", "/v1/jobs/j_0123456789abcdef/ptn",
         "/v1/jobs/x/results.h5", "/v1/jobs/j_0123456789abcdef/buildings",
         "/v1/jobs/j_0123456789abcdef/maps", "/v1/jobs/j_0123456789abcdef/maps/hazard.kml",
-        "/v1/jobs/j_0123456789abcdef/maps/"}) {
+        "/v1/jobs/j_0123456789abcdef/maps/", "/v1/jobs/j_0123456789abcdef/plan_boundary"}) {
     SCOPED_TRACE(path);
     expect_error(get(path), 404, "not_found");
   }
@@ -853,7 +853,8 @@ TEST_F(ServiceJobs, PostJobIs202WithLocationAndJobStatus) {
                               {"buildings", self + "/buildings"},
                               {"ptn", self + "/ptn"},
                               {"results_h5", self + "/results.h5"},
-                              {"maps", self + "/maps"}}));
+                              {"maps", self + "/maps"},
+                              {"plan_boundary", self + "/plan_boundary"}}));
 
   const Json again = job(id);
   EXPECT_EQ(again["job_id"], id);
@@ -1393,6 +1394,52 @@ TEST_F(ServiceResults, MapsAreMadeOnceAndServedAsFiles) {
   EXPECT_EQ(get("/v1/jobs/" + id + "/maps/hazard.kml").status, 200);
   EXPECT_TRUE(fs::is_regular_file(maps_dir / "hazard.kml"));
   EXPECT_TRUE(fs::is_regular_file(maps_dir / "index.json"));
+}
+
+// The site-plan boundary (gis/plan_boundary.h) in the job's input coordinates.
+TEST_F(ServiceResults, ThePlanBoundaryIsAnsweredInInputCoordinates) {
+  start();
+  Json site = minimal_site();
+  site["origin"] = {{"crs", "EPSG:32611"},
+                    {"easting_m", 500000.0},
+                    {"northing_m", 3700000.0},
+                    {"elevation_m", 0.0}};
+  const std::string id = add_job(job_on(add_site(site), 200));
+  ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
+  const Json summary =
+      Json::parse(api::testing::read_text(*get("/v1/jobs/" + id + "/summary").file));
+  const Response r = get("/v1/jobs/" + id + "/plan_boundary");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.content_type, "application/json");
+  const Json b = body_of(r);
+  EXPECT_EQ(b["job_id"], id);
+  EXPECT_EQ(b["origin_m"][0], summary["hfd_origin_m"][0]);
+  EXPECT_EQ(b["origin_m"][1], summary["hfd_origin_m"][1]);
+  EXPECT_EQ(b["exact_hfd_m"], summary["hazardous_fragment_distance_m"]);
+  EXPECT_EQ(b["smoothing_m"], 20.0);  // 2 cells of the 10 m plane
+  ASSERT_GT(b["exact_hfd_m"].get<double>(), 0.0) << "the job leaves no hazardous area";
+  EXPECT_GE(b["smoothed_hfd_m"].get<double>(), b["exact_hfd_m"].get<double>());
+  for (const char* key : {"envelope", "envelope_upper"}) {
+    SCOPED_TRACE(key);
+    EXPECT_EQ(b[key]["radius_m"].size(), 36u);
+    EXPECT_GE(b[key]["max_radius_m"].get<double>(), b["exact_hfd_m"].get<double>());
+    ASSERT_FALSE(b[key]["polygons"].empty());
+  }
+  // Input coordinates: round (0, 0), not at 500000 E, 3700000 N.
+  for (const auto& polygon : b["smoothed"]["polygons"])
+    for (const auto& ring : polygon)
+      for (const auto& p : ring) {
+        EXPECT_LE(std::abs(p[0].get<double>()), 2000.0);
+        EXPECT_LE(std::abs(p[1].get<double>()), 2000.0);
+      }
+  EXPECT_EQ(
+      body_of(get("/v1/jobs/" + id + "/plan_boundary", {{"smoothing_m", "5"}}))["smoothing_m"],
+      5.0);
+  for (const char* bad : {"-1", "0", "x", "nan", "1e999"}) {
+    SCOPED_TRACE(bad);
+    expect_error(get("/v1/jobs/" + id + "/plan_boundary", {{"smoothing_m", bad}}), 400,
+                 "bad_parameter", "smoothing_m");
+  }
 }
 
 // Concurrent first requests: one export, every request answered with the same listing.

@@ -8,6 +8,7 @@ import { el, sig, plusMinus, localTime, showError } from './format.js';
 import { colourControl, densityLegend, keyItem, materialLegend, rampLegend } from './legend.js';
 import { defaultColouring, hasMaterials, materialColors, materialEntries } from './materials.js';
 import * as meshes from './meshes.js';
+import { fetchPlanBoundary, planBoundaryKeys, planBoundaryLayer } from './plan_boundary.js';
 import { densityProfiles, drawDensityPlot } from './plot.js';
 import { parseScene } from './scene_format.js';
 import { SceneView } from './scene3d.js';
@@ -58,6 +59,7 @@ export async function enterJob(id, ctx) {
   if (!ctx.current()) return;
   ctx.ready('job');
   loadMaps(id, ctx);
+  loadPlanBoundary(id, ctx);
 }
 
 export function leaveJob() {
@@ -232,6 +234,7 @@ function renderLegend(scene, summary, built) {
     keyItem(COLORS.contour, 'hazardous area (≥ threshold)'),
     ...hfdKeys(summary),
     keyItem(COLORS.launch, 'HFD origin', 'box'),
+    ...(built.planKeys || []),
   ];
   if (built.colouring === 'material')
     $('legend').replaceChildren(materialLegend(built.materials), el('div', { class: 'legend-keys' }, keys));
@@ -264,17 +267,39 @@ function hfdKeys(summary) {
 
 function renderLayerToggles(layers) {
   const labels = { trajectories: 'trajectories', contour: 'contour', hfd: 'HFD', sectors: 'sectors', buildings: 'buildings' };
-  const box = $('layers');
-  for (const [name, label] of Object.entries(labels)) {
-    const obj = layers[name];
-    if (!obj) continue;
-    const input = el('input', { type: 'checkbox', id: `layer-${name}`, checked: '' });
-    input.addEventListener('change', () => {
-      obj.visible = input.checked;
-      view.requestRender();
-    });
-    box.append(el('label', { class: 'layer' }, [input, label]));
+  for (const [name, label] of Object.entries(labels))
+    if (layers[name]) addLayerToggle(name, label, layers[name]);
+}
+
+function addLayerToggle(name, label, obj) {
+  const input = el('input', { type: 'checkbox', id: `layer-${name}`, checked: '' });
+  input.addEventListener('change', () => {
+    obj.visible = input.checked;
+    view.requestRender();
+  });
+  $('layers').append(el('label', { class: 'layer' }, [input, label]));
+}
+
+// The site-plan boundary (plan_boundary.js), added when it arrives; the view stands without it.
+async function loadPlanBoundary(id, ctx) {
+  const st = state;
+  let b;
+  try {
+    b = await fetchPlanBoundary(id);
+  } catch (e) {
+    console.warn(`plan boundary of ${id}: ${errorText(e)}`);
+    return;
   }
+  if (!ctx.current() || state !== st) return;
+  const s = st.summary;
+  const lower = { estimate: isLower(s.hfd_bound), upper: isLower((s.hfd_band_bound || [])[1]) };
+  const layer = planBoundaryLayer(b, st.frame.target[2] + 0.5, lower);
+  st.group.add(layer);
+  st.layers.plan_boundary = layer;
+  st.planKeys = planBoundaryKeys(b, lower);
+  addLayerToggle('plan_boundary', 'site-plan boundary', layer);
+  renderLegend(st.scene, s, st);
+  view.requestRender();
 }
 
 function wireSceneTools() {

@@ -4,7 +4,8 @@
 // no console errors, no page errors. The HFD as a lower bound (issue 22): the minimal example's is
 // not cut (no banner, no "≥", solid lines); the same on a 400 m plane is (banner with the note,
 // "≥" in the table, the legend and the plot, the HFD circle and the cut sectors dashed); on a
-// 200 m plane with a precision target, the target is UNMEETABLE and the run stops for it.
+// 200 m plane with a precision target, the target is UNMEETABLE and the run stops for it. The
+// site-plan boundary (GET /v1/jobs/{id}/plan_boundary): its three lines drawn, toggled, keyed.
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import { after, before, test } from 'node:test';
@@ -190,6 +191,35 @@ test('an HFD the site boundary does not cut reads as before: no banner, no "≥"
   const legend = await page.locator('#legend').innerText();
   assert.ok(legend.includes(`HFD ${sum.hazardous_fragment_distance_m.toFixed(1)} m`) && !/lower bound/.test(legend), legend);
   assert.equal(await page.locator('#density-plot').getAttribute('data-hfd-label'), `HFD ${sum.hazardous_fragment_distance_m.toFixed(1)} m`);
+});
+
+test('the site-plan boundary: the route answers, its three lines are drawn, toggled and keyed', { timeout: 30000 }, async () => {
+  const id = run.job.job_id, sum = run.summary;
+  const b = await daemon.expectOk(`/v1/jobs/${id}/plan_boundary`);
+  assert.equal(b.job_id, id);
+  assert.equal(b.exact_hfd_m, sum.hazardous_fragment_distance_m);
+  assert.equal(b.envelope.radius_m.length, 36);
+  assert.ok(b.envelope.max_radius_m >= b.exact_hfd_m && b.envelope_upper.max_radius_m >= b.envelope.max_radius_m, JSON.stringify(b.envelope.radius_m));
+  assert.ok(b.smoothed_hfd_m >= b.exact_hfd_m, `smoothed ${b.smoothed_hfd_m} < HFD ${b.exact_hfd_m}`);
+  assert.deepEqual(b.origin_m, sum.hfd_origin_m.slice(0, 2), 'input coordinates');
+  await page.locator('#layer-plan_boundary').waitFor({ state: 'attached', timeout: 15000 });
+  const lines = await overlayLines();
+  const edges = (polygons) => polygons.flat().reduce((n, ring) => n + ring.length, 0);
+  for (const [name, polygons] of [['plan-envelope', b.envelope.polygons], ['plan-envelope-upper', b.envelope_upper.polygons], ['plan-smoothed', b.smoothed.polygons]]) {
+    assert.ok(polygons.length > 0, `${name}: no polygon`);
+    assert.equal(lines[name]?.material, 'LineBasicMaterial', `${name}: ${JSON.stringify(lines)}`);
+    assert.equal(lines[name].segments, edges(polygons), `${name}: a segment per ring edge`);
+    assert.equal(lines[name].visible, true, name);
+  }
+  const legend = await page.locator('#legend').innerText();
+  assert.ok(legend.includes(`sector envelope, to ${b.envelope.max_radius_m.toFixed(1)} m`), legend);
+  assert.ok(legend.includes(`smoothed boundary (closing ${b.smoothing_m.toFixed(1)} m`), legend);
+  await h.nextFrames(page);
+  await h.screenshot(page, 'job-6b-plan-boundary', { fullPage: true });
+  await page.click('#layer-plan_boundary');
+  assert.equal((await overlayLines())['plan-smoothed'].visible, false, 'the toggle did not hide the boundary');
+  await page.click('#layer-plan_boundary');
+  assert.equal((await overlayLines())['plan-smoothed'].visible, true);
 });
 
 test('an HFD the site boundary cuts: banner, "≥" in the table, legend and plot, dashed lines', { timeout: 30000 }, async () => {
