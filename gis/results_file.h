@@ -36,7 +36,7 @@ struct ResultsFile {
   std::string hfd_note;
   double left_hazardous = 0, left_hazardous_se = 0;  // real fragments (format 2)
   std::vector<double> left_hazardous_by_sector = std::vector<double>(36, 0.0);
-  Vec3 hfd_origin;
+  Vec3 hfd_origin{0, 0, 0};
   std::vector<ResultsBuilding> buildings;
   std::string crs;            // "" when the site has none
   Vec2 offset{0, 0};          // site.origin easting, northing
