@@ -419,6 +419,7 @@ onUnitsChange(() => {
   renderLegend(state.scene, state.summary, state);
   renderBuildings(state.summary, state.buildingRgb);
   drawPlot();
+  document.getElementById('report-list')?.replaceChildren(...reportLinks(state.id));
 });
 
 window.addEventListener('resize', () => {
@@ -451,7 +452,19 @@ function renderDownloads(id, status) {
       downloadLink(links.results_h5 || `/v1/jobs/${id}/results.h5`, `${id}.h5`, 'results.h5', 'HDF5'),
     ]),
     el('div', { id: 'maps-list', class: 'download-group' }, el('span', { class: 'muted', text: 'GIS files: preparing…' })),
+    el('div', { id: 'report-list', class: 'download-group' }, reportLinks(id)),
   );
+}
+
+// The study report (docs/report.md) in the units selected now; made by the daemon on the first
+// request (the PDF by its headless chromium, a few seconds).
+function reportLinks(id) {
+  const u = currentUnits();
+  return [
+    el('span', { class: 'muted', text: 'Study report:' }),
+    downloadLink(`/v1/jobs/${id}/report.html?units=${u}`, `${id}_report-${u}.html`, 'report.html', 'one page, offline'),
+    downloadLink(`/v1/jobs/${id}/report.pdf?units=${u}`, `${id}_report-${u}.pdf`, 'report.pdf', 'A4'),
+  ];
 }
 
 async function loadMaps(id, ctx) {

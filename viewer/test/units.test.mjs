@@ -4,6 +4,7 @@
 // ft-lb, a cut HFD's banner in ft with its sectors by bearing — persists across a reload
 // (localStorage), and switching back restores the SI text exactly.
 import assert from 'node:assert/strict';
+import fs from 'node:fs';
 import { after, before, test } from 'node:test';
 import * as h from './harness.mjs';
 
@@ -119,6 +120,21 @@ test('US units of a cut HFD: the banner in ft, the cut sectors by bearing', { ti
   await h.screenshot(page, 'units-2-cut-us', { fullPage: true });
   await selectUnits('si');
   assert.ok((await page.locator('#job-warning').innerText()).includes(sb.note));
+});
+
+test('the study report links follow the units; report.html downloads with the token in a header', { timeout: 30000 }, async () => {
+  await openJob(run.job.job_id);
+  const hrefs = () => page.locator('#report-list a').evaluateAll((as) => as.map((a) => a.getAttribute('href')));
+  await selectUnits('si');
+  assert.deepEqual(await hrefs(), [`/v1/jobs/${run.job.job_id}/report.html?units=si`, `/v1/jobs/${run.job.job_id}/report.pdf?units=si`]);
+  await selectUnits('us');
+  assert.deepEqual(await hrefs(), [`/v1/jobs/${run.job.job_id}/report.html?units=us`, `/v1/jobs/${run.job.job_id}/report.pdf?units=us`]);
+  const [download] = await Promise.all([page.waitForEvent('download', { timeout: 15000 }),
+    page.locator('#report-list a', { hasText: 'report.html' }).click()]);
+  const html = fs.readFileSync(await download.path(), 'utf8');
+  assert.match(html, /data-units="us"/);
+  assert.ok(!download.url().includes(daemon.token), 'token in the download URL');
+  await selectUnits('si');
 });
 
 test('no console errors, no page errors', () => {
