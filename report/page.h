@@ -24,11 +24,24 @@ inline std::string printf_string(const char* format, double v) {
 }
 
 // How a figure is converted and shown.
-enum class Kind { kLength, kEnergy, kMass, kSpeed, kDensity, kCount, kError, kSeconds, kPlain };
+// kCoordinate: a position in the site's CRS (metres), never converted (docs/units.md).
+enum class Kind {
+  kLength,
+  kCoordinate,
+  kEnergy,
+  kMass,
+  kSpeed,
+  kDensity,
+  kCount,
+  kError,
+  kSeconds,
+  kPlain
+};
 
 inline const char* kind_name(Kind k) {
   switch (k) {
     case Kind::kLength: return "length";
+    case Kind::kCoordinate: return "coordinate";
     case Kind::kEnergy: return "energy";
     case Kind::kMass: return "mass";
     case Kind::kSpeed: return "speed";
@@ -49,6 +62,7 @@ inline api::Presented present(double si, Kind k, UnitSystem u) {
     case Kind::kSpeed: return api::present_speed(si, u);
     case Kind::kDensity: return api::present_areal_density(si, u);
     case Kind::kSeconds: return {si, "s"};
+    case Kind::kCoordinate: return {si, "m"};
     default: return {si, ""};
   }
 }
@@ -57,7 +71,8 @@ inline api::Presented present(double si, Kind k, UnitSystem u) {
 inline std::string shown(double v, Kind k) {
   if (!std::isfinite(v)) return "n/a";
   switch (k) {
-    case Kind::kLength: return printf_string("%.1f", v);
+    case Kind::kLength:
+    case Kind::kCoordinate: return printf_string("%.1f", v);
     case Kind::kDensity: return printf_string("%.4g", v);
     case Kind::kError: return printf_string("%.2g", v);
     case Kind::kSeconds: return printf_string("%.3g", v);

@@ -170,8 +170,11 @@ void warnings(Page& p) {
   std::string items;
   const Json& sb = object_or_empty(s, "site_boundary");
   if (const auto note = sb.find("note"); note != sb.end() && note->is_string())
-    items += warning_item("<strong>The HFD is a lower bound.</strong> " +
-                          esc(note->get<std::string>()) + ".");
+    items += warning_item("<strong>The HFD is a lower bound.</strong> HFD ≥ " +
+                          p.num("/hazardous_fragment_distance_m", Kind::kLength) +
+                          ": hazardous density reaches the site boundary in " +
+                          p.num("/site_boundary/hfd_sectors_cut", Kind::kPlain, false) +
+                          " of 36 sectors; extend the terrain.");
   else if (p.bound_mark("/hfd_band_bound/1") == "≥ ")
     items += warning_item(
         "The upper end of the HFD band reaches the site boundary: it is a lower bound.");
@@ -216,9 +219,9 @@ void site_section(Page& p) {
   p.kv("Coordinate reference system",
        crs.empty() ? "none: local coordinates (x east, y north, metres)" : esc(crs));
   if (!crs.empty())
-    p.kv("Site origin", "easting " + p.value(number_or(origin, "easting_m", 0), Kind::kLength) +
+    p.kv("Site origin", "easting " + p.value(number_or(origin, "easting_m", 0), Kind::kCoordinate) +
                             ", northing " +
-                            p.value(number_or(origin, "northing_m", 0), Kind::kLength));
+                            p.value(number_or(origin, "northing_m", 0), Kind::kCoordinate));
   std::string source = "triangle mesh";
   if (const auto g = terrain.find("grid"); g != terrain.end())
     source = "elevation grid " + std::to_string(g->value("nx", 0)) + " × " +
@@ -233,9 +236,9 @@ void site_section(Page& p) {
                 ? ", with " + std::to_string(terrain["zones"].size()) + " material zones"
                 : std::string()));
   p.kv("Buildings", std::to_string(p.in().results.buildings.size()));
-  p.kv("HFD origin", p.num("/hfd_origin_m/0", Kind::kLength, false) + ", " +
-                         p.num("/hfd_origin_m/1", Kind::kLength, false) + ", " +
-                         p.num("/hfd_origin_m/2", Kind::kLength) + " (site coordinates)");
+  p.kv("HFD origin", p.num("/hfd_origin_m/0", Kind::kCoordinate, false) + ", " +
+                         p.num("/hfd_origin_m/1", Kind::kCoordinate, false) + ", " +
+                         p.num("/hfd_origin_m/2", Kind::kCoordinate) + " (site coordinates)");
   p.raw(
       "</table><figure id=\"fig-site\"><div class=\"plot\" "
       "data-plot=\"overview\"></div><figcaption>");
