@@ -16,9 +16,12 @@ std::string JobReports::file_name(api::UnitSystem units, bool pdf) {
 fs::path JobReports::ensure(const fs::path& job_dir, api::UnitSystem units, bool pdf) {
   const fs::path dir = job_dir / kDirName;
   const fs::path target = dir / file_name(units, pdf);
-  const std::lock_guard<std::mutex> lock(mutex_);
   std::error_code ec;
-  if (fs::is_regular_file(target, ec)) return target;
+  if (fs::is_regular_file(target, ec)) return target;  // kept: no need to wait
+  std::unique_lock<std::timed_mutex> lock(mutex_, std::defer_lock);
+  if (!lock.try_lock_for(kWait))
+    throw Busy("another report is being made; try again in a few seconds");
+  if (fs::is_regular_file(target, ec)) return target;  // made while we waited
   report::ReportOptions o;
   o.results_h5 = job_dir / api::kResultsFileName;
   o.units = units;

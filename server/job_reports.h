@@ -3,10 +3,14 @@
 // docs/http-api.md): the page `fragsim report` writes (report::write_report, the same code),
 // made on the first request and kept in jobs/<id>/report/ beside results.h5, one per format and
 // unit system. Each file appears complete or not at all (staged and renamed); one report is
-// made at a time (a mutex: the PDF runs a headless chromium). A daemon killed while making one
-// leaves temporaries that the next start removes.
+// made at a time (the PDF runs a headless chromium for seconds): a request that finds another
+// being made waits up to kWait, then gets Busy (503, retry), so that many clients asking for
+// reports cannot tie up the daemon's workers. A kept report is served without waiting. A daemon
+// killed while making one leaves temporaries that the next start removes.
+#include <chrono>
 #include <filesystem>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 
 #include "api/units.h"
@@ -16,6 +20,12 @@ namespace fragsim::server {
 class JobReports {
  public:
   static constexpr const char* kDirName = "report";
+  static constexpr std::chrono::seconds kWait{5};
+
+  // Another report is being made and did not finish within kWait.
+  struct Busy : std::runtime_error {
+    using std::runtime_error::runtime_error;
+  };
 
   // The report file of the job whose directory is `job_dir` (holding results.h5), made if
   // missing. Throws InputError("RESULTS.h5", ...) when the results cannot be reported (an older
@@ -31,7 +41,7 @@ class JobReports {
   static std::string file_name(api::UnitSystem units, bool pdf);
 
  private:
-  std::mutex mutex_;
+  std::timed_mutex mutex_;
 };
 
 }  // namespace fragsim::server

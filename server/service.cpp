@@ -1013,6 +1013,10 @@ Response Service::job_report(const Request& req, const std::string& id, bool pdf
   Response r;
   try {
     r.file = reports_.ensure(scheduler_.job_dir(id), *units, pdf);
+  } catch (const JobReports::Busy& e) {
+    Response busy = error_response(503, "busy", e.what());
+    busy.headers.emplace_back("Retry-After", "5");
+    return busy;
   } catch (const InputError& e) {
     if (e.field() == "--pdf")
       return error_response(503, "pdf_unavailable", "the PDF could not be printed: " + e.message());
