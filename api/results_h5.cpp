@@ -20,15 +20,6 @@ namespace {
 
 using namespace h5;
 
-std::string utc_now_iso8601() {
-  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
-
 std::vector<double> flatten(const std::vector<Vec3>& points) {
   std::vector<double> out;
   out.reserve(3 * points.size());

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <memory>
 
+#include "api/machine.h"
 #include "api/output_dir.h"
 #include "core/common/error.h"
 #include "report/report_html.h"
@@ -18,15 +19,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
-
-std::string utc_now() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
 
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
@@ -70,7 +62,7 @@ void write_text(const fs::path& path, const std::string& text) {
 }  // namespace
 
 std::string report_html(const fs::path& results_h5, api::UnitSystem units) {
-  return render_report_html(read_report_inputs(results_h5), units, utc_now());
+  return render_report_html(read_report_inputs(results_h5), units, api::utc_now_iso8601());
 }
 
 ReportWritten write_report(const ReportOptions& o) {

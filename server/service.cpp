@@ -132,6 +132,19 @@ std::string ascii_lower(std::string s) {
   return s;
 }
 
+// A query parameter's value as a finite number, the whole text and nothing else.
+std::optional<double> query_number(const std::string& text) {
+  std::size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(v)) return std::nullopt;
+  return v;
+}
+
 Response error_response(int status, const std::string& code, const std::string& message,
                         const std::optional<std::string>& field) {
   OJson j;
@@ -886,16 +899,10 @@ Response Service::job_ptn(const Request& req, const std::string& id) {
   if (const auto it = req.query.find("min_density_per_m2"); it != req.query.end()) {
     if (!geojson)
       return error_response(400, "bad_parameter", "only with format=geojson", "min_density_per_m2");
-    std::size_t used = 0;
-    double v = 0.0;
-    try {
-      v = std::stod(it->second, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != it->second.size() || !std::isfinite(v) || v < 0.0)
+    const auto v = query_number(it->second);
+    if (!v || *v < 0.0)
       return error_response(400, "bad_parameter", "must be a number >= 0", "min_density_per_m2");
-    min_density = v;
+    min_density = *v;
   }
   auto job = finished_job(id);
   if (auto* r = std::get_if<Response>(&job)) return *r;
@@ -948,16 +955,10 @@ Response Service::job_scene(const Request& req, const std::string& id) {
 Response Service::job_plan_boundary(const Request& req, const std::string& id) {
   gis::PlanBoundaryOptions options;
   if (const auto it = req.query.find("smoothing_m"); it != req.query.end()) {
-    std::size_t used = 0;
-    double v = 0.0;
-    try {
-      v = std::stod(it->second, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != it->second.size() || !std::isfinite(v) || !(v > 0.0))
+    const auto v = query_number(it->second);
+    if (!v || !(*v > 0.0))
       return error_response(400, "bad_parameter", "must be a number > 0 (metres)", "smoothing_m");
-    options.smoothing_m = v;
+    options.smoothing_m = *v;
   }
   auto job = finished_job(id);
   if (auto* r = std::get_if<Response>(&job)) return *r;

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "api/machine.h"
 #include "fragsim/version.h"
 #include "regression/regression.h"
 
@@ -23,15 +24,6 @@ namespace fs = std::filesystem;
 using namespace fragsim::regression;
 
 namespace {
-
-std::string utc_now() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
 
 void write_atomically(const fs::path& path, const std::string& text) {
   fs::create_directories(path.parent_path());
@@ -145,7 +137,8 @@ int main(int argc, char** argv) {
         continue;
       }
 
-      const Json baseline = make_baseline(c, run, Provenance{commit, utc_now()});
+      const Json baseline =
+          make_baseline(c, run, Provenance{commit, fragsim::api::utc_now_iso8601()});
       const fs::path path = out_dir ? *out_dir / (c.name + ".json") : baseline_path(c);
       if (fs::exists(path)) {
         try {

@@ -57,9 +57,8 @@ TEST_F(JobReportsTest, MadeOnceThenServedFromTheKeptFile) {
 TEST_F(JobReportsTest, AnotherRequestWaitsAtMostKWaitWhileASlowPdfIsMade) {
   slow_browser(static_cast<int>(JobReports::kWait.count()) + 2);
   JobReports reports;
-  auto pdf = std::async(std::launch::async, [&] {
-    return reports.ensure(dir_ / "job", api::UnitSystem::kSi, true);
-  });
+  auto pdf = std::async(std::launch::async,
+                        [&] { return reports.ensure(dir_ / "job", api::UnitSystem::kSi, true); });
   std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the PDF holds the lock
   const auto t0 = Clock::now();
   EXPECT_THROW(reports.ensure(dir_ / "job", api::UnitSystem::kSi, false), JobReports::Busy);
