@@ -390,9 +390,9 @@ void limitations_section(Page& p) {
       "standard errors shown, on the terrain's triangles (the HFD is taken at triangle "
       "centroids, so it resolves no finer than the triangle size).</li>");
   p.raw(
-      "<li>Fragment flight: point-mass trajectories with drag from the stated C<sub>d</sub> "
-      "(no lift, no tumbling-averaged orientation change), in the stated atmosphere, no "
-      "wind unless the scenario sets one (docs/physics.md, F-equations).</li>");
+      "<li>Fragment flight: drag from the stated C<sub>d</sub> on the tumble-averaged area "
+      "(surface area / 4), no lift and no orientation-dependent drag, in the stated "
+      "atmosphere and still air: wind is not modelled (docs/physics.md).</li>");
   p.raw(
       "<li>The density is known only on the modelled terrain: beyond its edge nothing is "
       "computed, and fragments leaving the site are counted, not followed.</li>");
