@@ -398,9 +398,10 @@ void limitations_section(Page& p) {
       "computed, and fragments leaving the site are counted, not followed.</li>");
   if (st.value("bounce", false))
     p.raw(
-        "<li>Ground ricochet, rolling and sliding (docs/physics.md G1–G15): restitution and "
-        "friction constants are measured for a limited range of speeds, angles and soils; "
-        "outside it the code keeps the nearest measured behaviour. Non-spherical fragments "
+        "<li>Ground ricochet, rolling and sliding (docs/physics.md G1–G15): each law holds in "
+        "the speeds, angles and soils its source measured (stated there); the material "
+        "constants are the scenario's (Appendix A), and the built-in hard and soft restitution "
+        "tables are illustrative. Non-spherical fragments "
         "slide but never roll or tumble on the ground; in the Authume field test this made "
         "the blind prediction of run-out too short (docs/validation.md).</li>");
   else
