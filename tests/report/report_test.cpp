@@ -143,6 +143,20 @@ TEST_F(Report, MarkupInScenarioTextIsShownAsText) {
   EXPECT_EQ(html.find("</script><b>"), std::string::npos);
 }
 
+// Nothing hazardous and no building: the page is still whole (HFD 0, empty boundary, no
+// buildings table), every keyed number still equal to summary.json.
+TEST_F(Report, ASiteWithNothingHazardousAndNoBuildingIsReportedWhole) {
+  Json sc = small_scenario();
+  sc["site"]["buildings"] = Json::array();
+  sc["settings"]["hfd_threshold_per_m2"] = 1e6;
+  const fs::path h5 = write_run(sc, dir_ / "run");
+  const std::string html = report_html(h5, api::UnitSystem::kSi);
+  EXPECT_NE(html.find("The site has no buildings."), std::string::npos);
+  EXPECT_NE(html.find("data-key=\"/hazardous_fragment_distance_m\" data-si=\"0\""),
+            std::string::npos);
+  check_figures(h5, false);
+}
+
 TEST_F(Report, TheNormalisedScenarioIsInTheAppendixWhole) {
   const fs::path h5 = write_run(small_scenario(), dir_ / "run");
   const std::string html = report_html(h5, api::UnitSystem::kSi);
