@@ -18,10 +18,23 @@ fs::path JobReports::ensure(const fs::path& job_dir, api::UnitSystem units, bool
   const fs::path target = dir / file_name(units, pdf);
   std::error_code ec;
   if (fs::is_regular_file(target, ec)) return target;  // kept: no need to wait
-  std::unique_lock<std::timed_mutex> lock(mutex_, std::defer_lock);
-  if (!lock.try_lock_for(kWait))
-    throw Busy("another report is being made; try again in a few seconds");
-  if (fs::is_regular_file(target, ec)) return target;  // made while we waited
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (!done_.wait_for(lock, kWait, [&] { return !making_; }))
+      throw Busy("another report is being made; try again in a few seconds");
+    if (fs::is_regular_file(target, ec)) return target;  // made while we waited
+    making_ = true;
+  }
+  struct Release {  // the next waiter may go, however this one ends
+    JobReports& r;
+    ~Release() {
+      {
+        const std::lock_guard<std::mutex> lock(r.mutex_);
+        r.making_ = false;
+      }
+      r.done_.notify_one();
+    }
+  } release{*this};
   report::ReportOptions o;
   o.results_h5 = job_dir / api::kResultsFileName;
   o.units = units;

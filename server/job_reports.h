@@ -8,6 +8,7 @@
 // reports cannot tie up the daemon's workers. A kept report is served without waiting. A daemon
 // killed while making one leaves temporaries that the next start removes.
 #include <chrono>
+#include <condition_variable>
 #include <filesystem>
 #include <mutex>
 #include <stdexcept>
@@ -41,7 +42,11 @@ class JobReports {
   static std::string file_name(api::UnitSystem units, bool pdf);
 
  private:
-  std::timed_mutex mutex_;
+  // One report at a time: `making_` under `mutex_`, waited for on `done_` (a condition variable
+  // rather than a timed mutex, whose clock-based lock TSan's interceptors do not see).
+  std::mutex mutex_;
+  std::condition_variable done_;
+  bool making_ = false;
 };
 
 }  // namespace fragsim::server
