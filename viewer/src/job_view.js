@@ -234,7 +234,7 @@ function renderLegend(scene, summary, built) {
     keyItem(COLORS.contour, 'hazardous area (≥ threshold)'),
     ...hfdKeys(summary),
     keyItem(COLORS.launch, 'HFD origin', 'box'),
-    ...(built.planKeys || []),
+    ...(built.plan ? planBoundaryKeys(built.plan.b, built.plan.lower, currentUnits()) : []),
   ];
   if (built.colouring === 'material')
     $('legend').replaceChildren(materialLegend(built.materials), el('div', { class: 'legend-keys' }, keys));
@@ -296,7 +296,7 @@ async function loadPlanBoundary(id, ctx) {
   const layer = planBoundaryLayer(b, st.frame.target[2] + 0.5, lower);
   st.group.add(layer);
   st.layers.plan_boundary = layer;
-  st.planKeys = planBoundaryKeys(b, lower);
+  st.plan = { b, lower };  // its legend keys follow the units (renderLegend)
   addLayerToggle('plan_boundary', 'site-plan boundary', layer);
   renderLegend(st.scene, s, st);
   view.requestRender();

@@ -6,7 +6,7 @@
 
 import * as THREE from '../vendor/three.module.js';
 import { request } from './api.js';
-import { fixed } from './format.js';
+import { lengthText } from './summary_text.js';
 import { keyItem } from './legend.js';
 import * as meshes from './meshes.js';
 
@@ -48,14 +48,16 @@ export function planBoundaryLayer(b, z, lower) {
   return group;
 }
 
-export function planBoundaryKeys(b, lower) {
+// The legend's keys, distances in the selected units `u` ('si' | 'us': units.js).
+export function planBoundaryKeys(b, lower, u = 'si') {
   if (!b.envelope_upper.polygons.length) return [];
   const kind = (cut) => (cut ? 'dashed' : 'line');
   const ge = (cut) => (cut ? '≥ ' : '');
+  const len = (m) => lengthText(m, u);
   const longer = b.smoothed_hfd_m - b.exact_hfd_m;
   return [
-    keyItem(PLAN_COLORS.envelope, `sector envelope, to ${ge(lower.estimate)}${fixed(b.envelope.max_radius_m)} m`, kind(lower.estimate)),
-    keyItem(PLAN_COLORS.upper, `sector envelope of density + 1 se, to ${ge(lower.upper)}${fixed(b.envelope_upper.max_radius_m)} m`, kind(lower.upper)),
-    keyItem(PLAN_COLORS.smoothed, `smoothed boundary (closing ${fixed(b.smoothing_m)} m; reach ${fixed(b.smoothed_hfd_m)} m, +${fixed(longer)} m)`, kind(lower.estimate)),
+    keyItem(PLAN_COLORS.envelope, `sector envelope, to ${ge(lower.estimate)}${len(b.envelope.max_radius_m)}`, kind(lower.estimate)),
+    keyItem(PLAN_COLORS.upper, `sector envelope of density + 1 se, to ${ge(lower.upper)}${len(b.envelope_upper.max_radius_m)}`, kind(lower.upper)),
+    keyItem(PLAN_COLORS.smoothed, `smoothed boundary (closing ${len(b.smoothing_m)}; reach ${len(b.smoothed_hfd_m)}, +${len(longer)})`, kind(lower.estimate)),
   ];
 }

@@ -98,7 +98,7 @@ test('the SI report draws its figures offline and every keyed number equals summ
   try {
     const warnings = await page.$eval('#warnings', (n) => n.textContent);
     assert.match(warnings, /The HFD is a lower bound/);
-    assert.match(await page.$eval('#findings', (n) => n.textContent), /≥ \d+\.\d m/);
+    assert.match(await page.$eval('#findings', (n) => n.textContent), /≥ \d+\.\d\s+m/);
   } finally {
     await page.close();
   }

@@ -23,10 +23,17 @@ after(async () => {
   await h.finish({ page, browser, daemon });
 });
 
+// The site-plan boundary arrives after the view is ready (its own request) and adds legend keys:
+// wait for it, so that the text compared across unit switches is whole.
+async function boundaryLoaded() {
+  await page.locator('#layer-plan_boundary').waitFor({ state: 'attached', timeout: 15000 });
+  await h.nextFrames(page);
+}
+
 async function openJob(id) {
   await page.evaluate((j) => { delete document.body.dataset.ready; location.hash = `#/jobs/${j}`; }, id);
   await h.waitReady(page, 'job');
-  await h.nextFrames(page);
+  await boundaryLoaded();
 }
 
 async function selectUnits(u) {
@@ -95,6 +102,8 @@ test('US units: the HFD in ft, the threshold 1 per 600 ft², legend, plot and ta
   // Kept across a reload (a new visit).
   await page.reload();
   await h.waitReady(page, 'job');
+  await boundaryLoaded();
+  assert.match(await page.locator('#legend').innerText(), /sector envelope, to \d+\.\d ft/);
   assert.equal(await page.locator('#units-select').inputValue(), 'us');
   assert.equal(await h.summaryValue(page, 'hfd'), ft(s.hazardous_fragment_distance_m));
 
