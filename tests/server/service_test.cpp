@@ -189,6 +189,18 @@ class ServiceTest : public ::testing::Test {
     EXPECT_EQ(r.status, 202) << r.body;
     return body_of(r).value("job_id", "");
   }
+  // A done job of 200 samples on the minimal site placed in UTM 11N (a CRS, so that every map
+  // and the site-plan boundary are made); returns its id (expecting it done).
+  std::string done_job_in_utm() {
+    Json site = minimal_site();
+    site["origin"] = {{"crs", "EPSG:32611"},
+                      {"easting_m", 500000.0},
+                      {"northing_m", 3700000.0},
+                      {"elevation_m", 0.0}};
+    const std::string id = add_job(job_on(add_site(site), 200));
+    EXPECT_EQ(wait_for_state(id, "done")["state"], "done");
+    return id;
+  }
   Json job(const std::string& id) {
     const Response r = get("/v1/jobs/" + id);
     EXPECT_EQ(r.status, 200) << r.body;
@@ -1329,13 +1341,7 @@ TEST_F(ServiceResults, SmallJobIsDoneAndItsResultsAreServed) {
 // request; an interrupted export is made again and its temporaries are removed.
 TEST_F(ServiceResults, MapsAreMadeOnceAndServedAsFiles) {
   start();
-  Json site = minimal_site();
-  site["origin"] = {{"crs", "EPSG:32611"},
-                    {"easting_m", 500000.0},
-                    {"northing_m", 3700000.0},
-                    {"elevation_m", 0.0}};
-  const std::string id = add_job(job_on(add_site(site), 200));
-  ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
+  const std::string id = done_job_in_utm();
   const fs::path job_dir = fs::path(config().data_dir) / "jobs" / id;
   const fs::path maps_dir = job_dir / "maps";
   EXPECT_FALSE(fs::exists(maps_dir)) << "made before anyone asked";
@@ -1399,13 +1405,7 @@ TEST_F(ServiceResults, MapsAreMadeOnceAndServedAsFiles) {
 // The site-plan boundary (gis/plan_boundary.h) in the job's input coordinates.
 TEST_F(ServiceResults, ThePlanBoundaryIsAnsweredInInputCoordinates) {
   start();
-  Json site = minimal_site();
-  site["origin"] = {{"crs", "EPSG:32611"},
-                    {"easting_m", 500000.0},
-                    {"northing_m", 3700000.0},
-                    {"elevation_m", 0.0}};
-  const std::string id = add_job(job_on(add_site(site), 200));
-  ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
+  const std::string id = done_job_in_utm();
   const Json summary =
       Json::parse(api::testing::read_text(*get("/v1/jobs/" + id + "/summary").file));
   const Response r = get("/v1/jobs/" + id + "/plan_boundary");
