@@ -140,6 +140,10 @@ test('the PDF is printed by chromium and kept; bad parameters get a 4xx naming t
   const bad = await daemon.request(`/v1/jobs/${jobId}/report.html?units=imperial`);
   assert.equal(bad.status, 400);
   assert.equal(bad.json.field, 'units');
+  // A byte that is not UTF-8 in the value: still a 400 naming the field, its JSON body valid.
+  const notUtf8 = await daemon.request(`/v1/jobs/${jobId}/report.pdf?units=%FF%FE`);
+  assert.equal(notUtf8.status, 400);
+  assert.equal(notUtf8.json?.field, 'units', notUtf8.text());
   const unknown = await daemon.request(`/v1/jobs/${jobId}/report.html?unit=us`);
   assert.equal(unknown.status, 400);
   assert.equal((await daemon.request('/v1/jobs/nope/report.html')).status, 404);
