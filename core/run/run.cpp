@@ -22,6 +22,7 @@
 #include "core/run/hfd.h"
 #include "core/run/history.h"
 #include "core/run/importance.h"
+#include "core/run/launch_strata.h"
 #include "core/run/ordered_sequencer.h"
 #include "core/run/partial.h"
 #include "core/run/precision.h"
@@ -67,57 +68,6 @@ struct ChunkSpec {
   std::int64_t first;  // within the batch
   std::int64_t count;
   bool last_of_batch;  // the plan's last chunk of a batch
-};
-
-// settings.stratified_launch: group g's histories of a batch, i = 0 ... samples_g - 1, fall in
-// J_g = max(1, samples_g / m) strata of m consecutive histories, the last taking the remainder.
-// A stratum has probability 1/J_g and n_j histories, so a history's weight is count_g / (J_g n_j),
-// i.e. count_g / samples_g times samples_g / (J_g n_j) (exactly 1 but in a remainder stratum).
-class LaunchStrata {
- public:
-  explicit LaunchStrata(const Scenario& sc) {
-    for (const auto& g : sc.groups) group_samples_.push_back(g.samples);
-    if (!sc.settings.stratified_launch) return;
-    m_ = std::max<std::int64_t>(2, sc.settings.stratified_launch->histories_per_stratum);
-    for (const auto& g : sc.groups) {
-      samples_.push_back(g.samples);
-      count_.push_back(std::max<std::int64_t>(1, g.samples / m_));
-    }
-  }
-  bool on() const { return m_ > 0; }
-  std::int64_t strata(std::uint32_t g) const { return count_[g]; }
-
-  fragments::LaunchStratum of(std::uint32_t g, std::int64_t i) const {
-    const std::int64_t j_count = count_[g];
-    fragments::LaunchStratum s;
-    s.index = std::min(i / m_, j_count - 1);
-    s.count = j_count;
-    const std::int64_t n = s.index == j_count - 1 ? samples_[g] - m_ * (j_count - 1) : m_;
-    s.weight_factor = static_cast<double>(samples_[g]) / static_cast<double>(j_count * n);
-    return s;
-  }
-  // The variance is estimated on collapsed strata of kCollapsed sampling strata, in two
-  // partitions offset by half of one (docs/precision.md). Without stratified sampling a group's
-  // batch is one stratum. History i (within its batch) of group g lies in stratum `index` of
-  // `partition`, which holds `size` histories starting at `first`.
-  static constexpr std::int64_t kCollapsed = 4;
-  struct VarianceStratum {
-    std::int64_t index = 0, first = 0, size = 0;
-  };
-  VarianceStratum variance_stratum(std::uint32_t g, std::int64_t i, std::size_t partition) const {
-    const std::int64_t n = group_samples_[g];
-    if (!on()) return {0, 0, n};
-    const std::int64_t size = m_ * kCollapsed, offset = partition == 0 ? 0 : size / 2;
-    const std::int64_t j = (i + offset) / size;
-    const std::int64_t lo = std::max<std::int64_t>(0, j * size - offset);
-    const std::int64_t hi = std::min(n, (j + 1) * size - offset);
-    return {j, lo, hi - lo};
-  }
-
- private:
-  std::int64_t m_ = 0;
-  std::vector<std::int64_t> samples_, count_;
-  std::vector<std::int64_t> group_samples_;
 };
 
 // The fold of chunks into the run's exact tally (tally/stratified_tally.h). The sums are exact,
@@ -755,10 +705,12 @@ void ShardRunner::fold(ChunkOutput& c) {
   if (finished_.load(std::memory_order_relaxed)) return;
   const bool pilot = learner_ && batches_ == 0;
   if (learner_) learn(*learner_, c);
-  if (pilot)
+  if (pilot) {
     pilot_histories_ += c.count;
-  else
+  } else {
+    if (control_.on_chunk) control_.on_chunk(c);
     reducer_.fold(c);
+  }
   if (c.last_of_batch) end_batch(pilot);
 }
 

@@ -12,6 +12,8 @@
 
 namespace fragsim::run {
 
+struct ChunkOutput;  // core/run/history.h
+
 struct Progress {
   std::int64_t histories_done = 0;
   std::int64_t histories_total = 0;
@@ -26,6 +28,9 @@ struct RunControl {
   double progress_interval_s = 0.5;
   // Set to true from any thread to stop; the result comes back with cancelled = true.
   const std::atomic<bool>* cancel = nullptr;
+  // Sees every tallied chunk of histories before it is tallied: in chunk order, under the fold's
+  // lock, so a slow observer slows the run (the paired fold of a comparison: core/run/paired.h).
+  std::function<void(const ChunkOutput&)> on_chunk;
 };
 
 // Runs the scenario on an already built site (the daemon shares one Site between jobs).
