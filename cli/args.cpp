@@ -188,6 +188,7 @@ bool take_report_option(const std::vector<std::string>& args, std::size_t& k, Op
 void take_argument(const std::vector<std::string>& args, std::size_t& k, Options& o) {
   const std::string& a = args[k];
   const bool is_option = a.size() > 1 && a[0] == '-';
+  std::string value;
   switch (o.command) {
     case Command::kRun:
       if (take_run_output(args, k, o) || take_run_option(args, k, o)) return;
@@ -196,6 +197,17 @@ void take_argument(const std::vector<std::string>& args, std::size_t& k, Options
       if (take_run_output(args, k, o)) return;
       if (!is_option && !o.scenario.empty()) {
         o.parts.push_back(a);
+        return;
+      }
+      break;
+    case Command::kCompare:
+      if (take_run_output(args, k, o)) return;
+      if (take_value(args, k, "--threads", value)) {
+        o.threads = parse_threads(value);
+        return;
+      }
+      if (!is_option && !o.scenario.empty() && o.variant.empty()) {
+        o.variant = a;
         return;
       }
       break;
@@ -221,12 +233,12 @@ void take_argument(const std::vector<std::string>& args, std::size_t& k, Options
 // The command named by args[0] (and args[1] for "site ..."); returns the number of words it took.
 std::size_t parse_command(const std::vector<std::string>& args, Options& o) {
   static const std::map<std::string, Command> commands = {
-      {"run", Command::kRun},        {"validate", Command::kValidate},
-      {"submit", Command::kSubmit},  {"export", Command::kExport},
-      {"merge", Command::kMerge},    {"report", Command::kReport},
-      {"--help", Command::kHelp},    {"-h", Command::kHelp},
-      {"help", Command::kHelp},      {"--version", Command::kVersion},
-      {"version", Command::kVersion}};
+      {"run", Command::kRun},           {"validate", Command::kValidate},
+      {"submit", Command::kSubmit},     {"export", Command::kExport},
+      {"merge", Command::kMerge},       {"report", Command::kReport},
+      {"compare", Command::kCompare},   {"--help", Command::kHelp},
+      {"-h", Command::kHelp},           {"help", Command::kHelp},
+      {"--version", Command::kVersion}, {"version", Command::kVersion}};
   const std::string& first = args[0];
   if (first == "site") {
     if (args.size() < 2 || (args[1] != "import" && args[1] != "export-gis"))
@@ -274,6 +286,10 @@ void check_complete(const Options& o) {
   }
   if (o.scenario.empty()) throw UsageError("missing SCENARIO.json");
   if (o.command == Command::kRun && o.out.empty()) throw UsageError("run needs --out DIR");
+  if (o.command == Command::kCompare) {
+    if (o.variant.empty()) throw UsageError("compare: missing VARIANT.json");
+    if (o.out.empty()) throw UsageError("compare needs --out DIR");
+  }
   if (o.command == Command::kMerge) {
     if (o.out.empty()) throw UsageError("merge needs --out DIR");
     if (o.parts.empty()) throw UsageError("merge: no partial files (PART.fsp ...)");
@@ -307,6 +323,8 @@ Usage:
               [--shard I/N] [--progress-file FILE] [--units si|us]
   fragsim merge SCENARIO.json PART.fsp... --out DIR [--samples-scale X] [--quiet]
                 [--units si|us]
+  fragsim compare BASE.json VARIANT.json --out DIR [--threads N] [--samples-scale X]
+                  [--quiet] [--units si|us]
   fragsim validate SCENARIO.json
   fragsim site import IMPORT.json --out SITE.json
   fragsim site export-gis SITE.json --out DIR
@@ -325,6 +343,13 @@ Commands:
   merge      Merge the partial files of `run --shard` (docs/cluster.md), in any order, into
              the outputs `run` writes: the figures are bit-identical to one process's run.
              Every shard 0..N-1 must be there once, from the same scenario and --samples-scale.
+  compare    Paired what-if (docs/comparison.md): the same histories (same seed, groups and
+             settings) flown over BASE's site and VARIANT's (which may change the site, its
+             terrain, buildings and materials, and the atmosphere). Writes DIR/base/ and
+             DIR/variant/ (each as `run` writes it) and DIR/compare.json and DIR/compare.h5:
+             each figure's base and variant values and their difference with its paired
+             standard error, far smaller than two independent runs' when the sites treat most
+             fragments alike. Takes --threads, --samples-scale, --quiet and --units.
   validate   Check the scenario (JSON contract and site geometry) without running it.
   site import
              Build a site from GIS files (docs/gis.md): a DEM raster (GeoTIFF, DTED, ASCII

@@ -27,7 +27,8 @@ enum class Command {
   kShapeImport,
   kExport,
   kMerge,
-  kReport
+  kReport,
+  kCompare
 };
 
 struct ShardArg {
@@ -48,6 +49,7 @@ struct Options {
   // report: the units the page shows
   api::UnitSystem units = api::UnitSystem::kSi;  // --units si|us (docs/units.md)
   std::vector<std::string> parts;                // merge: the partial files
+  std::string variant;                           // compare: VARIANT.json (BASE.json in scenario)
   // submit
   std::string server = "http://127.0.0.1:8080";
   std::string token_file;

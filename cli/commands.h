@@ -60,6 +60,8 @@ int report_command(const Options& options);
 int run_command(const Options& options, const std::atomic<bool>& cancel);
 // `fragsim merge`: the partial files of `run --shard` into run's outputs (docs/cluster.md).
 int merge_command(const Options& options, const std::atomic<bool>& cancel);
+// `fragsim compare`: the base and variant scenarios paired (core/run/paired.h), into --out.
+int compare_command(const Options& options, const std::atomic<bool>& cancel);
 // Runs the scenario on a fragsimd server; `cancel` stops following (the job keeps running).
 int submit_command(const Options& options, const std::atomic<bool>& cancel);
 

@@ -29,6 +29,9 @@ int main(int argc, char** argv) {
       case Command::kShapeImport: return shape_import_command(options);
       case Command::kRun: install_cancel_handlers(); return run_command(options, cancel_flag());
       case Command::kMerge: install_cancel_handlers(); return merge_command(options, cancel_flag());
+      case Command::kCompare:
+        install_cancel_handlers();
+        return compare_command(options, cancel_flag());
       case Command::kSubmit:
         install_cancel_handlers();
         // A server that refuses a body before reading it all closes the connection under the

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <map>
 #include <functional>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -23,10 +23,10 @@ bool same_terrain(const scene::Site& a, const scene::Site& b) {
 
 void check_pairable(const Scenario& base, const Scenario& variant) {
   if (base.groups.size() != variant.groups.size())
-    throw InputError("groups", "the variant must have the base's fragment groups");
+    throw InputError("fragment_groups", "the variant must have the base's fragment groups");
   for (std::size_t g = 0; g < base.groups.size(); ++g)
     if (base.groups[g].samples != variant.groups[g].samples)
-      throw InputError("groups[" + std::to_string(g) + "].samples",
+      throw InputError("fragment_groups[" + std::to_string(g) + "].samples",
                        "the variant must have the base's samples");
   if (base.settings.seed != variant.settings.seed)
     throw InputError("settings.seed", "the variant must have the base's seed");
@@ -239,7 +239,8 @@ void PairedFold::add_history(const HistoryView& h, std::int64_t history, double 
   }
   if (h.building >= 0) {
     const std::size_t bin =
-        buildings_ + 2 * static_cast<std::size_t>(building_bin[static_cast<std::size_t>(h.building)]);
+        buildings_ +
+        2 * static_cast<std::size_t>(building_bin[static_cast<std::size_t>(h.building)]);
     pending_.push_back({bin, sign * h.weight});
     if (h.penetrated) pending_.push_back({bin + 1, sign * h.weight});
   }

@@ -28,7 +28,7 @@ inline constexpr int kJackknifeGroups = 16;
 
 struct BuildingDifference {
   std::string id;
-  bool in_base = false, in_variant = false;  // a building of one site only compares with 0
+  bool in_base = false, in_variant = false;          // a building of one site only compares with 0
   std::int32_t base_index = -1, variant_index = -1;  // into each result's buildings
   Estimate impacts, penetrations;                    // variant - base, paired se
 };
