@@ -15,8 +15,11 @@ using Json = nlohmann::ordered_json;
 namespace {
 
 // Settings that change no result: they may differ between the base and the variant.
-constexpr const char* kFreeSettings[] = {"threads", "chunk_histories", "record_fragments",
-                                         "record_trajectories", "max_recorded_trajectories",
+constexpr const char* kFreeSettings[] = {"threads",
+                                         "chunk_histories",
+                                         "record_fragments",
+                                         "record_trajectories",
+                                         "max_recorded_trajectories",
                                          "profile"};
 
 nlohmann::json without_free_settings(nlohmann::json settings) {
@@ -51,8 +54,7 @@ std::string first_difference(const nlohmann::json& a, const nlohmann::json& b,
 Json figure(const run::Estimate& base, const run::Estimate& variant, const run::Estimate& diff) {
   const double unpaired = std::hypot(base.std_error, variant.std_error);
   Json reduction = nullptr;
-  if (diff.std_error > 0.0)
-    reduction = (unpaired / diff.std_error) * (unpaired / diff.std_error);
+  if (diff.std_error > 0.0) reduction = (unpaired / diff.std_error) * (unpaired / diff.std_error);
   return {{"base", base.mean},
           {"base_std_error", base.std_error},
           {"variant", variant.mean},
@@ -77,8 +79,8 @@ Json buildings_json(const run::PairedRun& p) {
                    {"in_base", d.in_base},
                    {"in_variant", d.in_variant},
                    {"impacts", figure(b ? b->impacts : none, v ? v->impacts : none, d.impacts)},
-                   {"penetrations", figure(b ? b->penetrations : none,
-                                           v ? v->penetrations : none, d.penetrations)}});
+                   {"penetrations", figure(b ? b->penetrations : none, v ? v->penetrations : none,
+                                           d.penetrations)}});
   }
   return out;
 }
@@ -122,8 +124,8 @@ Json density_json(const run::PairedRun& p, const scene::Site* base_site) {
     out["max_abs_difference_signed_per_m2"] = d.density_per_m2[t];
     out["max_abs_paired_std_error_per_m2"] = d.density_std_error_per_m2[t];
     if (base_site != nullptr) {
-      const Vec3 c = base_site->to_input(
-          base_site->terrain_triangle_centroid(static_cast<std::uint32_t>(t)));
+      const Vec3 c =
+          base_site->to_input(base_site->terrain_triangle_centroid(static_cast<std::uint32_t>(t)));
       out["max_abs_location_m"] = {c.x(), c.y(), c.z()};
     }
   }
@@ -175,16 +177,16 @@ std::string format(const char* fmt, double a, double b) {
 }  // namespace
 
 std::vector<std::string> check_variant(const nlohmann::json& base, const nlohmann::json& variant) {
-  const std::string groups = first_difference(base.value("fragment_groups", nlohmann::json()),
-                                              variant.value("fragment_groups", nlohmann::json()), "fragment_groups");
+  const std::string groups =
+      first_difference(base.value("fragment_groups", nlohmann::json()),
+                       variant.value("fragment_groups", nlohmann::json()), "fragment_groups");
   if (!groups.empty())
     throw InputError(groups,
                      "differs from the base's: a comparison flies the base's histories over the "
                      "variant's site, so the fragment groups must be the same");
-  const std::string settings =
-      first_difference(without_free_settings(base.value("settings", nlohmann::json())),
-                       without_free_settings(variant.value("settings", nlohmann::json())),
-                       "settings");
+  const std::string settings = first_difference(
+      without_free_settings(base.value("settings", nlohmann::json())),
+      without_free_settings(variant.value("settings", nlohmann::json())), "settings");
   if (!settings.empty())
     throw InputError(settings,
                      "differs from the base's: a comparison needs the same settings (seed, "
@@ -204,8 +206,7 @@ std::vector<std::string> check_variant(const nlohmann::json& base, const nlohman
       if (!value.contains(item.key())) changed.push_back("site." + item.key());
   }
   for (const auto& item : base.items())
-    if (!variant.contains(item.key()) && item.key() != "description")
-      changed.push_back(item.key());
+    if (!variant.contains(item.key()) && item.key() != "description") changed.push_back(item.key());
   return changed;
 }
 
@@ -213,31 +214,31 @@ Json compare_to_json(const CompareInputs& in) {
   const run::PairedRun& p = *in.paired;
   std::int64_t histories = 0;
   for (const auto& g : in.base->groups) histories += g.samples;
-  Json j = {
-      {"schema", "fragsim-compare"},
-      {"format_version", kCompareFormatVersion},
-      {"provenance",
-       {{"version", in.provenance.version},
-        {"git_sha", in.provenance.git_sha},
-        {"base_scenario_sha256", in.base_sha256},
-        {"variant_scenario_sha256", in.variant_sha256}}},
-      {"method",
-       {{"pairing", "common random numbers: the same histories flown over both sites"},
-        {"histories", histories},
-        {"seed", in.base->settings.seed},
-        {"std_errors", "paired: from the per-history differences in the run's strata"},
-        {"hfd_std_error", "delete-a-group jackknife"},
-        {"jackknife_groups", p.difference.jackknife_groups}}},
-      {"changed", in.changed},
-      {"hfd", hfd_json(p, in.base->settings.hfd_threshold_per_m2)},
-      {"buildings", buildings_json(p)},
-      {"outcomes", outcomes_json(p)},
-      {"left_site_hazardous",
-       figure(p.base.site_boundary.left_hazardous, p.variant.site_boundary.left_hazardous,
-              p.difference.left_hazardous)},
-      {"density", density_json(p, in.base_site)},
-      {"timing", {{"base_wall_s", p.base.timing.wall_s}, {"variant_wall_s", p.variant.timing.wall_s}}},
-      {"limitations", limitations_json(p)}};
+  Json j = {{"schema", "fragsim-compare"},
+            {"format_version", kCompareFormatVersion},
+            {"provenance",
+             {{"version", in.provenance.version},
+              {"git_sha", in.provenance.git_sha},
+              {"base_scenario_sha256", in.base_sha256},
+              {"variant_scenario_sha256", in.variant_sha256}}},
+            {"method",
+             {{"pairing", "common random numbers: the same histories flown over both sites"},
+              {"histories", histories},
+              {"seed", in.base->settings.seed},
+              {"std_errors", "paired: from the per-history differences in the run's strata"},
+              {"hfd_std_error", "delete-a-group jackknife"},
+              {"jackknife_groups", p.difference.jackknife_groups}}},
+            {"changed", in.changed},
+            {"hfd", hfd_json(p, in.base->settings.hfd_threshold_per_m2)},
+            {"buildings", buildings_json(p)},
+            {"outcomes", outcomes_json(p)},
+            {"left_site_hazardous",
+             figure(p.base.site_boundary.left_hazardous, p.variant.site_boundary.left_hazardous,
+                    p.difference.left_hazardous)},
+            {"density", density_json(p, in.base_site)},
+            {"timing",
+             {{"base_wall_s", p.base.timing.wall_s}, {"variant_wall_s", p.variant.timing.wall_s}}},
+            {"limitations", limitations_json(p)}};
   return j;
 }
 
@@ -273,8 +274,8 @@ std::string render_compare_text(const Json& c) {
     out << (k ? ", " : "") << c["changed"][k].get<std::string>();
   out << (c["changed"].empty() ? "nothing\n" : "\n");
   const Json& h = c["hfd"];
-  out << "  HFD: base " << format("%.1f m, variant %.1f m", h["base_m"].get<double>(),
-                                  h["variant_m"].get<double>())
+  out << "  HFD: base "
+      << format("%.1f m, variant %.1f m", h["base_m"].get<double>(), h["variant_m"].get<double>())
       << format(", difference %+.1f +- %.1f m (jackknife)\n", h["difference_m"].get<double>(),
                 h["paired_std_error_m"].get<double>());
   int unchanged = 0;

@@ -4,10 +4,9 @@
 //                 its paired and its unpaired standard error, and what limits them
 //   compare.h5    the density difference per terrain triangle and its paired se (same terrain)
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "api/scenario_json.h"
 #include "api/summary_json.h"

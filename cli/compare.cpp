@@ -55,7 +55,8 @@ int compare_command(const Options& o, const std::atomic<bool>& cancel) {
   const PreparedRun variant = prepare_variant(o);
   std::vector<std::string> changed;
   try {
-    changed = api::check_variant(api::scenario_to_json(base.doc), api::scenario_to_json(variant.doc));
+    changed =
+        api::check_variant(api::scenario_to_json(base.doc), api::scenario_to_json(variant.doc));
     run::check_pairable(base.doc.scenario, variant.doc.scenario);
   } catch (const InputError& e) {
     throw InputError(o.variant + ": " + e.field(), e.message());

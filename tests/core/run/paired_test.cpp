@@ -72,8 +72,8 @@ TEST(Paired, WallInFrontOfABuildingAgainstTheClosedForm) {
     // The difference is exactly the variant's figure minus the base's.
     EXPECT_NEAR(target.impacts.mean,
                 r.variant.buildings[0].impacts.mean - r.base.buildings[0].impacts.mean, 1e-12);
-    const double unpaired = std::hypot(r.base.buildings[0].impacts.std_error,
-                                       r.variant.buildings[0].impacts.std_error);
+    const double unpaired =
+        std::hypot(r.base.buildings[0].impacts.std_error, r.variant.buildings[0].impacts.std_error);
     EXPECT_GT(unpaired, 5.0 * target.impacts.std_error) << seed;
     const BuildingDifference& wall = d.buildings[1];
     EXPECT_EQ(wall.id, "wall");
