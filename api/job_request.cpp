@@ -37,15 +37,34 @@ JobRequest parse_job_request(const nlohmann::json& body, const SiteResolver& res
     req.idempotency_key = key;
     req.scenario.erase("idempotency_key");
   }
-  req.document = parse_scenario_document(req.scenario, &resolve);
+  StoredRequest stored = split_stored_request(req.scenario);
+  req.compare_with = stored.compare_with;
+  req.document = parse_scenario_document(stored.scenario, &resolve);
   for (const auto& g : req.document.scenario.groups) req.total_samples += g.samples;
   if (const auto& p = req.document.scenario.settings.precision) {  // at most this many
     const std::int64_t cap = std::numeric_limits<std::int64_t>::max() / p->max_batches;
     req.total_samples = req.total_samples > cap ? std::numeric_limits<std::int64_t>::max()
                                                 : req.total_samples * p->max_batches;
   }
+  if (req.compare_with) {  // both runs
+    const std::int64_t max = std::numeric_limits<std::int64_t>::max();
+    req.total_samples = req.total_samples > max / 2 ? max : 2 * req.total_samples;
+  }
   req.bracket_samples = run::ground_bracket_histories(req.document.scenario);
   return req;
+}
+
+StoredRequest split_stored_request(const nlohmann::json& request) {
+  StoredRequest out{request, std::nullopt};
+  const auto it = request.find("compare_with");
+  if (it == request.end()) return out;
+  const std::string id = read_string(*it, "compare_with");
+  if (!is_job_id(id))
+    fail("compare_with", "expected the id of the base job (j_ and 16 hex digits), got \"" +
+                             id.substr(0, 40) + "\"");
+  out.compare_with = id;
+  out.scenario.erase("compare_with");
+  return out;
 }
 
 bool is_job_id(std::string_view s) {

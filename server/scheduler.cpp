@@ -10,12 +10,15 @@
 #include <fstream>
 #include <sstream>
 
+#include "api/compare_json.h"
+#include "api/job_request.h"
 #include "api/partial_file.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
 #include "api/sha256.h"
 #include "api/summary_json.h"
 #include "core/common/error.h"
+#include "core/run/paired.h"
 #include "core/run/partial.h"
 #include "core/run/run.h"
 #include "server/log.h"
@@ -242,31 +245,18 @@ void Scheduler::run_job(const JobRow& job) {
   log(LogLevel::kInfo, "job started",
       {{"job_id", id}, {"histories", std::to_string(job.histories_total)}});
   try {
-    std::shared_ptr<const SiteEntry> entry;
-    const api::SiteResolver resolve = [&](const std::string& site_id) -> const nlohmann::json* {
-      entry = sites_.find(site_id);
-      return entry ? &entry->normalised : nullptr;
-    };
-    const auto t_parse = Clock::now();
-    api::ScenarioDocument doc =
-        api::parse_scenario_document(api::parse_json_text(job.scenario_json), &resolve);
-    doc.scenario.settings.threads = threads_;
-    const auto t_build = Clock::now();
-    // A stored site was built at upload (build_s 0 here); an inline one is built now.
-    const std::shared_ptr<const scene::Site> site =
-        entry ? entry->site : api::validate_scenario(doc.scenario);
-    const auto t_run = Clock::now();
-
+    const LoadedJob v = load(job);
     auto last_flush = Clock::now();
     run::RunControl control;
     control.cancel = &cancel_run_;
     control.progress_interval_s = 0.2;
     control.on_progress = [&](const run::Progress& p) { record_progress(id, p, last_flush); };
-    run::RunResult result = run::run(doc.scenario, site, control);
-    result.timing.parse_s = std::chrono::duration<double>(t_build - t_parse).count();
-    result.timing.build_s = std::chrono::duration<double>(t_run - t_build).count();
+    if (v.compare_with) return run_comparison(job, v, control, started);
+    run::RunResult result = run::run(v.doc.scenario, v.site, control);
+    result.timing.parse_s = v.parse_s;
+    result.timing.build_s = v.build_s;
     if (result.cancelled || cancel_run_.load()) return end_interrupted(id);
-    if (!persist(job, doc, *site, result, started)) return;
+    if (!persist(job, v.doc, *v.site, result, started)) return;
   } catch (const InputError& e) {
     store_.mark_failed(id, utc_now(), "invalid_input", e.what());
     log(LogLevel::kWarn, "job failed", {{"job_id", id}, {"error", e.what()}});
@@ -277,6 +267,59 @@ void Scheduler::run_job(const JobRow& job) {
     store_.mark_failed(id, utc_now(), "internal", e.what());
     log(LogLevel::kError, "job failed", {{"job_id", id}, {"error", e.what()}});
   }
+}
+
+// A stored job's request: its scenario parsed and its site built (a stored site: shared, built
+// at upload; an inline one: built now), and compare_with.
+Scheduler::LoadedJob Scheduler::load(const JobRow& job) {
+  LoadedJob out;
+  const api::SiteResolver resolve = [&](const std::string& site_id) -> const nlohmann::json* {
+    out.entry = sites_.find(site_id);
+    return out.entry ? &out.entry->normalised : nullptr;
+  };
+  const auto t_parse = Clock::now();
+  api::StoredRequest request = api::split_stored_request(api::parse_json_text(job.scenario_json));
+  out.compare_with = std::move(request.compare_with);
+  out.doc = api::parse_scenario_document(request.scenario, &resolve);
+  out.doc.scenario.settings.threads = threads_;
+  const auto t_build = Clock::now();
+  out.site = out.entry ? out.entry->site : api::validate_scenario(out.doc.scenario);
+  out.parse_s = std::chrono::duration<double>(t_build - t_parse).count();
+  out.build_s = std::chrono::duration<double>(Clock::now() - t_build).count();
+  return out;
+}
+
+// A job with compare_with (docs/comparison.md): the base job's scenario and this one paired; the
+// job's results are the variant's, with compare.json and compare.h5 beside them.
+void Scheduler::run_comparison(const JobRow& job, const LoadedJob& variant,
+                               const run::RunControl& control,
+                               std::chrono::steady_clock::time_point started) {
+  const auto base_row = store_.job_with_scenario(*variant.compare_with);
+  if (!base_row)
+    throw InputError("compare_with", "the base job " + *variant.compare_with + " is gone");
+  LoadedJob base = load(*base_row);
+  const std::vector<std::string> changed =
+      api::check_variant(api::scenario_to_json(base.doc), api::scenario_to_json(variant.doc));
+  run::PairedRun paired =
+      run::run_paired(base.doc.scenario, base.site, variant.doc.scenario, variant.site, control);
+  if (paired.cancelled || cancel_run_.load()) return end_interrupted(job.job_id);
+  paired.variant.timing.parse_s = variant.parse_s;
+  paired.variant.timing.build_s = variant.build_s;
+  api::CompareInputs in;
+  in.paired = &paired;
+  in.base = &base.doc.scenario;
+  in.base_site = base.site.get();
+  in.changed = changed;
+  in.base_sha256 = api::sha256_hex(base_row->scenario_json);
+  in.variant_sha256 = api::sha256_hex(job.scenario_json);
+  in.provenance = api::build_provenance();
+  const nlohmann::ordered_json compare = api::compare_to_json(in);
+  persist(job, variant.doc, *variant.site, paired.variant, started, [&](api::OutputDir& out) {
+    out.stage(api::kCompareH5FileName, [&](const std::filesystem::path& tmp) {
+      api::write_compare_h5(tmp, paired, *base.site, compare);
+    });
+    out.stage_text(api::kCompareFileName, compare.dump(2) + "\n");
+  });
 }
 
 void Scheduler::record_progress(const std::string& id, const run::Progress& p,
@@ -317,7 +360,8 @@ void Scheduler::end_interrupted(const std::string& id) {
 
 bool Scheduler::persist(const JobRow& job, const api::ScenarioDocument& doc,
                         const scene::Site& site, const run::RunResult& result,
-                        Clock::time_point started) {
+                        Clock::time_point started,
+                        const std::function<void(api::OutputDir&)>& stage_more) {
   const std::string& id = job.job_id;
   api::Provenance provenance = api::build_provenance();
   provenance.scenario_sha256 = api::sha256_hex(job.scenario_json);
@@ -326,6 +370,7 @@ bool Scheduler::persist(const JobRow& job, const api::ScenarioDocument& doc,
   {
     api::OutputDir out(dir);
     const auto summary = api::stage_run_outputs(out, result, site, doc, provenance);
+    if (stage_more) stage_more(out);
     out.commit();
     if (!store_.mark_done(id, utc_now(), result.histories_done, summary.dump(),
                           building_rows(result))) {
@@ -356,7 +401,7 @@ bool Scheduler::persist(const JobRow& job, const api::ScenarioDocument& doc,
 // ---- Backend jobs ----
 
 std::string Scheduler::stand_alone_scenario(const JobRow& job) {
-  nlohmann::json j = api::parse_json_text(job.scenario_json);
+  nlohmann::json j = api::split_stored_request(api::parse_json_text(job.scenario_json)).scenario;
   if (const auto it = j.find("site_id"); it != j.end() && it->is_string()) {
     const std::string site_id = it->get<std::string>();
     const auto entry = sites_.find(site_id);
@@ -549,8 +594,8 @@ void Scheduler::finish_backend_job(Tracked& t) {
       entry = sites_.find(site_id);
       return entry ? &entry->normalised : nullptr;
     };
-    api::ScenarioDocument doc =
-        api::parse_scenario_document(api::parse_json_text(job.scenario_json), &resolve);
+    api::ScenarioDocument doc = api::parse_scenario_document(
+        api::split_stored_request(api::parse_json_text(job.scenario_json)).scenario, &resolve);
     const std::shared_ptr<const scene::Site> site =
         entry ? entry->site : api::validate_scenario(doc.scenario);
     run::RunResult result = merge_partials(doc.scenario, *site, t.job);

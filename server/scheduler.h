@@ -13,6 +13,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -21,6 +22,7 @@
 #include <string>
 #include <thread>
 
+#include "api/output_dir.h"
 #include "api/scenario_json.h"
 #include "core/run/precision.h"
 #include "core/run/result.h"
@@ -90,9 +92,22 @@ class Scheduler {
                        std::chrono::steady_clock::time_point& last_flush);
   // A run that stopped early: queued again when the daemon is stopping, else a client's cancel.
   void end_interrupted(const std::string& id);
-  // Stages and commits the job's results, then marks it done. False: cancelled meanwhile.
+  // A stored job's scenario and site (Scheduler::load).
+  struct LoadedJob {
+    api::ScenarioDocument doc;
+    std::shared_ptr<const SiteEntry> entry;  // the stored site it names, kept alive
+    std::shared_ptr<const scene::Site> site;
+    std::optional<std::string> compare_with;
+    double parse_s = 0.0, build_s = 0.0;
+  };
+  LoadedJob load(const JobRow& job);
+  void run_comparison(const JobRow& job, const LoadedJob& variant, const run::RunControl& control,
+                      std::chrono::steady_clock::time_point started);
+  // Stages and commits the job's results (and what `stage_more` stages beside them), then marks
+  // it done. False: cancelled meanwhile.
   bool persist(const JobRow& job, const api::ScenarioDocument& doc, const scene::Site& site,
-               const run::RunResult& result, std::chrono::steady_clock::time_point started);
+               const run::RunResult& result, std::chrono::steady_clock::time_point started,
+               const std::function<void(api::OutputDir&)>& stage_more = {});
   // The job's scenario as a stand-alone file would hold it: a site_id replaced by the site.
   std::string stand_alone_scenario(const JobRow& job);
 

@@ -12,6 +12,7 @@
 #include <random>
 #include <sstream>
 
+#include "api/compare_json.h"
 #include "api/job_request.h"
 #include "api/ptn_json.h"
 #include "api/run_outputs.h"
@@ -20,6 +21,8 @@
 #include "api/sha256.h"
 #include "api/site_document.h"
 #include "api/summary_json.h"
+#include "core/common/error.h"
+#include "core/run/paired.h"
 #include "core/run/reach.h"
 #include "core/scene/site_limits.h"
 #include "fragsim/version.h"
@@ -55,7 +58,9 @@ enum class RouteId {
   kJobReportHtml,
   kJobReportPdf,
   kJobScene,
-  kJobPlanBoundary
+  kJobPlanBoundary,
+  kJobCompare,
+  kJobCompareH5
 };
 
 constexpr const char* kJsonType = "application/json";
@@ -270,6 +275,8 @@ const std::vector<Service::Route>& routes() {
       {RouteId::kJobReportPdf, "/v1/jobs/{id}/report.pdf", {"GET"}},
       {RouteId::kJobScene, "/v1/jobs/{id}/scene", {"GET"}},
       {RouteId::kJobPlanBoundary, "/v1/jobs/{id}/plan_boundary", {"GET"}},
+      {RouteId::kJobCompare, "/v1/jobs/{id}/compare", {"GET"}},
+      {RouteId::kJobCompareH5, "/v1/jobs/{id}/compare.h5", {"GET"}},
   };
   return kRoutes;
 }
@@ -507,6 +514,8 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
     case RouteId::kJobMap: return job_map_file(id, name);
     case RouteId::kJobReportHtml: return job_report(req, id, false);
     case RouteId::kJobReportPdf: return job_report(req, id, true);
+    case RouteId::kJobCompare: return job_compare(id, false);
+    case RouteId::kJobCompareH5: return job_compare(id, true);
     default: return error_response(404, "not_found", "no route " + req.path);
   }
 }
@@ -747,6 +756,7 @@ Response Service::post_job(const Request& req) {
     return held ? &held->normalised : nullptr;
   };
   const api::JobRequest jr = api::parse_job_request(body, resolve);
+  check_comparison(jr);
   if (jr.total_samples > config_.max_samples_per_job)
     throw LimitError(jr.document.scenario.settings.precision ? "settings.precision.max_batches"
                                                              : "fragment_groups",
@@ -967,6 +977,52 @@ Response Service::job_plan_boundary(const Request& req, const std::string& id) {
   OJson j{{"job_id", id}};
   j.update(gis::plan_boundary_json(gis::plan_boundary(results, options), results.offset));
   return json_response(200, j);
+}
+
+// compare.json or compare.h5 of a job submitted with compare_with (docs/comparison.md).
+Response Service::job_compare(const std::string& id, bool h5) {
+  auto job = finished_job(id);
+  if (auto* r = std::get_if<Response>(&job)) return *r;
+  Response r;
+  r.file = scheduler_.job_dir(id) / (h5 ? api::kCompareH5FileName : api::kCompareFileName);
+  std::error_code ec;
+  if (!std::filesystem::exists(*r.file, ec))
+    return error_response(404, "not_found",
+                          "job " + id + " is not a comparison (submit a job with compare_with)");
+  if (h5) {
+    r.content_type = "application/x-hdf5";
+    r.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + id + "-compare.h5\"");
+  }
+  return r;
+}
+
+// compare_with (docs/comparison.md): the base job exists, runs where this one will (the local
+// backend: both runs in one process), and its scenario pairs with this one's.
+void Service::check_comparison(const api::JobRequest& jr) {
+  if (!jr.compare_with) return;
+  if (config_.backend.kind != "local")
+    throw InputError("compare_with",
+                     "a paired comparison runs both sites in one process; this "
+                     "daemon's backend is \"" +
+                         config_.backend.kind +
+                         "\" (use `fragsim compare`, or a local-backend daemon)");
+  const auto base = store_.job_with_scenario(*jr.compare_with);
+  if (!base) throw InputError("compare_with", "no job " + *jr.compare_with);
+  std::shared_ptr<const SiteEntry> held;
+  const api::SiteResolver resolve = [&](const std::string& site_id) -> const nlohmann::json* {
+    held = sites_.find(site_id);
+    return held ? &held->normalised : nullptr;
+  };
+  api::ScenarioDocument base_doc;
+  try {
+    base_doc = api::parse_scenario_document(
+        api::split_stored_request(api::parse_json_text(base->scenario_json)).scenario, &resolve);
+  } catch (const InputError& e) {
+    throw InputError("compare_with",
+                     "the base job's scenario no longer loads: " + std::string(e.what()));
+  }
+  api::check_variant(api::scenario_to_json(base_doc), api::scenario_to_json(jr.document));
+  run::check_pairable(base_doc.scenario, jr.document.scenario);
 }
 
 Response Service::job_results_h5(const std::string& id) {

@@ -106,6 +106,8 @@ class Service {
   Response delete_site(const std::string& id);
   Response site_scene(const std::string& id);
   Response post_job(const Request& req);
+  void check_comparison(const api::JobRequest& jr);
+  Response job_compare(const std::string& id, bool h5);
   Response list_jobs(const Request& req);
   Response get_job(const std::string& id);
   Response delete_job(const std::string& id, const std::optional<std::string>& by);

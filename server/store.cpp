@@ -330,6 +330,15 @@ std::optional<JobRow> Store::job(const std::string& job_id) {
   return read_job(s);
 }
 
+std::optional<JobRow> Store::job_with_scenario(const std::string& job_id) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(*this, std::string("SELECT ") + kJobColumns + " FROM jobs WHERE job_id = ?1",
+              "get job with its scenario");
+  s.bind(1, job_id);
+  if (!s.step()) return std::nullopt;
+  return read_job(s);
+}
+
 bool Store::has_idempotency_key(const std::string& key) {
   const std::lock_guard<std::mutex> lock(mutex_);
   Statement s(*this, "SELECT 1 FROM jobs WHERE idempotency_key = ?1", "find idempotency key");

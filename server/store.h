@@ -83,6 +83,8 @@ class Store {
   // inserted and the existing job comes back.
   Insert insert_job(JobRow row);
   std::optional<JobRow> job(const std::string& job_id);
+  // The job with its scenario_json (job() leaves it empty), for a comparison's base.
+  std::optional<JobRow> job_with_scenario(const std::string& job_id);
   bool has_idempotency_key(const std::string& key);
   // Newest first, optionally one state only.
   std::vector<JobRow> jobs(std::optional<JobState> state, int limit);

@@ -4,7 +4,6 @@
 
 #include <filesystem>
 #include <fstream>
-
 #include <nlohmann/json.hpp>
 
 #include "cli_process.h"
@@ -93,7 +92,9 @@ TEST_F(CompareCli, RefusesAVariantThatChangesTheHistories) {
       {[](nlohmann::json& j) { j["fragment_groups"][0]["samples"] = 2001; },
        "fragment_groups[0].samples"},
       {[](nlohmann::json& j) { j["settings"]["bounce"] = true; }, "settings.bounce"},
-      {[](nlohmann::json& j) { j["settings"]["precision"] = {{"max_batches", 2}}; },
+      {[](nlohmann::json& j) {
+         j["settings"]["precision"] = {{"max_batches", 2}};
+       },
        "settings"},
   };
   for (const Case& c : cases) {

@@ -959,6 +959,58 @@ TEST_F(ServiceJobs, PrecisionJobShowsItsTargetsAndStopsWithItsReason) {
   EXPECT_EQ(summary["site_boundary"]["note"].get<std::string>().rfind("HFD ≥ ", 0), 0u);
 }
 
+// compare_with (docs/comparison.md): the base job's scenario and this one paired in one job. The
+// job's results are the variant's; GET /compare is the paired comparison, whose base figures are
+// the base job's own bits (the same scenario and seed, run again); a job without compare_with has
+// none (404). What cannot be paired is refused with a 422 naming the field, nothing queued.
+TEST_F(ServiceJobs, CompareWithPairsTheBaseJobsHistories) {
+  start();
+  const std::string site = add_site();
+  const std::string base = add_job(job_on(site, 300));
+  ASSERT_EQ(wait_for_state(base, "done")["state"], "done");
+  Json moved = minimal_site();
+  moved["buildings"][0]["footprint_m"] = {{80, -10}, {100, -10}, {100, 10}, {80, 10}};
+  Json variant = job_on(add_site(moved), 300);
+  variant["compare_with"] = base;
+  const Response r = post("/v1/jobs", variant);
+  ASSERT_EQ(r.status, 202) << r.body;
+  const Json accepted = body_of(r);
+  EXPECT_EQ(accepted["histories_total"], 600) << "both runs";
+  const std::string id = accepted["job_id"];
+  ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
+  const Response c = get("/v1/jobs/" + id + "/compare");
+  ASSERT_EQ(c.status, 200) << c.body;
+  ASSERT_TRUE(c.file.has_value());
+  const Json cmp = Json::parse(api::testing::read_text(*c.file));
+  auto summary = [&](const std::string& job_id) {
+    return Json::parse(api::testing::read_text(*get("/v1/jobs/" + job_id + "/summary").file));
+  };
+  const Json base_summary = summary(base), variant_summary = summary(id);
+  const Json& impacts = cmp["buildings"][0]["impacts"];
+  EXPECT_EQ(impacts["base"], base_summary["buildings"][0]["expected_impacts"]);
+  EXPECT_EQ(impacts["variant"], variant_summary["buildings"][0]["expected_impacts"]);
+  EXPECT_EQ(cmp["hfd"]["base_m"], base_summary["hazardous_fragment_distance_m"]);
+  EXPECT_FALSE(cmp["changed"].empty());
+  const Response h5 = get("/v1/jobs/" + id + "/compare.h5");
+  EXPECT_EQ(h5.status, 200);
+  EXPECT_EQ(h5.content_type, "application/x-hdf5");
+  expect_error(get("/v1/jobs/" + base + "/compare"), 404, "not_found");
+
+  const std::size_t jobs_before = body_of(get("/v1/jobs"))["jobs"].size();
+  Json bad = job_on(site, 300);
+  bad["compare_with"] = "nope";
+  expect_error(post("/v1/jobs", bad), 422, "invalid_input", "compare_with");
+  bad["compare_with"] = kUnknownJob;
+  expect_error(post("/v1/jobs", bad), 422, "invalid_input", "compare_with");
+  bad["compare_with"] = base;
+  bad["settings"]["seed"] = 4242;
+  expect_error(post("/v1/jobs", bad), 422, "invalid_input", "settings.seed");
+  bad = job_on(site, 301);
+  bad["compare_with"] = base;
+  expect_error(post("/v1/jobs", bad), 422, "invalid_input", "fragment_groups[0].samples");
+  EXPECT_EQ(body_of(get("/v1/jobs"))["jobs"].size(), jobs_before) << "nothing queued";
+}
+
 TEST_F(ServiceJobs, IdempotencyKey) {
   start();
   const std::string site = add_site();
