@@ -485,14 +485,17 @@ class Client:
             path = self.download_map(job_id, "hazard.gpkg", Path(tmp) / "hazard.gpkg")
             return geopandas.read_file(path, layer=layer)
 
-    def report_html(self, job_id: str, dest: Optional[PathLike] = None, *, units: str = "si") -> Any:
+    def report_html(
+        self, job_id: str, dest: Optional[PathLike] = None, *, units: str = "si"
+    ) -> Any:
         """``GET /v1/jobs/{id}/report.html?units=si|us``: the study report (docs/report.md).
 
         Returns the page's text, or with ``dest`` the path it was saved to.
         """
         path = f"/v1/jobs/{_id(job_id)}/report.html"
         if dest is not None:
-            return self._download(path, dest, query={"units": units}, timeout=max(self.timeout, 120))
+            q = {"units": units}
+            return self._download(path, dest, query=q, timeout=max(self.timeout, 120))
         return self._text(path, {"units": units})
 
     def download_report_pdf(self, job_id: str, dest: PathLike, *, units: str = "si") -> Path:
@@ -506,7 +509,8 @@ class Client:
         """``GET /v1/jobs/{id}/scene``: terrain, PTN density (float32), buildings and a sample
         of the recorded trajectories, as numpy arrays (what the web viewer draws)."""
         q = {"max_trajectories": max_trajectories}
-        return parse_scene(self._read_all(self._open("GET", f"/v1/jobs/{_id(job_id)}/scene", query=q)))
+        resp = self._open("GET", f"/v1/jobs/{_id(job_id)}/scene", query=q)
+        return parse_scene(self._read_all(resp))
 
     # ----------------------------------------------------------------------------------------
     # compare (paired what-if runs): being added to the daemon in parallel (the lead's work).
@@ -533,7 +537,10 @@ class Client:
         return self.summary(job["job_id"])
 
 
-_CONTRACT_VERSION = re.compile(r"^info:\s*\n(?:[ \t]+.*\n)*?[ \t]+version:\s*['\"]?([^'\"\s]+)", re.M)
+# "info:" at the start of a line, then its indented lines up to the first "version:".
+_CONTRACT_VERSION = re.compile(
+    r"^info:\s*\n(?:[ \t]+.*\n)*?[ \t]+version:\s*['\"]?([^'\"\s]+)", re.M
+)
 
 
 def contract_version(openapi_yaml: str) -> str:

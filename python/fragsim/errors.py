@@ -134,7 +134,8 @@ class ServerError(ApiError):
 
 
 class ServiceUnavailable(ApiError):
-    """503: ``busy`` (retry after ``retry_after``), ``pdf_unavailable``, ``too_many_connections``."""
+    """503: ``busy`` (retry after ``retry_after``), ``pdf_unavailable``,
+    ``too_many_connections``."""
 
 
 class TransportError(FragsimError):

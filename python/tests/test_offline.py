@@ -28,7 +28,8 @@ class ErrorMappingTest(unittest.TestCase):
         self.assertIsInstance(e, fragsim.Unprocessable)
         self.assertIsInstance(e, fragsim.FragsimError)
         self.assertEqual((e.status, e.code, e.message, e.field),
-                         (422, "invalid_input", "must be > 0", "fragment_groups[1].mass_kg.sigma_ln"))
+                         (422, "invalid_input", "must be > 0",
+                          "fragment_groups[1].mass_kg.sigma_ln"))
         self.assertIn("fragment_groups[1].mass_kg.sigma_ln", str(e))
         lim = errors.from_response(422, b'{"code":"limit_exceeded","message":"m","field":null}')
         self.assertIsInstance(lim, fragsim.LimitExceeded)
@@ -118,7 +119,8 @@ class RetryAfterTest(unittest.TestCase):
         full = (503, {"Retry-After": "0"},
                 b'{"code":"too_many_connections","message":"m","field":null}')
         _Stub.script = {"/v1/jobs": [full, (202, {}, b'{"job_id":"j_1","state":"queued"}')]}
-        self.assertEqual(fragsim.Client(self.url, "tok").submit({"site_id": "s_0"})["job_id"], "j_1")
+        job = fragsim.Client(self.url, "tok").submit({"site_id": "s_0"})
+        self.assertEqual(job["job_id"], "j_1")
 
     def test_follow_backs_off_and_stops_at_a_final_state(self):
         running = json.dumps({"job_id": "j_1", "state": "running", "histories_done": 5,
