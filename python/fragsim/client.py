@@ -30,6 +30,7 @@ from typing import (
     Sequence,
     Tuple,
     Union,
+    cast,
 )
 
 import numpy as np
@@ -49,7 +50,8 @@ FINAL_STATES = ("done", "failed", "cancelled")
 def load_json(source: JsonSource) -> Dict[str, Any]:
     """A dict from a mapping (copied) or from a JSON file's path."""
     if isinstance(source, Mapping):
-        return json.loads(json.dumps(source))  # a deep copy, and proof that it is JSON
+        doc = json.loads(json.dumps(source))  # a deep copy, and proof that it is JSON
+        return cast(Dict[str, Any], doc)
     with open(source, encoding="utf-8") as f:
         doc = json.load(f)
     if not isinstance(doc, dict):
@@ -181,7 +183,7 @@ class Client:
     @staticmethod
     def _read_all(resp: Any) -> bytes:
         with resp:
-            raw = resp.read()
+            raw: bytes = resp.read()
             if resp.headers.get("Content-Encoding") == "gzip":
                 raw = gzip.decompress(raw)
         return raw
@@ -196,6 +198,20 @@ class Client:
     ) -> Any:
         raw = self._read_all(self._open(method, path, query=query, body=body))
         return json.loads(raw.decode("utf-8")) if raw else None
+
+    def _obj(
+        self,
+        method: str,
+        path: str,
+        *,
+        query: Optional[Mapping[str, Any]] = None,
+        body: Optional[Any] = None,
+    ) -> Dict[str, Any]:
+        """A JSON answer that must be an object."""
+        doc = self._json(method, path, query=query, body=body)
+        if not isinstance(doc, dict):
+            raise errors.FragsimError(f"{method} {path}: the answer is not a JSON object")
+        return doc
 
     def _text(self, path: str, query: Optional[Mapping[str, Any]] = None) -> str:
         return self._read_all(self._open("GET", path, query=query)).decode("utf-8")
@@ -226,7 +242,7 @@ class Client:
 
     def health(self) -> Dict[str, Any]:
         """``GET /v1/health`` (no token needed): status, version, git_sha, uptime_s, jobs."""
-        return self._json("GET", "/v1/health")
+        return self._obj("GET", "/v1/health")
 
     def openapi(self) -> str:
         """``GET /v1/openapi.yaml``: the daemon's HTTP contract (YAML text)."""
@@ -255,15 +271,15 @@ class Client:
         doc = load_json(site)
         if "site" in doc and "terrain" not in doc:
             doc = doc["site"]
-        return self._json("POST", "/v1/sites", body=doc)
+        return self._obj("POST", "/v1/sites", body=doc)
 
     def sites(self) -> List[Dict[str, Any]]:
         """``GET /v1/sites``: every registered site's SiteSummary, oldest first."""
-        return self._json("GET", "/v1/sites")["sites"]
+        return list(self._obj("GET", "/v1/sites")["sites"])
 
     def site(self, site_id: str) -> Dict[str, Any]:
         """``GET /v1/sites/{id}``: one SiteSummary."""
-        return self._json("GET", f"/v1/sites/{_id(site_id)}")
+        return self._obj("GET", f"/v1/sites/{_id(site_id)}")
 
     def delete_site(self, site_id: str) -> None:
         """``DELETE /v1/sites/{id}`` (409 :class:`~fragsim.errors.Conflict` while jobs use it)."""
@@ -310,7 +326,7 @@ class Client:
             doc["priority"] = priority
         if idempotency_key is not None:
             doc["idempotency_key"] = idempotency_key
-        return self._json("POST", "/v1/jobs", body=doc)
+        return self._obj("POST", "/v1/jobs", body=doc)
 
     def jobs(self, state: Optional[str] = None, limit: Optional[int] = None) -> List[JobStatus]:
         """``GET /v1/jobs``: JobStatus of the jobs, newest first.
@@ -318,12 +334,12 @@ class Client:
         ``state``: ``queued``, ``running``, ``done``, ``failed`` or ``cancelled``; ``limit``:
         1 … 1000. A bad value raises :class:`~fragsim.errors.BadRequest` naming the parameter.
         """
-        return self._json("GET", "/v1/jobs", query={"state": state, "limit": limit})["jobs"]
+        return list(self._obj("GET", "/v1/jobs", query={"state": state, "limit": limit})["jobs"])
 
     def job(self, job_id: str) -> JobStatus:
         """``GET /v1/jobs/{id}``: state, progress (``histories_done``, ``progress``,
         ``histories_per_s``, ``eta_s``), ``error``, ``links``."""
-        return self._json("GET", f"/v1/jobs/{_id(job_id)}")
+        return self._obj("GET", f"/v1/jobs/{_id(job_id)}")
 
     status = job
 
@@ -332,7 +348,7 @@ class Client:
 
         A job already done, failed or cancelled raises :class:`~fragsim.errors.Conflict`.
         """
-        return self._json("DELETE", f"/v1/jobs/{_id(job_id)}")
+        return self._obj("DELETE", f"/v1/jobs/{_id(job_id)}")
 
     def follow(
         self,
@@ -405,17 +421,17 @@ class Client:
 
     def summary(self, job_id: str) -> Dict[str, Any]:
         """``GET /v1/jobs/{id}/summary``: the job's summary.json (docs/scenario.md)."""
-        return self._json("GET", f"/v1/jobs/{_id(job_id)}/summary")
+        return self._obj("GET", f"/v1/jobs/{_id(job_id)}/summary")
 
     def buildings(self, job_id: str) -> List[Dict[str, Any]]:
         """``GET /v1/jobs/{id}/buildings``: per building ``id``, ``expected_impacts``,
         ``impacts_std_error``, ``expected_penetrations``, ``penetrations_std_error``."""
-        return self._json("GET", f"/v1/jobs/{_id(job_id)}/buildings")["buildings"]
+        return list(self._obj("GET", f"/v1/jobs/{_id(job_id)}/buildings")["buildings"])
 
     def ptn(self, job_id: str) -> Dict[str, Any]:
         """``GET /v1/jobs/{id}/ptn``: ``density_per_m2`` and ``std_error_per_m2`` as float64
         numpy arrays (one value per terrain triangle), ``threshold_per_m2``, ``triangles``."""
-        doc = self._json("GET", f"/v1/jobs/{_id(job_id)}/ptn")
+        doc = self._obj("GET", f"/v1/jobs/{_id(job_id)}/ptn")
         for k in ("density_per_m2", "std_error_per_m2"):
             doc[k] = np.asarray(doc[k], dtype=np.float64)
         return doc
@@ -432,7 +448,7 @@ class Client:
         """``GET /v1/jobs/{id}/plan_boundary``: the site-plan boundary (sector envelope and
         smoothed contour, input coordinates in metres; docs/gis.md)."""
         q = {"smoothing_m": smoothing_m}
-        return self._json("GET", f"/v1/jobs/{_id(job_id)}/plan_boundary", query=q)
+        return self._obj("GET", f"/v1/jobs/{_id(job_id)}/plan_boundary", query=q)
 
     def download_results(self, job_id: str, dest: PathLike) -> Path:
         """``GET /v1/jobs/{id}/results.h5`` saved to ``dest``; read it with
@@ -446,7 +462,7 @@ class Client:
     def maps(self, job_id: str) -> Dict[str, Any]:
         """``GET /v1/jobs/{id}/maps``: the GIS files' listing (``crs``, ``files`` with
         ``name``, ``content_type``, ``bytes``; ``notes``). The first call makes them."""
-        return self._json("GET", f"/v1/jobs/{_id(job_id)}/maps")
+        return self._obj("GET", f"/v1/jobs/{_id(job_id)}/maps")
 
     def download_map(self, job_id: str, name: str, dest: PathLike) -> Path:
         """``GET /v1/jobs/{id}/maps/{name}`` saved to ``dest`` (a name not in the listing
@@ -473,7 +489,7 @@ class Client:
         ``buildings`` (docs/gis.md, "Outputs").
         """
         try:
-            import geopandas  # type: ignore[import-not-found]
+            import geopandas
         except ImportError as e:
             raise ImportError(
                 "hazardous_area() needs geopandas: pip install 'fragsim[gis]' "

@@ -25,6 +25,7 @@ from functools import cached_property
 from typing import TYPE_CHECKING, Any, Dict, List, Optional, Union
 
 import numpy as np
+import numpy.typing as npt
 
 from .errors import UnsupportedFormat
 
@@ -38,11 +39,12 @@ SUPPORTED_FORMATS = (1, 2, 3, 4, 5)
 SURFACES = ("terrain", "wall", "roof", "window")
 
 PathLike = Union[str, "os.PathLike[str]"]
+Array = npt.NDArray[Any]
 
 
 def _h5py() -> Any:
     try:
-        import h5py  # type: ignore[import-untyped]
+        import h5py
     except ImportError as e:
         raise ImportError(
             "fragsim.results needs h5py: pip install 'fragsim[h5]' "
@@ -69,7 +71,7 @@ def _text(value: Any) -> str:
     return str(value)
 
 
-def _strings(a: np.ndarray) -> List[str]:
+def _strings(a: Array) -> List[str]:
     return [_text(v) for v in a]
 
 
@@ -87,9 +89,9 @@ class Hfd:
     """
 
     distance_m: float
-    band_m: np.ndarray  # [lower, upper]
-    by_sector_m: np.ndarray  # 36: sector k is azimuth [10k, 10k+10) deg from +x toward +y
-    origin_m: np.ndarray  # (3,)
+    band_m: Array  # [lower, upper]
+    by_sector_m: Array  # 36: sector k is azimuth [10k, 10k+10) deg from +x toward +y
+    origin_m: Array  # (3,)
     threshold_per_m2: float
     bound: Optional[str]
     band_bound: Optional[List[str]]
@@ -153,13 +155,13 @@ class Results:
     def __repr__(self) -> str:
         return f"<fragsim.results.Results {self.path!r} format {self.format_version}>"
 
-    def _array(self, name: str) -> Optional[np.ndarray]:
+    def _array(self, name: str) -> Optional[Array]:
         return self.file[name][()] if name in self.file else None
 
-    def _need(self, name: str) -> np.ndarray:
+    def _need(self, name: str) -> Array:
         if name not in self.file:
             raise UnsupportedFormat(f"{self.path}: no dataset {name}")
-        return self.file[name][()]
+        return np.asarray(self.file[name][()])
 
     # -- root attributes ----------------------------------------------------------------------
 
@@ -175,7 +177,8 @@ class Results:
     @cached_property
     def scenario(self) -> Dict[str, Any]:
         """The normalised scenario the run used (every default filled in)."""
-        return json.loads(self.attrs["scenario_json"])
+        doc: Dict[str, Any] = json.loads(self.attrs["scenario_json"])
+        return doc
 
     @cached_property
     def summary(self) -> Optional[Dict[str, Any]]:
@@ -186,33 +189,33 @@ class Results:
     # -- terrain and PTN ----------------------------------------------------------------------
 
     @cached_property
-    def vertices_m(self) -> np.ndarray:
+    def vertices_m(self) -> Array:
         """Terrain vertices (n × 3, float64, input coordinates)."""
         return self._need("terrain/vertices_m")
 
     @cached_property
-    def triangles(self) -> np.ndarray:
+    def triangles(self) -> Array:
         """Terrain triangles (m × 3 uint32 vertex indices); the PTN bins, in this order."""
         return self._need("terrain/triangles")
 
     @cached_property
-    def triangle_vertices_m(self) -> np.ndarray:
+    def triangle_vertices_m(self) -> Array:
         """Each terrain triangle's three corners (m × 3 × 3, input coordinates)."""
         return self.vertices_m[self.triangles]
 
     @cached_property
-    def centroids_m(self) -> np.ndarray:
+    def centroids_m(self) -> Array:
         """Terrain triangle centroids (m × 3, input coordinates: the points the HFD is measured
         to)."""
-        return self.triangle_vertices_m.mean(axis=1)
+        return np.asarray(self.triangle_vertices_m.mean(axis=1))
 
     @cached_property
-    def area_m2(self) -> np.ndarray:
+    def area_m2(self) -> Array:
         """Terrain triangle areas (m)."""
         return self._need("terrain/area_m2")
 
     @cached_property
-    def material(self) -> Optional[np.ndarray]:
+    def material(self) -> Optional[Array]:
         """Each terrain triangle's material index into :attr:`material_names` (format 4 on)."""
         return self._array("terrain/material")
 
@@ -223,17 +226,17 @@ class Results:
         return None if a is None else _strings(a)
 
     @cached_property
-    def density_per_m2(self) -> np.ndarray:
+    def density_per_m2(self) -> Array:
         """PTN hazardous fragment density per terrain triangle, per m² (m, float64)."""
         return self._need("ptn/density_per_m2")
 
     @cached_property
-    def std_error_per_m2(self) -> np.ndarray:
+    def std_error_per_m2(self) -> Array:
         """Standard error of :attr:`density_per_m2` (m, float64)."""
         return self._need("ptn/std_error_per_m2")
 
     @cached_property
-    def hazardous(self) -> np.ndarray:
+    def hazardous(self) -> Array:
         """Boolean mask of the terrain triangles with density ≥ the HFD threshold."""
         return self.density_per_m2 >= self.hfd.threshold_per_m2
 
@@ -278,7 +281,7 @@ class Results:
         a = self._array("buildings/id")
         return [] if a is None else _strings(a)
 
-    def building_arrays(self) -> Dict[str, np.ndarray]:
+    def building_arrays(self) -> Dict[str, Array]:
         """Per-building columns as numpy arrays (what :meth:`buildings` puts in a DataFrame).
 
         ``id``; ``expected_impacts``, ``impacts_std_error``, ``expected_penetrations``,
@@ -287,7 +290,7 @@ class Results:
         ``penetrations_S``, ``penetrations_S_std_error``, ``area_S_m2``.
         """
         g = self.file["buildings"] if "buildings" in self.file else None
-        cols: Dict[str, np.ndarray] = {"id": np.array(self.building_ids, dtype=object)}
+        cols: Dict[str, Array] = {"id": np.array(self.building_ids, dtype=object)}
         n = len(self.building_ids)
         for name in (
             "expected_impacts",
@@ -340,7 +343,7 @@ class Results:
         """Whether the run recorded its fragments (``settings.record_fragments``)."""
         return "fragments" in self.file
 
-    def fragment_arrays(self) -> Optional[Dict[str, np.ndarray]]:
+    def fragment_arrays(self) -> Optional[Dict[str, Array]]:
         """``/fragments`` (one row per history), dataset name → array; ``None`` when not
         recorded. Vector fields are n × 3."""
         if not self.has_fragments:
@@ -371,7 +374,7 @@ class Results:
             df["outcome_name"] = [names[i] if i < len(names) else str(i) for i in df["outcome"]]
         return df
 
-    def trajectories(self) -> Optional[Dict[str, np.ndarray]]:
+    def trajectories(self) -> Optional[Dict[str, Array]]:
         """``/trajectories`` (``settings.record_trajectories``) as arrays, or ``None``: points
         of trajectory i are rows ``offsets[i]`` … ``offsets[i+1] − 1`` of ``t_s``,
         ``position_m``, ``velocity_mps``, ``event``."""
@@ -380,10 +383,10 @@ class Results:
         g = self.file["trajectories"]
         return {k: g[k][()] for k in g.keys()}
 
-    def datasets(self) -> Dict[str, np.ndarray]:
+    def datasets(self) -> Dict[str, Array]:
         """Every dataset of the file by its path (for comparisons and export)."""
         h5py = _h5py()
-        out: Dict[str, np.ndarray] = {}
+        out: Dict[str, Array] = {}
 
         def visit(name: str, obj: Any) -> None:
             if isinstance(obj, h5py.Dataset):

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any, Dict
 
 import numpy as np
+import numpy.typing as npt
 
 from .errors import UnsupportedFormat
 
@@ -33,14 +34,14 @@ class Scene:
     """
 
     header: Dict[str, Any]
-    arrays: Dict[str, np.ndarray] = field(default_factory=dict)
+    arrays: Dict[str, npt.NDArray[Any]] = field(default_factory=dict)
 
     @property
-    def offset_m(self) -> np.ndarray:
+    def offset_m(self) -> npt.NDArray[Any]:
         """Input coordinate = position + offset_m."""
         return np.asarray(self.header.get("offset_m", [0.0, 0.0, 0.0]), dtype=np.float64)
 
-    def __getitem__(self, name: str) -> np.ndarray:
+    def __getitem__(self, name: str) -> npt.NDArray[Any]:
         return self.arrays[name]
 
 
@@ -53,7 +54,7 @@ def parse_scene(data: bytes) -> Scene:
         raise UnsupportedFormat("scene header runs past the end of the data")
     header = json.loads(data[12 : 12 + h].decode("utf-8"))
     base = 12 + h
-    arrays: Dict[str, np.ndarray] = {}
+    arrays: Dict[str, npt.NDArray[Any]] = {}
     for name, spec in header.get("arrays", {}).items():
         dtype = _TYPES.get(spec.get("type"))
         if dtype is None:

@@ -11,6 +11,7 @@ import threading
 import time
 import unittest
 from pathlib import Path
+from typing import Dict, List, Optional, Tuple
 from unittest import mock
 
 import numpy as np
@@ -49,8 +50,8 @@ class ErrorMappingTest(unittest.TestCase):
 class _Stub(http.server.BaseHTTPRequestHandler):
     """Answers from a script: a list of (status, headers, body) per path, used in turn."""
 
-    script = {}
-    seen = []
+    script: Dict[str, List[Tuple[int, Dict[str, str], bytes]]] = {}
+    seen: List[Tuple[str, str, Optional[str]]] = []
 
     def _answer(self):
         self.seen.append((self.command, self.path, self.headers.get("Authorization")))
