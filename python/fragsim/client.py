@@ -182,10 +182,13 @@ class Client:
 
     @staticmethod
     def _read_all(resp: Any) -> bytes:
-        with resp:
-            raw: bytes = resp.read()
-            if resp.headers.get("Content-Encoding") == "gzip":
-                raw = gzip.decompress(raw)
+        try:
+            with resp:
+                raw: bytes = resp.read()
+        except OSError as e:  # reset or timed out while the answer was read
+            raise errors.TransportError(f"{resp.geturl()}: {e}") from e
+        if resp.headers.get("Content-Encoding") == "gzip":
+            raw = gzip.decompress(raw)
         return raw
 
     def _json(
