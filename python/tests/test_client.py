@@ -72,7 +72,7 @@ class ClientTest(unittest.TestCase):
         job = cls.c.submit(MINIMAL, site_id=cls.site["site_id"])
         cls.job_id = job["job_id"]
         cls.submitted = job
-        cls.final = cls.c.wait(cls.job_id, timeout=60, callback=cls.progress.append)
+        cls.final = cls.c.wait(cls.job_id, timeout=120, callback=cls.progress.append)
         cli_run(MINIMAL, cls.tmp / "cli")
         cls.h5 = cls.c.download_results(cls.job_id, cls.tmp / "daemon.h5")
 
@@ -139,7 +139,7 @@ class ClientTest(unittest.TestCase):
     def test_following_a_running_job_shows_progress(self):
         job = self.c.submit(long_running(100_000))  # inline site: not registered
         self.assertIsNone(job["site_id"])
-        seen = list(self.c.follow(job["job_id"], poll_s=0.05, timeout=60))
+        seen = list(self.c.follow(job["job_id"], poll_s=0.05, timeout=120))
         self.assertEqual(seen[-1]["state"], "done")
         running = [s for s in seen if s["state"] == "running"]
         self.assertTrue(running, [s["state"] for s in seen])
