@@ -40,9 +40,9 @@ asan() {
   export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0"
   t0=$(date +%s)
   # Timeouts as deploy/test.sh's: the instrumented suite is 2-3 times slower, well inside them.
-  # The browser test (label viewer) is left out: its time is Chromium's, and the routes it uses
-  # run under ASan in test_server already.
-  (cd "$root/build-asan" && ctest --output-on-failure -j "$jobs" --timeout 1800 -LE viewer)
+  # The browser test (label viewer) and the Python client's (label python) are left out: their
+  # time is Chromium's and Python's, and the routes they use run under ASan in test_server.
+  (cd "$root/build-asan" && ctest --output-on-failure -j "$jobs" --timeout 1800 -LE 'viewer|python')
   echo "sanitize: ASan+UBSan tests $(elapsed "$t0")"
 }
 

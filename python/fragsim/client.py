@@ -532,9 +532,50 @@ class Client:
         return parse_scene(self._read_all(resp))
 
     # ----------------------------------------------------------------------------------------
-    # compare (paired what-if runs): being added to the daemon in parallel (the lead's work).
-    # Its methods go here, one per route, in the style above (JSON via self._json, files via
-    # self._download), with their tests in python/tests/test_client.py.
+    # compare: paired what-if runs (docs/comparison.md)
+
+    def compare(
+        self, base_job_id: str, variant: JsonSource, **submit_args: Any
+    ) -> JobStatus:
+        """Submits ``variant`` as the variant of a paired comparison with the job
+        ``base_job_id`` (``compare_with``): the base job's histories are flown again over the
+        variant's site, so each difference comes with a paired standard error. The variant
+        may change the site and atmosphere, not the fragment groups or settings; what cannot
+        be paired raises :class:`~fragsim.errors.Unprocessable` naming the field. Other
+        arguments as :meth:`submit`. The job's results are the variant's; its comparison is
+        :meth:`comparison`."""
+        doc = load_json(variant)
+        doc["compare_with"] = _id(base_job_id)
+        return self.submit(doc, **submit_args)
+
+    def comparison(self, job_id: str) -> Dict[str, Any]:
+        """``GET /v1/jobs/{id}/compare``: compare.json of a job submitted with
+        ``compare_with`` (``hfd``, ``buildings``, ``outcomes``, ``density``, each figure with
+        ``base``, ``variant``, ``difference``, ``paired_std_error`` and
+        ``unpaired_std_error``; ``limitations``). A job without one raises
+        :class:`~fragsim.errors.NotFound`."""
+        return self._obj("GET", f"/v1/jobs/{_id(job_id)}/compare")
+
+    def comparison_buildings(self, job_id: str) -> Any:
+        """The comparison's building figures as a pandas DataFrame (one row per building of
+        either site; columns ``impacts_base``, ``impacts_difference``,
+        ``impacts_paired_std_error``, ... and the same for penetrations)."""
+        import pandas
+
+        rows = []
+        for b in self.comparison(job_id)["buildings"]:
+            row: Dict[str, Any] = {"id": b["id"], "in_base": b["in_base"],
+                                   "in_variant": b["in_variant"]}
+            for figure in ("impacts", "penetrations"):
+                for key, value in b[figure].items():
+                    row[f"{figure}_{key}"] = value
+            rows.append(row)
+        return pandas.DataFrame(rows).set_index("id")
+
+    def download_comparison_h5(self, job_id: str, dest: PathLike) -> Path:
+        """``GET /v1/jobs/{id}/compare.h5`` saved to ``dest``: the density difference per
+        terrain triangle and its paired se (when both sites share the terrain)."""
+        return self._download(f"/v1/jobs/{_id(job_id)}/compare.h5", dest)
 
     # ----------------------------------------------------------------------------------------
 

@@ -314,6 +314,36 @@ class ClientTest(unittest.TestCase):
             area = float(gdf.geometry.area["estimate"])
         self.assertAlmostEqual(area, exact, delta=1e-6 * exact)
 
+    def test_paired_comparison(self):
+        c = self.c
+        base = c.submit(minimal())
+        c.wait(base["job_id"], timeout=60)
+        variant = minimal()
+        variant["site"]["buildings"][0]["footprint_m"] = [[80, -10], [100, -10], [100, 10], [80, 10]]
+        job = c.compare(base["job_id"], variant)
+        self.assertEqual(job["histories_total"], 2 * base["histories_total"])
+        c.wait(job["job_id"], timeout=60)
+        cmp = c.comparison(job["job_id"])
+        self.assertEqual(cmp["changed"], ["site.buildings"])
+        impacts = cmp["buildings"][0]["impacts"]
+        self.assertEqual(impacts["base"], c.summary(base["job_id"])["buildings"][0]["expected_impacts"])
+        self.assertAlmostEqual(impacts["difference"], impacts["variant"] - impacts["base"], places=12)
+        self.assertLessEqual(impacts["paired_std_error"], impacts["unpaired_std_error"])
+        if importlib.util.find_spec("pandas"):
+            table = c.comparison_buildings(job["job_id"])
+            self.assertEqual(list(table.index), ["B1"])
+            self.assertEqual(table.loc["B1", "impacts_difference"], impacts["difference"])
+        with tempfile.TemporaryDirectory() as tmp:
+            path = c.download_comparison_h5(job["job_id"], Path(tmp) / "c.h5")
+            self.assertEqual(path.read_bytes()[:8], b"\x89HDF\r\n\x1a\n")
+        with self.assertRaises(fragsim.NotFound):
+            c.comparison(base["job_id"])
+        bad = minimal()
+        bad["settings"]["seed"] = 7
+        with self.assertRaises(fragsim.Unprocessable) as e:
+            c.compare(base["job_id"], bad)
+        self.assertEqual(e.exception.field, "settings.seed")
+
     def test_report(self):
         html = self.c.report_html(self.job_id)
         self.assertIn("<html", html[:500].lower())
