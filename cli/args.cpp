@@ -180,6 +180,7 @@ bool take_file_command_option(const std::vector<std::string>& args, std::size_t&
 bool take_report_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
   if (take_units(args, k, o)) return true;
   if (take_nonempty(args, k, "--pdf", "file name", o.pdf)) return true;
+  if (take_nonempty(args, k, "--compare", "file name", o.compare)) return true;
   return take_nonempty(args, k, "--out", "file name", o.out);
 }
 
@@ -331,6 +332,7 @@ Usage:
   fragsim shape import FILE [--axes z_up|y_up|x,-z,y]
   fragsim export RESULTS.h5 --out DIR [--pixel-m X] [--smoothing-m X] [--units si|us]
   fragsim report RESULTS.h5 --out REPORT.html [--pdf REPORT.pdf] [--units si|us]
+                 [--compare COMPARE.json]
   fragsim submit SCENARIO.json [--server URL] [--token-file FILE] [--priority N]
                  [--idempotency-key KEY] [--no-wait] [--out DIR [--maps]] [--quiet]
                  [--units si|us]
@@ -375,7 +377,9 @@ Commands:
              (figures, tables, provenance, limitations, the normalised scenario; no network
              needed to view it) and, with --pdf, the same page as PDF printed by headless
              chromium. --units us shows ft, ft-lb, lb and densities per 600 ft² (SI stays
-             in the files). Refuses a cancelled run's results.
+             in the files). Refuses a cancelled run's results. --compare COMPARE.json (of
+             `fragsim compare`, whose base or variant this run is) adds the paired
+             comparison to the Results section.
   submit     Run the scenario on a fragsimd server (docs/http-api.md): an inline site is
              uploaded first (POST /v1/sites) and the job names it by site_id; then the job's
              progress is followed and its summary printed (--out DIR also downloads

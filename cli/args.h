@@ -64,6 +64,7 @@ struct Options {
   std::string axes = "z_up";
   // report (RESULTS.h5 in `scenario`, --out REPORT.html in `out`, `units`): --pdf FILE
   std::string pdf;
+  std::string compare;  // report: --compare COMPARE.json (the run's paired comparison)
 };
 
 Options parse_args(const std::vector<std::string>& args);  // args without argv[0]

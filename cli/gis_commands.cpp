@@ -136,6 +136,7 @@ int report_command(const Options& o) {
   options.results_h5 = o.scenario;
   options.out_html = o.out;
   if (!o.pdf.empty()) options.out_pdf = o.pdf;
+  if (!o.compare.empty()) options.compare_json = o.compare;
   options.units = o.units;
   const report::ReportWritten w = report::write_report(options);
   std::cout << "ok: " << o.out << " (" << w.html_bytes / 1024 << " KiB, " << w.html_s << " s)";

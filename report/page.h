@@ -123,6 +123,15 @@ class Page {
     if (with_unit && *p.unit) s += std::string(k == Kind::kDensity ? " " : "\u00a0") + p.unit;
     return s;
   }
+  // A compare.json figure (a paired comparison, ReportInputs::compare): its key is a pointer
+  // into compare.json, marked data-source="compare".
+  std::string cnum(const std::string& pointer, Kind k, bool with_unit = true) const {
+    const Json* v = in_.compare ? at_pointer(*in_.compare, pointer) : nullptr;
+    if (v == nullptr || !v->is_number()) return "n/a";
+    std::string s = value(v->get<double>(), k, with_unit, pointer);
+    s.insert(std::string("<span class=\"num\"").size(), " data-source=\"compare\"");
+    return s;
+  }
   std::string pm(const std::string& mean, const std::string& se, Kind k) const {
     return num(mean, k, false) + " ± " + num(se, Kind::kError, false);
   }
@@ -163,9 +172,11 @@ void settings_section(Page& p);
 void sector_table(Page& p);  // 5. results: tables
 void buildings_table(Page& p);
 void outcomes_table(Page& p);
-void convergence_section(Page& p);  // 6.
-void attribution_section(Page& p);  // 7.
-void limitations_section(Page& p);  // 8.
+void convergence_section(Page& p);                     // 6.
+void attribution_section(Page& p);                     // 7.
+void limitations_section(Page& p);                     // 8.
+void comparison_warning(Page& p, std::string& items);  // the findings' line for a comparison
+void comparison_section(Page& p);                      // 5. results: the paired comparison
 
 // Words and captions.
 std::string threshold_words(const Json& summary, UnitSystem u);

@@ -61,14 +61,17 @@ void write_text(const fs::path& path, const std::string& text) {
 
 }  // namespace
 
-std::string report_html(const fs::path& results_h5, api::UnitSystem units) {
-  return render_report_html(read_report_inputs(results_h5), units, api::utc_now_iso8601());
+std::string report_html(const fs::path& results_h5, api::UnitSystem units,
+                        const std::optional<fs::path>& compare_json) {
+  ReportInputs in = read_report_inputs(results_h5);
+  if (compare_json) add_comparison(in, *compare_json, "--compare");
+  return render_report_html(in, units, api::utc_now_iso8601());
 }
 
 ReportWritten write_report(const ReportOptions& o) {
   ReportWritten w;
   const auto t0 = Clock::now();
-  const std::string html = report_html(o.results_h5, o.units);
+  const std::string html = report_html(o.results_h5, o.units, o.compare_json);
   w.html_bytes = html.size();
   auto html_dir = open_dir(o.out_html, "--out");
   stage(*html_dir, o.out_html, "--out", [&](const fs::path& p) { write_text(p, html); });

@@ -103,6 +103,7 @@ void results(Page& p) {
   sector_table(p);
   buildings_table(p);
   outcomes_table(p);
+  comparison_section(p);
   p.raw("</section>\n");
 }
 

@@ -94,4 +94,28 @@ ReportInputs read_report_inputs(const fs::path& path) {
   return in;
 }
 
+void add_comparison(ReportInputs& in, const fs::path& compare_json, const std::string& field) {
+  std::ifstream file(compare_json, std::ios::binary);
+  if (!file) throw InputError(field, compare_json.string() + ": cannot be read");
+  nlohmann::ordered_json c;
+  try {
+    c = nlohmann::ordered_json::parse(file);
+  } catch (const std::exception& e) {
+    throw InputError(field, compare_json.string() + ": not JSON (" + e.what() + ")");
+  }
+  if (!c.is_object() || c.value("schema", "") != "fragsim-compare")
+    throw InputError(field, compare_json.string() + ": not a fragsim compare.json");
+  const auto& prov = c.value("provenance", nlohmann::ordered_json::object());
+  if (prov.value("variant_scenario_sha256", "") == in.scenario_sha256)
+    in.compare_role = "variant";
+  else if (prov.value("base_scenario_sha256", "") == in.scenario_sha256)
+    in.compare_role = "base";
+  else
+    throw InputError(field, compare_json.string() +
+                                " compares other runs: neither its base's nor "
+                                "its variant's scenario SHA-256 is this results file's (" +
+                                in.scenario_sha256 + ")");
+  in.compare = std::move(c);
+}
+
 }  // namespace fragsim::report

@@ -5,6 +5,7 @@
 // (gis/plan_boundary.h).
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "gis/plan_boundary.h"
@@ -22,11 +23,19 @@ struct ReportInputs {
   int format_version = 0;
   gis::ResultsFile results;
   gis::PlanBoundary boundary;
+  // A paired comparison this run is part of (compare.json; docs/comparison.md), and its role.
+  std::optional<nlohmann::ordered_json> compare;
+  std::string compare_role;  // "base" or "variant"
 };
 
 // Reads `path`. Throws InputError("RESULTS.h5", "<path>: <problem>") when it is missing, not an
 // HDF5 file, not a fragsim results file, from a cancelled run (partial figures), or older than
 // results format 5 (no stored summary).
 ReportInputs read_report_inputs(const std::filesystem::path& path);
+
+// Adds `compare_json` (a paired comparison's compare.json) to `in`. Throws InputError(field,
+// ...) when it is not one, or compares other runs (neither scenario SHA-256 is this run's).
+void add_comparison(ReportInputs& in, const std::filesystem::path& compare_json,
+                    const std::string& field);
 
 }  // namespace fragsim::report

@@ -206,6 +206,7 @@ void warnings(Page& p) {
     items += warning_item(
         "Ground ricochet is off (<code>settings.bounce</code> false): every "
         "fragment stops where it first reaches the ground (section 8).");
+  comparison_warning(p, items);
   if (items.empty()) return;
   p.raw("<ul class=\"warnings\" id=\"warnings\">" + items + "</ul>");
 }

@@ -1,6 +1,7 @@
 // Reports of finished jobs, made once and kept (job_reports.h).
 #include "server/job_reports.h"
 
+#include "api/compare_json.h"
 #include "api/output_dir.h"
 #include "api/run_outputs.h"
 #include "report/report.h"
@@ -38,6 +39,9 @@ fs::path JobReports::ensure(const fs::path& job_dir, api::UnitSystem units, bool
   report::ReportOptions o;
   o.results_h5 = job_dir / api::kResultsFileName;
   o.units = units;
+  // A job with compare_with: its report shows the comparison (docs/comparison.md).
+  if (std::error_code missing; std::filesystem::exists(job_dir / api::kCompareFileName, missing))
+    o.compare_json = job_dir / api::kCompareFileName;
   if (pdf) {
     // The HTML of the same units is written too (kept: a later request for it is served).
     o.out_html = dir / file_name(units, false);

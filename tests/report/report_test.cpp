@@ -12,11 +12,13 @@
 #include <map>
 #include <regex>
 
+#include "api/compare_json.h"
 #include "api/output_dir.h"
 #include "api/results_h5.h"
 #include "api/run_outputs.h"
 #include "api/test_support.h"
 #include "core/common/error.h"
+#include "core/run/paired.h"
 #include "core/run/run.h"
 #include "report/report_html.h"
 
@@ -176,7 +178,7 @@ TEST_F(Report, RefusesWhatIsNotAResultsFileNamingIt) {
   std::ofstream(text) << "not hdf5\n";
   const auto refused = [&](const fs::path& in, const std::string& what) {
     try {
-      write_report({in, dir_ / "out" / "r.html", std::nullopt, api::UnitSystem::kSi, ""});
+      write_report({in, dir_ / "out" / "r.html", std::nullopt, api::UnitSystem::kSi, "", {}});
       ADD_FAILURE() << "accepted " << in;
     } catch (const InputError& e) {
       EXPECT_EQ(e.field(), "RESULTS.h5");
@@ -197,7 +199,7 @@ TEST_F(Report, AnUnwritableOutputIsRefusedAndLeavesNothing) {
   const auto before = std::distance(fs::directory_iterator(dir_), fs::directory_iterator());
   for (const fs::path& out : {dir_ / "a_file" / "r.html", dir_ / "run"}) {
     try {
-      write_report({h5, out, std::nullopt, api::UnitSystem::kSi, ""});
+      write_report({h5, out, std::nullopt, api::UnitSystem::kSi, "", {}});
       ADD_FAILURE() << "wrote " << out;
     } catch (const InputError& e) {
       EXPECT_EQ(e.field(), "--out");
@@ -207,7 +209,7 @@ TEST_F(Report, AnUnwritableOutputIsRefusedAndLeavesNothing) {
   // A PDF that cannot be printed (no such browser): neither file appears.
   try {
     write_report(
-        {h5, dir_ / "r.html", dir_ / "r.pdf", api::UnitSystem::kSi, "/nonexistent/chromium"});
+        {h5, dir_ / "r.html", dir_ / "r.pdf", api::UnitSystem::kSi, "/nonexistent/chromium", {}});
     ADD_FAILURE() << "printed without a browser";
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "--pdf");
@@ -226,6 +228,86 @@ TEST(ReportText, PrettyJsonKeepsScalarArraysOnOneLine) {
             "      \"e\": 1\n    }\n  ]\n}");
   EXPECT_EQ(json_for_script(Json{{"k", "</script>&"}}), R"({"k":"\u003c/script\u003e\u0026"})");
   EXPECT_EQ(escape_html("<a href='x'>&\"</a>"), "&lt;a href=&#39;x&#39;&gt;&amp;&quot;&lt;/a&gt;");
+}
+
+// A paired comparison (docs/comparison.md): the variant's results.h5 and the comparison's
+// compare.json, as `fragsim compare` writes them; the variant moves B1 20 m further out.
+struct ComparisonFiles {
+  fs::path variant_h5, compare_json;
+};
+ComparisonFiles write_comparison(const fs::path& dir) {
+  const Json base = small_scenario();
+  Json variant = base;
+  variant["site"]["buildings"][0]["footprint_m"] = {{80, -10}, {100, -10}, {100, 10}, {80, 10}};
+  const api::ScenarioDocument bd = api::parse_scenario_document(base);
+  const api::ScenarioDocument vd = api::parse_scenario_document(variant);
+  const auto bs = api::validate_scenario(bd.scenario), vs = api::validate_scenario(vd.scenario);
+  const run::PairedRun paired = run::run_paired(bd.scenario, bs, vd.scenario, vs);
+  api::Provenance provenance = api::build_provenance();
+  provenance.scenario_sha256 = "variant-sha";
+  api::OutputDir out(dir / "variant");
+  api::stage_run_outputs(out, paired.variant, *vs, vd, provenance);
+  out.commit();
+  api::CompareInputs in;
+  in.paired = &paired;
+  in.base = &bd.scenario;
+  in.base_site = bs.get();
+  in.changed = {"site.buildings"};
+  in.base_sha256 = "base-sha";
+  in.variant_sha256 = "variant-sha";
+  in.provenance = api::build_provenance();
+  std::ofstream(dir / "compare.json") << api::compare_to_json(in).dump(2);
+  return {dir / "variant" / api::kResultsFileName, dir / "compare.json"};
+}
+
+// Every <span class="num" data-source="compare" data-key=... > on the page.
+std::vector<Figure> compare_figures(const std::string& html) {
+  static const std::regex kSpan(
+      R"re(<span class="num" data-source="compare" data-key="([^"]*)" data-si="([^"]*)" data-kind="([a-z]*)">([^<]*)</span>)re");
+  std::vector<Figure> out;
+  for (std::sregex_iterator it(html.begin(), html.end(), kSpan), end; it != end; ++it)
+    out.push_back({(*it)[1], (*it)[3], (*it)[4], std::stod((*it)[2])});
+  return out;
+}
+
+// The comparison's part of the report: every number equals compare.json (SI exactly, shown to
+// its digits in SI and US), the summary's numbers are still checked as on any page, and the
+// findings say which run of the comparison this is.
+TEST_F(Report, AComparisonsNumbersEqualCompareJson) {
+  const ComparisonFiles f = write_comparison(dir_);
+  const Json compare = Json::parse(read_text(f.compare_json));
+  for (const bool us : {false, true}) {
+    const std::string html =
+        report_html(f.variant_h5, us ? api::UnitSystem::kUs : api::UnitSystem::kSi, f.compare_json);
+    EXPECT_NE(html.find("id=\"comparison-table\""), std::string::npos);
+    EXPECT_NE(html.find("the <strong>variant</strong> of a paired comparison"), std::string::npos);
+    const auto figures = compare_figures(html);
+    ASSERT_GE(figures.size(), 15u);  // HFD, B1's impacts and penetrations, left site, density
+    for (const Figure& fig : figures) {
+      SCOPED_TRACE(fig.key + " shown " + fig.shown);
+      const Json::json_pointer ptr(fig.key);
+      ASSERT_TRUE(compare.contains(ptr));
+      EXPECT_EQ(fig.si, compare.at(ptr).get<double>());
+      const double want = converted(fig.si, fig.kind, us);
+      EXPECT_NEAR(std::stod(fig.shown), want, half_last_digit(fig.shown) * (1 + 1e-9));
+    }
+    EXPECT_GE(keyed_figures(html).size(), 60u);  // the rest of the page as before
+  }
+  check_figures(f.variant_h5, false);
+}
+
+TEST_F(Report, ACompareJsonOfOtherRunsIsRefusedNamingIt) {
+  const ComparisonFiles f = write_comparison(dir_);
+  const fs::path other = write_run(small_scenario(), dir_ / "other");  // no scenario SHA-256
+  try {
+    report_html(other, api::UnitSystem::kSi, f.compare_json);
+    ADD_FAILURE() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "--compare");
+    EXPECT_NE(std::string(e.what()).find("compares other runs"), std::string::npos) << e.what();
+  }
+  std::ofstream(dir_ / "not.json") << "{\"schema\": \"fragsim.scenario/1\"}";
+  EXPECT_THROW(report_html(f.variant_h5, api::UnitSystem::kSi, dir_ / "not.json"), InputError);
 }
 
 }  // namespace
