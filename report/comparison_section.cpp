@@ -22,7 +22,8 @@ void figure_row(Page& p, const std::string& label, const std::string& key, Kind 
 
 void hfd_row(Page& p) {
   p.row({"HFD (" + std::string(api::present_length(0.0, p.units()).unit) + ")",
-         p.cnum("/hfd/base_m", Kind::kLength, false), p.cnum("/hfd/variant_m", Kind::kLength, false),
+         p.cnum("/hfd/base_m", Kind::kLength, false),
+         p.cnum("/hfd/variant_m", Kind::kLength, false),
          p.cnum("/hfd/difference_m", Kind::kLength, false) + " ± " +
              p.cnum("/hfd/paired_std_error_m", Kind::kLength, false) + " (jackknife)",
          "—"});
@@ -61,15 +62,17 @@ void comparison_section(Page& p) {
   if (!p.in().compare) return;
   const Json& c = *p.in().compare;
   p.raw("<h3 id=\"comparison\">Paired comparison (variant − base)</h3><p>");
-  p.text("This run is the " + p.in().compare_role + " of a paired comparison (docs/comparison.md): " +
+  p.text("This run is the " + p.in().compare_role +
+         " of a paired comparison (docs/comparison.md): " +
          "the same histories, seed and fragment groups were flown over the base site and the " +
          "variant site. What the variant changes: ");
   std::string what;
   for (const Json& k : c.value("changed", Json::array()))
     what += (what.empty() ? "" : ", ") + k.get<std::string>();
   p.raw("<code>" + esc(what.empty() ? "nothing" : what) + "</code>. ");
-  p.text("The difference's paired standard error comes from the per-history differences; the "
-         "unpaired one is what two independent runs of the same histories would give.");
+  p.text(
+      "The difference's paired standard error comes from the per-history differences; the "
+      "unpaired one is what two independent runs of the same histories would give.");
   p.raw("</p><table class=\"grid\" id=\"comparison-table\"><thead>");
   p.row({"figure", "base", "variant", "difference ± paired se", "unpaired se"}, true);
   p.raw("</thead><tbody>");

@@ -693,6 +693,13 @@ OJson Service::job_json(const JobRow& row) {
                 {"results_h5", self + "/results.h5"},
                 {"maps", self + "/maps"},
                 {"plan_boundary", self + "/plan_boundary"}};
+  // A done job submitted with compare_with (docs/comparison.md) also links its comparison.
+  std::error_code missing;
+  if (row.state == JobState::kDone &&
+      std::filesystem::exists(scheduler_.job_dir(row.job_id) / api::kCompareFileName, missing)) {
+    j["links"]["compare"] = self + "/compare";
+    j["links"]["compare_h5"] = self + "/compare.h5";
+  }
   return j;
 }
 

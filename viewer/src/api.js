@@ -112,6 +112,7 @@ export const api = {
   cancelJob: (id) => request(`/v1/jobs/${enc(id)}`, { method: 'DELETE' }),
   summary: (id) => request(`/v1/jobs/${enc(id)}/summary`),
   maps: (id) => request(`/v1/jobs/${enc(id)}/maps`),
+  comparison: (id) => request(`/v1/jobs/${enc(id)}/compare`),
   jobScene: (id, maxTrajectories = 200) =>
     request(`/v1/jobs/${enc(id)}/scene?max_trajectories=${maxTrajectories}`, { as: 'arraybuffer' }),
   sites: () => request('/v1/sites'),

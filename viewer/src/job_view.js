@@ -13,7 +13,7 @@ import { densityProfiles, drawDensityPlot } from './plot.js';
 import { parseScene } from './scene_format.js';
 import { SceneView } from './scene3d.js';
 import { attributionRow, attributionRows, boundaryNote, isLower, lengthText, precisionStatus, sectorLowerBounds, summaryRow, summaryRows } from './summary_text.js';
-import { convert, currentUnits, energy, lengthUnit, onUnitsChange, speed } from './units.js';
+import { convert, currentUnits, energy, length, lengthUnit, onUnitsChange, speed } from './units.js';
 
 const $ = (id) => document.getElementById(id);
 const COLORS = { contour: '#111111', hfd: '#d6001c', sectors: '#ff7f0e', launch: '#d6001c' };
@@ -60,6 +60,7 @@ export async function enterJob(id, ctx) {
   ctx.ready('job');
   loadMaps(id, ctx);
   loadPlanBoundary(id, ctx);
+  if (status.links?.compare) loadComparison(id, status.links.compare, ctx);
 }
 
 export function leaveJob() {
@@ -78,6 +79,8 @@ function resetPage(id) {
   $('hfd-attribution-table').tBodies[0].replaceChildren();
   $('buildings-table').tBodies[0].replaceChildren();
   $('downloads').replaceChildren();
+  $('comparison').hidden = true;
+  $('comparison-table').tBodies[0].replaceChildren();
   $('legend').replaceChildren();
   $('layers').replaceChildren();
   $('colour-by').replaceChildren();
@@ -410,6 +413,63 @@ function drawPlot() {
   });
 }
 
+// ---- paired comparison (docs/comparison.md): a job submitted with compare_with ----------------
+
+async function loadComparison(id, path, ctx) {
+  const st = state;
+  let c;
+  try {
+    c = await api.comparison(id);
+  } catch (e) {
+    console.warn(`comparison of ${id}: ${errorText(e)}`);
+    return;
+  }
+  if (!ctx.current() || state !== st) return;
+  st.comparison = c;
+  renderComparison(c);
+  const group = el('div', { class: 'download-group', id: 'comparison-downloads' }, [
+    el('span', { class: 'muted', text: 'Comparison:' }),
+    downloadLink(path, `${id}_compare.json`, 'compare.json'),
+    downloadLink(`${path}.h5`, `${id}_compare.h5`, 'compare.h5', 'density difference'),
+  ]);
+  $('downloads').append(group);
+}
+
+// A compare.json figure: base, variant, difference ± paired se, unpaired se (counts as given).
+function comparisonRow(label, f, conv = (x) => x) {
+  return el('tr', {}, [
+    el('td', { text: label }),
+    el('td', { class: 'num', text: sig(conv(f.base)) }),
+    el('td', { class: 'num', text: sig(conv(f.variant)) }),
+    el('td', { class: 'num difference', text: plusMinus(conv(f.difference), conv(f.paired_std_error)) }),
+    el('td', { class: 'num', text: f.unpaired_std_error === undefined ? '—' : sig(conv(f.unpaired_std_error), 2) }),
+  ]);
+}
+
+function renderComparison(c) {
+  const u = currentUnits();
+  const len = (m) => convert(m, length, u);
+  const h = c.hfd || {};
+  const rows = [comparisonRow(`HFD (${lengthUnit(u)}; se: jackknife)`,
+    { base: h.base_m, variant: h.variant_m, difference: h.difference_m, paired_std_error: h.paired_std_error_m }, len)];
+  let unchanged = 0;
+  for (const b of c.buildings || []) {
+    const moved = ['impacts', 'penetrations'].some((k) => b[k].difference !== 0 || b[k].paired_std_error !== 0);
+    if (!moved) {
+      unchanged += 1;
+      continue;
+    }
+    rows.push(comparisonRow(`${b.id}: impacts`, b.impacts), comparisonRow(`${b.id}: penetrations`, b.penetrations));
+  }
+  $('comparison-table').tBodies[0].replaceChildren(...rows);
+  $('comparison-what').textContent = `The same histories flown over the base site and this one (docs/comparison.md). Changed: ${
+    (c.changed || []).join(', ') || 'nothing'}.`;
+  const notes = [...(unchanged ? [`${unchanged} other buildings: the same histories hit them in both sites (difference 0).`] : []),
+    ...(c.limitations || [])];
+  $('comparison-notes').textContent = notes.join(' ');
+  $('comparison').hidden = false;
+}
+
 // ---- units (units.js): every figure the page shows again in the selected system -----------------
 
 onUnitsChange(() => {
@@ -420,6 +480,7 @@ onUnitsChange(() => {
   renderBuildings(state.summary, state.buildingRgb);
   drawPlot();
   document.getElementById('report-list')?.replaceChildren(...reportLinks(state.id));
+  if (state.comparison) renderComparison(state.comparison);
 });
 
 window.addEventListener('resize', () => {

@@ -74,7 +74,7 @@ async function checkPage(units) {
       name: n.dataset.plot, drawn: n.dataset.drawn, svgs: n.querySelectorAll('svg').length })));
     assert.deepEqual(plots.map((p) => p.name).sort(), ['map', 'overview', 'profile', 'rose']);
     for (const p of plots) assert.ok(p.drawn === 'yes' && p.svgs > 0, `figure ${p.name} not drawn`);
-    const nums = await page.$$eval('.num[data-key]', (ns) => ns.map((n) => ({
+    const nums = await page.$$eval('.num[data-key]:not([data-source])', (ns) => ns.map((n) => ({
       key: n.dataset.key, si: n.dataset.si, kind: n.dataset.kind, shown: n.textContent })));
     assert.ok(nums.length >= 60, `only ${nums.length} keyed numbers`);
     for (const n of nums) {
