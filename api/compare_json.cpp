@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "api/h5_writer.h"
+#include "api/units.h"
 #include "core/common/error.h"
 
 namespace fragsim::api {
@@ -265,7 +266,7 @@ void write_compare_h5(const std::filesystem::path& path, const run::PairedRun& p
   w.close();
 }
 
-std::string render_compare_text(const Json& c) {
+std::string render_compare_text(const Json& c, UnitSystem units) {
   std::ostringstream out;
   out << "Paired comparison (" << c["method"]["histories"].get<std::int64_t>()
       << " histories, seed " << c["method"]["seed"].get<std::uint64_t>() << "), variant - base\n";
@@ -274,10 +275,11 @@ std::string render_compare_text(const Json& c) {
     out << (k ? ", " : "") << c["changed"][k].get<std::string>();
   out << (c["changed"].empty() ? "nothing\n" : "\n");
   const Json& h = c["hfd"];
-  out << "  HFD: base "
-      << format("%.1f m, variant %.1f m", h["base_m"].get<double>(), h["variant_m"].get<double>())
-      << format(", difference %+.1f +- %.1f m (jackknife)\n", h["difference_m"].get<double>(),
-                h["paired_std_error_m"].get<double>());
+  out << "  HFD: base " << format_length(h["base_m"].get<double>(), units) << ", variant "
+      << format_length(h["variant_m"].get<double>(), units) << ", difference "
+      << (h["difference_m"].get<double>() >= 0 ? "+" : "")
+      << format_length(h["difference_m"].get<double>(), units) << " +- "
+      << format_length(h["paired_std_error_m"].get<double>(), units) << " (jackknife)\n";
   int unchanged = 0;
   for (const Json& b : c["buildings"]) {
     if (b["impacts"]["difference"].get<double>() == 0.0 &&

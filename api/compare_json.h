@@ -10,6 +10,7 @@
 
 #include "api/scenario_json.h"
 #include "api/summary_json.h"
+#include "api/units.h"
 #include "core/run/paired.h"
 #include "core/scene/site.h"
 
@@ -41,7 +42,8 @@ nlohmann::ordered_json compare_to_json(const CompareInputs& in);
 void write_compare_h5(const std::filesystem::path& path, const run::PairedRun& paired,
                       const scene::Site& base_site, const nlohmann::ordered_json& compare);
 
-// The comparison as a person reads it on a terminal.
-std::string render_compare_text(const nlohmann::ordered_json& compare);
+// The comparison as a person reads it on a terminal (the HFD in `units`; counts have none).
+std::string render_compare_text(const nlohmann::ordered_json& compare,
+                                UnitSystem units = UnitSystem::kSi);
 
 }  // namespace fragsim::api

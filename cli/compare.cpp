@@ -103,7 +103,7 @@ int compare_command(const Options& o, const std::atomic<bool>& cancel) {
   variant_dir->commit();
   root->commit();
   if (!o.quiet)
-    std::cout << api::render_compare_text(compare) << "\nWrote " << root->path().string()
+    std::cout << api::render_compare_text(compare, o.units) << "\nWrote " << root->path().string()
               << "/{compare.json, compare.h5, base/, variant/}\n";
   return kExitOk;
 }

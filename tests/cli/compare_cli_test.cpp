@@ -63,6 +63,10 @@ TEST_F(CompareCli, WritesBothRunsAndTheirPairedDifference) {
   EXPECT_LE(b1["paired_std_error"].get<double>(), b1["unpaired_std_error"].get<double>());
   EXPECT_EQ(c["hfd"]["base_m"].dump(), sb["hazardous_fragment_distance_m"].dump());
   EXPECT_TRUE(c["density"]["same_terrain"].get<bool>());
+  // --units us: the printed HFD in feet (the files stay SI).
+  const auto us = run({"compare", base, variant, "--out", (dir_ / "us").string(), "--units", "us"});
+  ASSERT_EQ(us.exit_code, 0) << us.err;
+  EXPECT_NE(us.out.find(" ft, variant "), std::string::npos) << us.out;
 }
 
 // The same file twice: every difference is 0 with se 0 (the runs are bit-identical).
