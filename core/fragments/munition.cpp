@@ -29,8 +29,8 @@ double mott_constant_si_from_us(double b_oz_in) {
   return b_oz_in * kMottUsToSi;
 }
 
-double cylinder_wall_mass_kg(double density_kg_m3, double inner_diameter_m,
-                             double wall_thickness_m, double length_m) {
+double cylinder_wall_mass_kg(double density_kg_m3, double inner_diameter_m, double wall_thickness_m,
+                             double length_m) {
   const double d = inner_diameter_m, t = wall_thickness_m;
   // (d + 2t)^2 - d^2 = 4t (d + t), free of cancellation for thin walls.
   return std::numbers::pi * t * (d + t) * length_m * density_kg_m3;

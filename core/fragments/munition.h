@@ -26,10 +26,9 @@ inline constexpr double kMottUsToSi = 12.226445310107716;
 
 // Case (wall) mass from its density and geometry, kg: a cylinder's wall, ends excluded,
 // pi/4 ((d + 2t)^2 - d^2) L rho; a spherical shell pi/6 ((d + 2t)^3 - d^3) rho.
-double cylinder_wall_mass_kg(double density_kg_m3, double inner_diameter_m,
-                             double wall_thickness_m, double length_m);
-double sphere_shell_mass_kg(double density_kg_m3, double inner_diameter_m,
-                            double wall_thickness_m);
+double cylinder_wall_mass_kg(double density_kg_m3, double inner_diameter_m, double wall_thickness_m,
+                             double length_m);
+double sphere_shell_mass_kg(double density_kg_m3, double inner_diameter_m, double wall_thickness_m);
 
 // Number of fragments of a case of mass M under Mott's law: N0 = M / (2 mu), the mean mass 2 mu.
 double mott_fragment_count(double case_mass_kg, double mu_kg);

@@ -42,8 +42,9 @@ TEST(Gurney, EnergyBalanceHolds) {
   // gas's share of kinetic energy: 1/2 (cylinder), 3/5 (sphere), 1/3 (symmetric sandwich).
   const double sqrt_2e = 2830.0, c = 3.0, m = 7.0;
   const double e = 0.5 * sqrt_2e * sqrt_2e;
-  for (auto [g, k] : {std::pair{CaseGeometry::kCylinder, 0.5}, std::pair{CaseGeometry::kSphere, 0.6},
-                      std::pair{CaseGeometry::kSandwich, 1.0 / 3.0}}) {
+  for (auto [g, k] :
+       {std::pair{CaseGeometry::kCylinder, 0.5}, std::pair{CaseGeometry::kSphere, 0.6},
+        std::pair{CaseGeometry::kSandwich, 1.0 / 3.0}}) {
     const double v = gurney_velocity(sqrt_2e, c / m, g);
     EXPECT_NEAR(c * e, 0.5 * v * v * (m + k * c), kRel * c * e);
   }
@@ -73,8 +74,8 @@ TEST(Mott, ScaleFromCaseGeometryHandWorked) {
 TEST(Mott, CaseMasses) {
   // Steel 7850 kg/m^3, d = 0.1 m, t = 0.01 m, L = 0.3 m:
   // pi/4 (0.12^2 - 0.1^2) 0.3 * 7850 = pi/4 * 0.0044 * 0.3 * 7850 = 8.13830 kg.
-  EXPECT_NEAR(cylinder_wall_mass_kg(7850, 0.1, 0.01, 0.3), std::numbers::pi / 4 * 0.0044 * 0.3 * 7850,
-              1e-12 * 10);
+  EXPECT_NEAR(cylinder_wall_mass_kg(7850, 0.1, 0.01, 0.3),
+              std::numbers::pi / 4 * 0.0044 * 0.3 * 7850, 1e-12 * 10);
   EXPECT_NEAR(cylinder_wall_mass_kg(7850, 0.1, 0.01, 0.3), 8.13830, 1e-5);
   // pi/6 (0.12^3 - 0.1^3) 7850 = pi/6 * 0.000728 * 7850 = 2.99222 kg.
   EXPECT_NEAR(sphere_shell_mass_kg(7850, 0.1, 0.01), std::numbers::pi / 6 * 0.000728 * 7850,
