@@ -16,7 +16,8 @@ namespace {
 // listed in issue 26. Only Composition B's 2.70 mm/us could be checked against a second text
 // (the University of Utah Uintah code's "1-D Gurney cylinder test" input, which cites Cooper eq.
 // 27.1 with sqrt(2E) = 2.70 km/s for Comp B); the rest are unverified.
-constexpr std::string_view kCooper = "Cooper 1996, Explosives Engineering, Table 27.2 (as quoted in issue 26)";
+constexpr std::string_view kCooper =
+    "Cooper 1996, Explosives Engineering, Table 27.2 (as quoted in issue 26)";
 constexpr std::string_view kCooperChecked =
     "Cooper 1996, Explosives Engineering, Table 27.2; 2.70 km/s also in Uintah's Gurney "
     "cylinder test input citing Cooper eq. 27.1";

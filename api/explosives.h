@@ -14,8 +14,8 @@ struct Explosive {
   std::string_view name;
   double gurney_velocity_mps;  // sqrt(2E)
   std::string_view gurney_source;
-  bool gurney_verified;      // checked against a source text (not only as quoted in issue 26)
-  double mott_constant_us;   // B, oz^(1/2) in^(-7/6); 0: none in the table
+  bool gurney_verified;     // checked against a source text (not only as quoted in issue 26)
+  double mott_constant_us;  // B, oz^(1/2) in^(-7/6); 0: none in the table
   std::string_view mott_source;
   bool mott_verified;
 };

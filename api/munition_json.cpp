@@ -18,7 +18,7 @@ namespace {
 
 using fragments::CaseGeometry;
 
-constexpr double kMaxMass_kg = 1e7;     // a 10,000 t case is beyond any munition
+constexpr double kMaxMass_kg = 1e7;  // a 10,000 t case is beyond any munition
 constexpr double kMaxChargeToMetal = 1e3;
 constexpr double kFractionSumTolerance = 1e-6;
 constexpr double kDefaultSteelDensity = 7850.0;  // illustrative: a carbon steel
@@ -104,7 +104,8 @@ ExplosiveValues read_explosive(const Json& j, MunitionGroups& out) {
     table = find_explosive(name);
     if (!table) {
       std::string names;
-      for (const Explosive& x : explosives()) names += (names.empty() ? "" : ", ") + std::string(x.name);
+      for (const Explosive& x : explosives())
+        names += (names.empty() ? "" : ", ") + std::string(x.name);
       fail(o.at("name"), "unknown explosive \"" + name + "\" (the table has " + names +
                              "; or give gurney_velocity_mps and mott_constant_si)");
     }
@@ -134,9 +135,9 @@ ExplosiveValues read_explosive(const Json& j, MunitionGroups& out) {
                         num(*e.mott_b_si) + " kg^(1/2) m^(-7/6)");
   } else if (table && table->mott_constant_us > 0.0) {
     e.mott_b_si = fragments::mott_constant_si_from_us(table->mott_constant_us);
-    out.steps.push_back("Mott B " + num(table->mott_constant_us) + " oz^(1/2) in^(-7/6) = " +
-                        num(*e.mott_b_si) + " kg^(1/2) m^(-7/6): " + e.label + ", " +
-                        std::string(table->mott_source));
+    out.steps.push_back("Mott B " + num(table->mott_constant_us) +
+                        " oz^(1/2) in^(-7/6) = " + num(*e.mott_b_si) +
+                        " kg^(1/2) m^(-7/6): " + e.label + ", " + std::string(table->mott_source));
     if (!table->mott_verified)
       out.notes.push_back("the Mott constant of " + e.label + " is unverified: illustrative (" +
                           std::string(table->mott_source) + ")");
@@ -156,8 +157,9 @@ double read_mu(const ObjectReader& f, CaseGeometry g, const Case& c, const Explo
     fail(f.at("mu_kg"),
          "is required for this geometry (Mott's case formula is for cylindrical cases)");
   if (!e.mott_b_si)
-    fail(f.at("mu_kg"), "is required: no Mott constant (give explosive.mott_constant_si, "
-                        "explosive.mott_constant_us, or an explosive of the table that has one)");
+    fail(f.at("mu_kg"),
+         "is required: no Mott constant (give explosive.mott_constant_si, "
+         "explosive.mott_constant_us, or an explosive of the table that has one)");
   if (!c.wall) fail("case.wall_thickness_m", "is required to compute Mott's mu");
   if (!c.inner_diameter) fail("case.inner_diameter_m", "is required to compute Mott's mu");
   const double mu = fragments::mott_scale_kg(*e.mott_b_si, *c.wall, *c.inner_diameter);
@@ -206,8 +208,8 @@ struct NoseFrame {
 };
 
 NoseFrame read_frame(const Json& j) {
-  const ObjectReader o(j, "frame",
-                       std::vector<std::string>{"origin_m", "yaw_deg", "pitch_deg", "velocity_mps"});
+  const ObjectReader o(
+      j, "frame", std::vector<std::string>{"origin_m", "yaw_deg", "pitch_deg", "velocity_mps"});
   NoseFrame f;
   const Vec3 origin = read_position(o.require("origin_m"), o.at("origin_m"));
   const Vec3 v = o.vec3_or("velocity_mps", Vec3::Zero());
@@ -277,8 +279,8 @@ MunitionGroups finish_groups(const ObjectReader& o, const ObjectReader& f, const
   const double in_range = fragments::mott_survival(lo, mu) - fragments::mott_survival(hi, mu);
   common.count_total = n0 * in_range;
   out.steps.push_back("N0 = case mass / (2 mu) = " + num(n0) + " fragments; " + num(in_range) +
-                      " of them in [" + num(lo) + ", " + num(hi) + "] kg: " +
-                      num(common.count_total));
+                      " of them in [" + num(lo) + ", " + num(hi) +
+                      "] kg: " + num(common.count_total));
   common.mass = detail::distribution_to_json(d);
   common.samples = f.integer("samples", 1, kMaxSamplesPerGroup);
   common.cd = f.require("cd");
@@ -321,9 +323,9 @@ MunitionGroups groups_from_munition(const Json& j) {
   const Case c = read_case(o.require("case"), g, out);
   const double ratio = read_charge_to_metal(o.require("charge"), c.mass_kg, out);
   const ExplosiveValues e = read_explosive(o.require("explosive"), out);
-  const ObjectReader f(o.require("fragments"), "fragments",
-                       std::vector<std::string>{"mu_kg", "min_kg", "max_kg", "samples", "cd",
-                                                "shape"});
+  const ObjectReader f(
+      o.require("fragments"), "fragments",
+      std::vector<std::string>{"mu_kg", "min_kg", "max_kg", "samples", "cd", "shape"});
   const double mu = read_mu(f, g, c, e, out);
   GroupCommon common;
   common.speed = fragments::gurney_velocity(e.sqrt_2e, ratio, g);

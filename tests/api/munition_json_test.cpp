@@ -40,7 +40,8 @@ TEST(MunitionJson, ExampleGroupsFollowTheFormulas) {
   // Case: pi t (d + t) L rho; C/M; Gurney cylinder; Mott from Comp B's (unverified) constant.
   const double m = fragments::cylinder_wall_mass_kg(7850, 0.11, 0.02, 0.5);
   const double v = fragments::gurney_velocity(2700, 6.6 / m, fragments::CaseGeometry::kCylinder);
-  const double mu = fragments::mott_scale_kg(fragments::mott_constant_si_from_us(0.0554), 0.02, 0.11);
+  const double mu =
+      fragments::mott_scale_kg(fragments::mott_constant_si_from_us(0.0554), 0.02, 0.11);
   const double in_range = fragments::mott_survival(1e-4, mu) - fragments::mott_survival(1e5, mu);
   double total = 0.0;
   for (const Json& grp : g.groups) {
