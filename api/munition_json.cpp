@@ -90,58 +90,68 @@ double read_charge_to_metal(const Json& j, double case_mass, MunitionGroups& out
 struct ExplosiveValues {
   double sqrt_2e = 0.0;
   std::optional<double> mott_b_si;
-  std::string label;
 };
+
+// explosive.name in the table, or nullptr without a name.
+const Explosive* table_entry(const ObjectReader& o) {
+  if (!o.has("name")) return nullptr;
+  const std::string name = o.string("name");
+  if (const Explosive* e = find_explosive(name)) return e;
+  std::string names;
+  for (const Explosive& x : explosives())
+    names += (names.empty() ? "" : ", ") + std::string(x.name);
+  fail(o.at("name"), "unknown explosive \"" + name + "\" (the table has " + names +
+                         "; or give gurney_velocity_mps and mott_constant_si)");
+}
+
+double read_gurney(const ObjectReader& o, const Explosive* table, MunitionGroups& out) {
+  if (const auto v = positive(o, "gurney_velocity_mps", fragments::kSpeedRange.hi)) {
+    out.steps.push_back("sqrt(2E) " + num(*v) + " m/s (given)");
+    return *v;
+  }
+  if (!table) fail(o.at("gurney_velocity_mps"), "is required without a name");
+  const std::string label(table->name), source(table->gurney_source);
+  out.steps.push_back("sqrt(2E) " + num(table->gurney_velocity_mps) + " m/s: " + label + ", " +
+                      source);
+  if (!table->gurney_verified)
+    out.notes.push_back("sqrt(2E) of " + label + " is unverified (" + source + ")");
+  return table->gurney_velocity_mps;
+}
+
+std::optional<double> read_mott_constant(const ObjectReader& o, const Explosive* table,
+                                         MunitionGroups& out) {
+  if (o.has("mott_constant_si") && o.has("mott_constant_us"))
+    fail("explosive", "give at most one of mott_constant_si and mott_constant_us");
+  if (const auto b = positive(o, "mott_constant_si", 1e3)) {
+    out.steps.push_back("Mott B " + num(*b) + " kg^(1/2) m^(-7/6) (given)");
+    return b;
+  }
+  const auto bu = positive(o, "mott_constant_us", 1e2);
+  if (!bu && !(table && table->mott_constant_us > 0.0)) return std::nullopt;
+  const double b_us = bu ? *bu : table->mott_constant_us;
+  const double b_si = fragments::mott_constant_si_from_us(b_us);
+  std::string step =
+      "Mott B " + num(b_us) + " oz^(1/2) in^(-7/6) = " + num(b_si) + " kg^(1/2) m^(-7/6)";
+  if (bu) {
+    out.steps.push_back(step + " (given)");
+    return b_si;
+  }
+  const std::string label(table->name), source(table->mott_source);
+  out.steps.push_back(step + ": " + label + ", " + source);
+  if (!table->mott_verified)
+    out.notes.push_back("the Mott constant of " + label + " is unverified: illustrative (" +
+                        source + ")");
+  return b_si;
+}
 
 ExplosiveValues read_explosive(const Json& j, MunitionGroups& out) {
   const ObjectReader o(j, "explosive",
                        std::vector<std::string>{"name", "gurney_velocity_mps", "mott_constant_si",
                                                 "mott_constant_us"});
+  const Explosive* table = table_entry(o);
   ExplosiveValues e;
-  const Explosive* table = nullptr;
-  if (o.has("name")) {
-    const std::string name = o.string("name");
-    table = find_explosive(name);
-    if (!table) {
-      std::string names;
-      for (const Explosive& x : explosives())
-        names += (names.empty() ? "" : ", ") + std::string(x.name);
-      fail(o.at("name"), "unknown explosive \"" + name + "\" (the table has " + names +
-                             "; or give gurney_velocity_mps and mott_constant_si)");
-    }
-    e.label = std::string(table->name);
-  }
-  if (const auto v = positive(o, "gurney_velocity_mps", fragments::kSpeedRange.hi)) {
-    e.sqrt_2e = *v;
-    out.steps.push_back("sqrt(2E) " + num(*v) + " m/s (given)");
-  } else if (table) {
-    e.sqrt_2e = table->gurney_velocity_mps;
-    out.steps.push_back("sqrt(2E) " + num(e.sqrt_2e) + " m/s: " + e.label + ", " +
-                        std::string(table->gurney_source));
-    if (!table->gurney_verified)
-      out.notes.push_back("sqrt(2E) of " + e.label + " is unverified (" +
-                          std::string(table->gurney_source) + ")");
-  } else {
-    fail(o.at("gurney_velocity_mps"), "is required without a name");
-  }
-  if (o.has("mott_constant_si") && o.has("mott_constant_us"))
-    fail("explosive", "give at most one of mott_constant_si and mott_constant_us");
-  if (const auto b = positive(o, "mott_constant_si", 1e3)) {
-    e.mott_b_si = *b;
-    out.steps.push_back("Mott B " + num(*b) + " kg^(1/2) m^(-7/6) (given)");
-  } else if (const auto bu = positive(o, "mott_constant_us", 1e2)) {
-    e.mott_b_si = fragments::mott_constant_si_from_us(*bu);
-    out.steps.push_back("Mott B " + num(*bu) + " oz^(1/2) in^(-7/6) (given) = " +
-                        num(*e.mott_b_si) + " kg^(1/2) m^(-7/6)");
-  } else if (table && table->mott_constant_us > 0.0) {
-    e.mott_b_si = fragments::mott_constant_si_from_us(table->mott_constant_us);
-    out.steps.push_back("Mott B " + num(table->mott_constant_us) +
-                        " oz^(1/2) in^(-7/6) = " + num(*e.mott_b_si) +
-                        " kg^(1/2) m^(-7/6): " + e.label + ", " + std::string(table->mott_source));
-    if (!table->mott_verified)
-      out.notes.push_back("the Mott constant of " + e.label + " is unverified: illustrative (" +
-                          std::string(table->mott_source) + ")");
-  }
+  e.sqrt_2e = read_gurney(o, table, out);
+  e.mott_b_si = read_mott_constant(o, table, out);
   return e;
 }
 

@@ -90,6 +90,9 @@ TEST(MunitionJson, ExplicitValuesOverrideTheTable) {
   EXPECT_NEAR(g.groups[0]["mass_kg"]["mu"].get<double>(), fragments::mott_scale_kg(0.5, 0.02, 0.11),
               1e-15);
   EXPECT_TRUE(g.notes.empty());
+  j["explosive"] = {{"gurney_velocity_mps", 2000.0}, {"mott_constant_us", 0.05}};
+  EXPECT_NEAR(groups_from_munition(j).groups[0]["mass_kg"]["mu"].get<double>(),
+              fragments::mott_scale_kg(0.05 * 12.226445310107716, 0.02, 0.11), 1e-15);
   j["fragments"]["mu_kg"] = 0.002;
   j["geometry"] = "sphere";
   j["zones"] = {{{"polar_deg", {0, 180}}, {"fraction", 1}}};
@@ -130,6 +133,15 @@ TEST(MunitionJson, ErrorsNameTheField) {
             (FieldMessage{"fragments.max_kg", "must be > min"}));
   EXPECT_EQ(error_of(with("/fragments/shape", {{"type", "blob"}})).first, "fragments.shape.type");
   EXPECT_EQ(error_of(with("/explosive/name", "RDX")).first, "fragments.mu_kg");  // no B for RDX
+  EXPECT_EQ(error_of(with("/explosive", {{"mott_constant_si", 0.5}})),
+            (FieldMessage{"explosive.gurney_velocity_mps", "is required without a name"}));
+  EXPECT_EQ(error_of(with("/explosive/mott_constant_si", 0.5) /* and the table's name */).first,
+            "<no error>");
+  Json both = with("/explosive/mott_constant_si", 0.5);
+  both["explosive"]["mott_constant_us"] = 0.05;
+  EXPECT_EQ(
+      error_of(both),
+      (FieldMessage{"explosive", "give at most one of mott_constant_si and mott_constant_us"}));
 }
 
 TEST(Explosives, TableEqualsTheDataFile) {

@@ -35,6 +35,10 @@ TEST_F(MunitionCli, GroupsRunInAScenario) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("Gurney speed V"), std::string::npos) << r.err;  // the derivation
   EXPECT_NE(r.err.find("note: the Mott constant of Comp B is unverified"), std::string::npos);
+  // The committed derivation of the example is what the command prints today.
+  EXPECT_NE(r.err.find(read_text(source_path("examples/munitions/derivation.txt"))),
+            std::string::npos)
+      << r.err;
   const Json groups = Json::parse(read_text(dir_ / "groups.json"));
   ASSERT_EQ(groups.size(), 3u);
   // The committed example output is what the command writes today.
