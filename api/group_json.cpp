@@ -28,7 +28,7 @@ constexpr std::pair<const char*, ShapeType> kShapes[] = {
 constexpr std::pair<const char*, Distribution::Kind> kDistributions[] = {
     {"fixed", Distribution::Kind::kFixed},   {"uniform", Distribution::Kind::kUniform},
     {"normal", Distribution::Kind::kNormal}, {"lognormal", Distribution::Kind::kLognormal},
-    {"table", Distribution::Kind::kTable},
+    {"table", Distribution::Kind::kTable},   {"mott", Distribution::Kind::kMott},
 };
 
 const char* shape_name(ShapeType s) {
@@ -308,7 +308,7 @@ Distribution parse_distribution(const Json& j, const std::string& path, double p
     }
     if (!known)
       fail(child_path(path, "dist"),
-           "must be one of fixed, uniform, normal, lognormal, table (got \"" + kind + "\")");
+           "must be one of fixed, uniform, normal, lognormal, table, mott (got \"" + kind + "\")");
     const ObjectReader o(j, path, "dist_" + kind);
     const auto bounds = [&] {
       if (const auto v = o.optional_number("min")) {
@@ -341,6 +341,10 @@ Distribution parse_distribution(const Json& j, const std::string& path, double p
         d.table_values = read_numbers(o.require("values"), o.at("values"));
         d.table_cdf = read_numbers(o.require("cdf"), o.at("cdf"));
         break;
+      case Distribution::Kind::kMott:
+        d.mu = o.number("mu");
+        bounds();
+        break;
     }
   }
   if (const std::string problem = d.validate(phys_lo, phys_hi); !problem.empty())
@@ -363,6 +367,7 @@ Json distribution_to_json(const Distribution& d) {
       return with_bounds({{"dist", "lognormal"}, {"median", d.median}, {"sigma_ln", d.sigma_ln}});
     case Distribution::Kind::kTable:
       return {{"dist", "table"}, {"values", d.table_values}, {"cdf", d.table_cdf}};
+    case Distribution::Kind::kMott: return with_bounds({{"dist", "mott"}, {"mu", d.mu}});
   }
   return {{"dist", distribution_name(d.kind)}};
 }

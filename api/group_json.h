@@ -9,8 +9,8 @@
 
 namespace fragsim::api::detail {
 
-// A number (fixed) or {"dist": "fixed"|"uniform"|"normal"|"lognormal"|"table", ...}; checked with
-// Distribution::validate(phys_lo, phys_hi), whose message is re-rooted at `path`.
+// A number (fixed) or {"dist": "fixed"|"uniform"|"normal"|"lognormal"|"table"|"mott", ...}; checked
+// with Distribution::validate(phys_lo, phys_hi), whose message is re-rooted at `path`.
 fragments::Distribution parse_distribution(const Json& j, const std::string& path, double phys_lo,
                                            double phys_hi);
 Json distribution_to_json(const fragments::Distribution& d);

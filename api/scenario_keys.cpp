@@ -51,6 +51,7 @@ const std::map<std::string, std::vector<std::string>, std::less<>>& scenario_obj
       {"dist_normal", {"dist", "mean", "sigma", "min", "max"}},
       {"dist_lognormal", {"dist", "median", "sigma_ln", "min", "max"}},
       {"dist_table", {"dist", "values", "cdf"}},
+      {"dist_mott", {"dist", "mu", "min", "max"}},
       // Settings
       {"settings",
        {"seed", "person_height_m", "hazardous_ke_j", "hfd_threshold_per_m2", "hfd_origin_m",

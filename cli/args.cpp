@@ -222,6 +222,7 @@ void take_argument(const std::vector<std::string>& args, std::size_t& k, Options
     case Command::kSiteImport:
     case Command::kSiteExportGis:
     case Command::kShapeImport:
+    case Command::kGroupsFromMunition:
       if (take_file_command_option(args, k, o)) return;
       break;
     default: break;
@@ -255,6 +256,13 @@ std::size_t parse_command(const std::vector<std::string>& args, Options& o) {
     o.command = Command::kShapeImport;
     return 2;
   }
+  if (first == "groups") {
+    if (args.size() < 2 || args[1] != "from-munition")
+      throw UsageError(
+          "groups: expected \"groups from-munition MUNITION.json [--out GROUPS.json]\"");
+    o.command = Command::kGroupsFromMunition;
+    return 2;
+  }
   const auto it = commands.find(first);
   if (it == commands.end()) throw UsageError("unknown command \"" + first + "\"");
   o.command = it->second;
@@ -282,6 +290,9 @@ void check_complete(const Options& o) {
       return;
     case Command::kShapeImport:
       if (o.scenario.empty()) throw UsageError("shape import: missing FILE (.stl, .obj, .ply)");
+      return;
+    case Command::kGroupsFromMunition:
+      if (o.scenario.empty()) throw UsageError("groups from-munition: missing MUNITION.json");
       return;
     default: break;
   }
@@ -330,6 +341,7 @@ Usage:
   fragsim site import IMPORT.json --out SITE.json
   fragsim site export-gis SITE.json --out DIR
   fragsim shape import FILE [--axes z_up|y_up|x,-z,y]
+  fragsim groups from-munition MUNITION.json [--out GROUPS.json]
   fragsim export RESULTS.h5 --out DIR [--pixel-m X] [--smoothing-m X] [--units si|us]
   fragsim report RESULTS.h5 --out REPORT.html [--pdf REPORT.pdf] [--units si|us]
                  [--compare COMPARE.json]
@@ -368,6 +380,13 @@ Commands:
              {"type": "polyhedron", "vertices_m": [...]}, the file's distinct vertices in the
              scenario's axes (--axes: z_up, the default; y_up for a y-up file, = x,-z,y; or
              three of x,-x,y,-y,z,-z), centred on their mean. Fragsim uses their convex hull.
+  groups from-munition
+             Fragment groups (a scenario's "fragment_groups" array) from a munition: case,
+             charge, explosive (a built-in table or explicit sqrt(2E) and Mott constant) and
+             polar spray zones (docs/scenario.md, "Fragment groups from a munition"): Gurney
+             launch speed, Mott mass law, N0 = case mass / (2 mu), one group per zone. The
+             derivation of every number goes to stderr; the groups to GROUPS.json (written
+             only when the whole input is valid) or stdout.
   export     Write a run's results as GIS files into DIR (docs/gis.md): the PTN density as
              GeoTIFF (and in classes with a colour table), the hazardous area, buildings and
              HFD as GeoPackage, GeoJSON (RFC 7946) and KML, in the site's CRS / WGS 84, with

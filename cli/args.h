@@ -28,7 +28,8 @@ enum class Command {
   kExport,
   kMerge,
   kReport,
-  kCompare
+  kCompare,
+  kGroupsFromMunition
 };
 
 struct ShardArg {
@@ -38,8 +39,8 @@ struct ShardArg {
 
 struct Options {
   Command command = Command::kHelp;
-  std::string scenario;                 // run, validate, submit; site import: IMPORT.json
-  std::string out;                      // run: --out DIR (required); site import: --out FILE
+  std::string scenario;  // run, validate, submit; site import: IMPORT.json; groups: MUNITION.json
+  std::string out;       // run: --out DIR (required); site import, groups from-munition: --out FILE
   std::optional<int> threads;           // run: --threads N overrides settings.threads
   std::optional<double> samples_scale;  // run: --samples-scale X multiplies every group's samples
   bool quiet = false;                   // run, submit, merge: no progress, no report

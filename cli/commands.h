@@ -51,6 +51,8 @@ int site_import_command(const Options& options);
 int site_export_gis_command(const Options& options);
 // `fragsim shape import FILE --axes y_up`: a mesh file's vertices as a scenario shape.
 int shape_import_command(const Options& options);
+// `fragsim groups from-munition MUNITION.json [--out GROUPS.json]` (api/munition_json.h).
+int groups_from_munition_command(const Options& options);
 // `fragsim export`: results.h5 to GIS files (gis/results_export.h).
 int export_command(const Options& options);
 

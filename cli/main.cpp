@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
       case Command::kReport: return report_command(options);
       case Command::kSiteExportGis: return site_export_gis_command(options);
       case Command::kShapeImport: return shape_import_command(options);
+      case Command::kGroupsFromMunition: return groups_from_munition_command(options);
       case Command::kRun: install_cancel_handlers(); return run_command(options, cancel_flag());
       case Command::kMerge: install_cancel_handlers(); return merge_command(options, cancel_flag());
       case Command::kCompare:

@@ -34,7 +34,8 @@ std::string quantity(const Page& p, const Json& q, Kind k) {
   if (!q.is_object()) return "—";
   std::string out = esc(str_or(q, "dist", "value"));
   std::vector<std::string> keys;  // the usual order of a distribution's parameters, then others
-  for (const char* known : {"value", "median", "mean", "mode", "sigma", "sigma_ln", "min", "max"})
+  for (const char* known :
+       {"value", "median", "mean", "mode", "mu", "sigma", "sigma_ln", "min", "max"})
     if (q.contains(known)) keys.emplace_back(known);
   for (auto it = q.begin(); it != q.end(); ++it)
     if (std::find(keys.begin(), keys.end(), it.key()) == keys.end()) keys.push_back(it.key());

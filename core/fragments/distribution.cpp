@@ -129,7 +129,29 @@ double table_quantile(const Distribution& d, double p) {
   return xs[k] + t * (xs[j] - xs[k]);
 }
 
+// Probability of [r.lo, r.hi] under Mott's law, S(lo) - S(hi).
+double mott_mass(double mu, Interval r) {
+  return mott_survival(r.lo, mu) - mott_survival(r.hi, mu);
+}
+
 }  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Mott
+
+double mott_survival(double x, double mu) {
+  if (!(x > 0.0)) return 1.0;
+  return std::exp(-std::sqrt(x / mu));
+}
+
+double mott_quantile(double u, double mu, double lo, double hi) {
+  // With a = sqrt(x / mu), S = exp(-a): S(x) = S(lo) - u (S(lo) - S(hi)), so
+  // a = a_lo - ln(1 - u (1 - exp(a_lo - a_hi))) = a_lo - log1p(u expm1(a_lo - a_hi)).
+  const double a_lo = lo > 0.0 ? std::sqrt(lo / mu) : 0.0;
+  const double a_hi = std::isfinite(hi) ? std::sqrt(hi / mu) : kInf;
+  const double a = a_lo - std::log1p(u * std::expm1(a_lo - a_hi));
+  return std::clamp(mu * a * a, std::max(lo, 0.0), hi);
+}
 
 // ---------------------------------------------------------------------------------------------
 // Standard normal
@@ -244,6 +266,10 @@ double Distribution::sample(double u, double phys_lo, double phys_hi) const {
       const double x = table_quantile(*this, f_lo + u * (f_hi - f_lo));
       return std::clamp(x, r.lo, r.hi);
     }
+    case Kind::kMott: {
+      const Interval r = truncation(*this, phys_lo, phys_hi);
+      return mott_quantile(u, mu, std::max(r.lo, 0.0), r.hi);
+    }
   }
   return value;
 }
@@ -320,6 +346,16 @@ std::string Distribution::validate(double phys_lo, double phys_hi) const {
         return "table_values: truncation range " + range_text(r.lo, r.hi) +
                " has no probability mass";
       }
+      return "";
+    }
+
+    case Kind::kMott: {
+      if (!finite(mu)) return "mu: must be a finite number";
+      if (!(mu > 0.0)) return "mu: must be > 0";
+      if (auto m = check_bounds(); !m.empty()) return m;
+      const Interval r = truncation(*this, phys_lo, phys_hi);
+      if (!(r.lo < r.hi) || !(mott_mass(mu, r) >= kMinTruncatedMass))
+        return "mu: truncation range " + range_text(r.lo, r.hi) + " has no probability mass";
       return "";
     }
   }

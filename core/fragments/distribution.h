@@ -12,18 +12,18 @@ namespace fragsim::fragments {
 // (0, ...). Messages print it as 0.
 inline constexpr double kPositiveLowerBound = std::numeric_limits<double>::min();
 
-// A truncated normal, lognormal or table whose range holds less probability than this is
-// rejected by validate(): such a range is almost surely an input mistake (a normal cut more than
-// ~7 sigma from its mean), and inside the bulk the inversion would resolve it only coarsely.
+// A truncated normal, lognormal, table or Mott distribution whose range holds less probability than
+// this is rejected by validate(): such a range is almost surely an input mistake (a normal cut more
+// than ~7 sigma from its mean), and inside the bulk the inversion would resolve it only coarsely.
 inline constexpr double kMinTruncatedMass = 1e-12;
 
 struct Distribution {
-  enum class Kind { kFixed, kUniform, kNormal, kLognormal, kTable };
+  enum class Kind { kFixed, kUniform, kNormal, kLognormal, kTable, kMott };
   Kind kind = Kind::kFixed;
   double value = 0.0;    // fixed
-  double min = 0.0;      // uniform; normal/lognormal/table: lower truncation (if has_min)
-  double max = 0.0;      // uniform; normal/lognormal/table: upper truncation (if has_max)
-  bool has_min = false;  // normal/lognormal/table: an explicit truncation bound was given
+  double min = 0.0;      // uniform; normal/lognormal/table/mott: lower truncation (if has_min)
+  double max = 0.0;      // uniform; normal/lognormal/table/mott: upper truncation (if has_max)
+  bool has_min = false;  // normal/lognormal/table/mott: an explicit truncation bound was given
   bool has_max = false;
   double mean = 0.0;                 // normal
   double sigma = 0.0;                // normal: standard deviation (> 0)
@@ -31,6 +31,9 @@ struct Distribution {
   double sigma_ln = 0.0;             // lognormal: standard deviation of ln X (> 0)
   std::vector<double> table_values;  // table: strictly increasing values x_k
   std::vector<double> table_cdf;     // table: CDF at x_k, nondecreasing from 0 to 1
+  // mott: Mott's law for naturally fragmenting shell cases (Mott 1947), N(>x) = N0 exp(-(x/mu)^½):
+  // CDF F(x) = 1 - exp(-sqrt(x / mu)) on x >= 0, mean 2 mu (> 0). See mott_* below.
+  double mu = 0.0;
 
   static Distribution fixed(double v) {
     Distribution d;
@@ -47,6 +50,13 @@ struct Distribution {
   // distribution (e.g. "sigma: must be > 0"), for the caller to prefix with its own path.
   std::string validate(double phys_lo, double phys_hi) const;
 };
+
+// Mott's distribution with scale mu (> 0): the survival function S(x) = exp(-sqrt(x / mu)) (x >= 0,
+// 1 for x <= 0), and the variate for uniform u in [0, 1) restricted to [lo, hi] (0 <= lo < hi <=
+// inf) by inversion, x = mu (sqrt(lo / mu) - ln(1 - u (1 - S(hi) / S(lo))))^2: exact, no
+// rejection, accurate near u = 0 (log1p / expm1).
+double mott_survival(double x, double mu);
+double mott_quantile(double u, double mu, double lo, double hi);
 
 // Standard normal CDF and its inverse (Wichura 1988, AS 241, relative accuracy ~1e-16).
 double normal_cdf(double x);

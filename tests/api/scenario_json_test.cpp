@@ -799,8 +799,21 @@ TEST(ScenarioJson, DistributionErrorsAreRootedAtTheirPath) {
             (FieldMessage{"fragment_groups[0].mass_kg.cdf", "must end at 1"}));
   EXPECT_EQ(
       parse_error(with(minimal_example(), "/fragment_groups/0/mass_kg/dist", "gaussian")),
-      (FieldMessage{"fragment_groups[0].mass_kg.dist",
-                    "must be one of fixed, uniform, normal, lognormal, table (got \"gaussian\")"}));
+      (FieldMessage{
+          "fragment_groups[0].mass_kg.dist",
+          "must be one of fixed, uniform, normal, lognormal, table, mott (got \"gaussian\")"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/mass_kg",
+                             {{"dist", "mott"}, {"mu", -0.1}})),
+            (FieldMessage{"fragment_groups[0].mass_kg.mu", "must be > 0"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/mass_kg", {{"dist", "mott"}})),
+            (FieldMessage{"fragment_groups[0].mass_kg.mu", "is required"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/mass_kg",
+                             {{"dist", "mott"}, {"mu", 0.01}, {"sigma", 1}})),
+            (FieldMessage{"fragment_groups[0].mass_kg.sigma", "unknown key"}));
+  EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/mass_kg",
+                             {{"dist", "mott"}, {"mu", 1e-6}, {"min", 100}})),
+            (FieldMessage{"fragment_groups[0].mass_kg.mu",
+                          "truncation range [100, 1e+05] has no probability mass"}));
   EXPECT_EQ(parse_error(without(minimal_example(), "/fragment_groups/0/mass_kg", "dist")),
             (FieldMessage{"fragment_groups[0].mass_kg.dist", "is required"}));
   EXPECT_EQ(parse_error(with(minimal_example(), "/fragment_groups/0/spin_radps", -3)),
@@ -837,6 +850,11 @@ TEST(ScenarioJson, DistributionsOfEveryKind) {
   EXPECT_EQ(ks.groups[1].speed_mps.table_cdf, (std::vector<double>{0, 0.5, 1}));
   EXPECT_EQ(ks.groups[2].mass_kg.kind, Kind::kFixed);  // a plain number
   EXPECT_EQ(ks.groups[2].mass_kg.value, 0.05);
+  EXPECT_EQ(ks.groups[3].mass_kg.kind, Kind::kMott);
+  EXPECT_EQ(ks.groups[3].mass_kg.mu, 0.5);
+  EXPECT_TRUE(ks.groups[3].mass_kg.has_min && ks.groups[3].mass_kg.has_max);
+  EXPECT_EQ(ks.groups[3].mass_kg.min, 0.01);
+  EXPECT_EQ(ks.groups[3].mass_kg.max, 20.0);
   EXPECT_EQ(ks.groups[0].cd.mach, (std::vector<double>{0, 0.8, 1.2, 3}));
   EXPECT_EQ(ks.groups[0].cd.cd, (std::vector<double>{0.9, 1.0, 1.4, 1.2}));
 }

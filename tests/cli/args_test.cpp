@@ -109,6 +109,16 @@ TEST(Args, FileCommandsNeedTheirInputAndOut) {
   EXPECT_EQ(usage_error({"shape", "import"}), "shape import: missing FILE (.stl, .obj, .ply)");
   EXPECT_EQ(usage_error({"shape", "import", "r.stl", "--out", "x"}), "unknown option \"--out\"");
   EXPECT_NE(usage_error({"shape", "export"}).find("shape: expected"), std::string::npos);
+  o = parse_args({"groups", "from-munition", "m.json", "--out", "g.json"});
+  EXPECT_EQ(o.command, Command::kGroupsFromMunition);
+  EXPECT_EQ(o.scenario, "m.json");
+  EXPECT_EQ(o.out, "g.json");
+  EXPECT_EQ(parse_args({"groups", "from-munition", "m.json"}).out, "");  // stdout
+  EXPECT_EQ(usage_error({"groups", "from-munition"}),
+            "groups from-munition: missing MUNITION.json");
+  EXPECT_NE(usage_error({"groups", "import"}).find("groups: expected"), std::string::npos);
+  EXPECT_EQ(usage_error({"groups", "from-munition", "m.json", "--axes", "y_up"}),
+            "unknown option \"--axes\"");
 }
 
 // --units si|us (docs/units.md): the printed summary of run, merge and submit; export's US
