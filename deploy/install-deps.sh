@@ -22,10 +22,12 @@ PACKAGES=(
   hdf5-tools               # h5dump: bench/time_to_precision.py reads the PTN grid of results.h5
   chromium                 # tests: the web viewer in headless Chromium (viewer/test/, docs/viewer.md)
   slurm-wlm munge iproute2 # tests: sharded runs on a private single-node Slurm (deploy/cluster/; ss finds free ports)
-  python3-yaml             # tests: the Kubernetes Job manifests of deploy/cluster/k8s/ are read
+  python3-yaml             # tests: the Kubernetes Job manifests of deploy/cluster/k8s/ are read; the OpenAPI document
+  python3-jsonschema       # tests: fragsimd's answers validated against its OpenAPI document (tests/server/contract_test.py)
 )
 # Node.js and npm run the viewer's browser tests (playwright-core from the npm registry, pinned in
-# viewer/test/package-lock.json). Debian's packages only when no node/npm is on the PATH: a
+# viewer/test/package-lock.json) and the OpenAPI document's checks (validator, openapi-typescript,
+# typescript, pinned in tests/server/openapi/package-lock.json). Debian's packages only when no node/npm is on the PATH: a
 # machine with its own Node.js (e.g. NodeSource's, which bundles npm) keeps it.
 if ! command -v node > /dev/null || ! command -v npm > /dev/null; then
   PACKAGES+=(nodejs npm)
