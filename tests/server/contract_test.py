@@ -330,6 +330,10 @@ class Contract:
             at = "".join(f"[{p!r}]" for p in e.path)
             self.errors.append(f"{name}: {status} body{at} does not match {where}: "
                                f"{e.message[:300]}")
+        # Keys sent that the document does not name (a schema may leave an object open for
+        # later keys, so validation alone would pass them): each is a gap in the contract.
+        for at in sorted(set(undeclared(self.doc, schema, value, "")))[:5]:
+            self.errors.append(f"{name}: {status} sends body{at}, not in {where}")
 
     def call(self, method, url, expect, body=None, headers=None, token=True):
         answer = self.request(method, url, body, headers, token)
@@ -340,6 +344,53 @@ class Contract:
         answer = self.raw(data, wait_s)
         self.check(method, url, answer, expect)
         return answer
+
+
+def branches(doc, schema):
+    """The schema and everything it is made of ($ref, allOf, oneOf, anyOf), flattened."""
+    out, todo = [], [schema]
+    while todo:
+        node = todo.pop()
+        if not isinstance(node, dict):
+            continue
+        out.append(node)
+        if "$ref" in node:
+            todo.append(resolve(doc, {"$ref": node["$ref"]})[0])
+        for k in ("allOf", "oneOf", "anyOf"):
+            todo.extend(node.get(k, []))
+    return out
+
+
+def undeclared(doc, schema, value, at):
+    """Paths of object keys in `value` that no branch of `schema` names (open objects aside)."""
+    parts = branches(doc, schema)
+    if isinstance(value, dict):
+        named = {}
+        open_ = False
+        for b in parts:
+            for k, sub in b.get("properties", {}).items():
+                named.setdefault(k, sub)
+            extra = b.get("additionalProperties")
+            if isinstance(extra, dict):
+                for k, v in value.items():
+                    if k not in named:
+                        yield from undeclared(doc, extra, v, f"{at}[{k!r}]")
+                open_ = True
+            elif extra is True or "patternProperties" in b:
+                open_ = True
+        if not named and not open_:
+            return  # a schema with no say about keys (e.g. a bare string field)
+        for k, v in value.items():
+            if k in named:
+                yield from undeclared(doc, named[k], v, f"{at}[{k!r}]")
+            elif not open_:
+                yield f"{at}[{k!r}]"
+    elif isinstance(value, list):
+        for b in parts:
+            if isinstance(b.get("items"), dict):
+                for i, v in enumerate(value[:50]):
+                    yield from undeclared(doc, b["items"], v, f"{at}[{i}]")
+                return
 
 
 def parse_raw(data):
