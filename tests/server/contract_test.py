@@ -129,14 +129,20 @@ def check_document(doc, errors):
             errors.append(f"{method.upper()} {path} does not declare {sorted(lacking)}")
 
     # Every error code the server sends is in the Error enum.
-    sent = set()
+    sent, failed = set(), set()
     for name in os.listdir(os.path.join(SOURCE, "server")):
         if name.endswith(".cpp"):
             with open(os.path.join(SOURCE, "server", name)) as f:
-                sent |= set(re.findall(r'error_response\(\s*[^,]+,\s*"([a-z_]+)"', f.read()))
+                text = f.read()
+            sent |= set(re.findall(r'error_response\(\s*[^,]+,\s*"([a-z_]+)"', text))
+            failed |= set(re.findall(r'mark_failed\([^,]+,[^,]+,\s*"([a-z_]+)"', text))
     declared = set(schemas["Error"]["properties"]["code"]["enum"])
     if sent - declared:
         errors.append(f"error codes sent but not in the Error enum: {sorted(sent - declared)}")
+    # And every code a failed job's `error` can hold is in JobStatus.error's enum.
+    job_codes = set(schemas["JobStatus"]["properties"]["error"]["properties"]["code"]["enum"])
+    if not failed or failed - job_codes:
+        errors.append(f"job error codes not in JobStatus.error: {sorted(failed - job_codes)}")
 
     # No bare object schema: walk every schema of the document.
     def walk(node, ptr):
@@ -336,6 +342,11 @@ class Contract:
             self.errors.append(f"{name}: {status} sends body{at}, not in {where}")
 
     def call(self, method, url, expect, body=None, headers=None, token=True):
+        if isinstance(body, dict) and expect < 300:  # what is accepted must be valid, both ways
+            template, op = self.operation(method, url)
+            schema = op["requestBody"]["content"]["application/json"]["schema"]
+            self.validate(f"{method} {url}", "request", schema,
+                          pointer("paths", template, method.lower(), "requestBody"), body)
         answer = self.request(method, url, body, headers, token)
         self.check(method, url, answer, expect)
         return answer
@@ -498,8 +509,15 @@ def exercise(c):
     del inline["site_id"]
     inline["site"] = small_site(crs="local")
     inline_job = c.call("POST", "/v1/jobs", 202, inline).json()["job_id"]
+    # The kitchen sink (every object kind of the scenario; settings.precision, ground_bracket,
+    # profile) inline: its request is valid against JobRequest, its results fill every block.
+    with open(os.path.join(SOURCE, "tests/api/data/kitchen_sink.json")) as f:
+        sink = c.call("POST", "/v1/jobs", 202, json.load(f)).json()["job_id"]
     wait_state(c, done, {"done"})
     wait_state(c, inline_job, {"done"})
+    wait_state(c, sink, {"done"})
+    for route in ("summary", "buildings", "ptn", "plan_boundary", "scene", "maps"):
+        c.call("GET", f"/v1/jobs/{sink}/{route}", 200)
 
     # A long job on site B: running, then the site cannot go, then cancelled.
     long_job = c.call("POST", "/v1/jobs", 202, job_body(site_b, 5000000)).json()["job_id"]
