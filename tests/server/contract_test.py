@@ -293,6 +293,11 @@ class Contract:
         response, resp_ptr = resolve(self.doc, declared)
         base = resp_ptr or pointer("paths", template, method.lower() if method.lower() in
                                    self.doc["paths"][template] else "get", "responses", status)
+        # The headers the response declares are sent (Location, Allow, WWW-Authenticate,
+        # Retry-After, Content-Disposition, ...).
+        for header in response.get("headers", {}):
+            if header.lower() not in answer.headers:
+                self.errors.append(f"{name}: {status} lacks the declared header {header}")
         content = response.get("content")
         if not content:
             if answer.body:
