@@ -22,12 +22,14 @@ PACKAGES=(
   hdf5-tools               # h5dump: bench/time_to_precision.py reads the PTN grid of results.h5
   chromium                 # tests: the web viewer in headless Chromium (viewer/test/, docs/viewer.md)
   slurm-wlm munge iproute2 # tests: sharded runs on a private single-node Slurm (deploy/cluster/; ss finds free ports)
-  python3-yaml             # tests: the Kubernetes Job manifests of deploy/cluster/k8s/ are read
+  python3-yaml             # tests: the Kubernetes Job manifests of deploy/cluster/k8s/ are read; the OpenAPI document
+  python3-jsonschema       # tests: fragsimd's answers validated against its OpenAPI document (tests/server/contract_test.py)
   python3-numpy python3-h5py python3-pandas  # the Python client (python/, docs/python.md): numpy required, h5py reads results.h5, pandas its DataFrames; tests: ctest python_client under /usr/bin/python3
   python3-pip python3-venv python3-setuptools  # tests: the client's offline `pip install ./python` into a temporary venv
 )
 # Node.js and npm run the viewer's browser tests (playwright-core from the npm registry, pinned in
-# viewer/test/package-lock.json). Debian's packages only when no node/npm is on the PATH: a
+# viewer/test/package-lock.json) and the OpenAPI document's checks (validator, openapi-typescript,
+# typescript, pinned in tests/server/openapi/package-lock.json). Debian's packages only when no node/npm is on the PATH: a
 # machine with its own Node.js (e.g. NodeSource's, which bundles npm) keeps it.
 if ! command -v node > /dev/null || ! command -v npm > /dev/null; then
   PACKAGES+=(nodejs npm)

@@ -48,10 +48,12 @@ struct Connection {
 };
 using ConnectionPtr = std::unique_ptr<Connection>;
 
-// Whether `pending` holds a request line and headers up to their blank line. cpp-httplib ends
-// the headers only at a line that is exactly CRLF, after a line ending in LF.
-bool headers_complete(const std::string& pending) {
-  return pending.find("\n\r\n") != std::string::npos;
+// Whether `pending` holds a request line and headers up to their blank line, within `max_bytes`
+// (headers that end beyond are refused with 431 however fast they came). cpp-httplib ends the
+// headers only at a line that is exactly CRLF, after a line ending in LF.
+bool headers_complete(const std::string& pending, std::size_t max_bytes) {
+  const std::size_t end = pending.find("\n\r\n");
+  return end != std::string::npos && end + 3 <= max_bytes;
 }
 
 // Waits until fd is ready for `events` or the deadline passes.
@@ -283,7 +285,7 @@ class ConnectionServer::Impl {
   // A connection between requests: to a worker if a whole request's headers are already here
   // (pipelined), else watched.
   void park(ConnectionPtr c) {
-    if (headers_complete(c->pending)) {
+    if (headers_complete(c->pending, limits_.max_header_bytes)) {
       enqueue(std::move(c));
       return;
     }
@@ -297,7 +299,11 @@ class ConnectionServer::Impl {
     epoll_event ev{};
     ev.events = EPOLLIN | EPOLLRDHUP;
     ev.data.fd = fd;
-    if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &ev) != 0) close_idle(fd);
+    if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &ev) != 0) {
+      close_idle(fd);
+    } else if (idle_[fd]->pending.size() > limits_.max_header_bytes) {
+      refuse_idle(fd, 431);  // pipelined headers beyond the limit: no more bytes may come
+    }
   }
 
   void enqueue(ConnectionPtr c) {
@@ -348,7 +354,7 @@ class ConnectionServer::Impl {
         return;
       }
       if (!c.pending.empty() && !c.request_start) c.request_start = Clock::now();
-      if (headers_complete(c.pending)) {
+      if (headers_complete(c.pending, limits_.max_header_bytes)) {
         ::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd, nullptr);
         ready = std::move(it->second);
         idle_.erase(it);

@@ -205,6 +205,10 @@ HttpServer::HttpServer(Service& service) : service_(service) {
 
   const auto handler = [this](const httplib::Request& req, httplib::Response& res) {
     const auto t0 = std::chrono::steady_clock::now();
+    // No byte ranges (the contract has no 206): cpp-httplib 0.11 would cut the body to a Range
+    // header's bytes under our 200 (`Range: bytes=0-10` got 11 bytes of JSON). The request is
+    // cpp-httplib's own, non-const object, handed to handlers as const.
+    const_cast<httplib::Request&>(req).ranges.clear();
     Response r = service_.handle(to_request(req));
     res.status = r.status;
     for (const auto& [k, v] : r.headers) res.set_header(k, v);
@@ -282,7 +286,10 @@ HttpServer::HttpServer(Service& service) : service_(service) {
         } else if (res.status >= 500) {
           r = error_response(res.status, "internal", "internal error");
         } else {
-          r = error_response(res.status, res.status == 404 ? "not_found" : "bad_request",
+          r = error_response(res.status,
+                             res.status == 404   ? "not_found"
+                             : res.status == 414 ? "uri_too_long"
+                                                 : "bad_request",
                              std::string("the request could not be handled (HTTP ") +
                                  std::to_string(res.status) + ")");
         }

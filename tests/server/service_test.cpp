@@ -26,6 +26,7 @@
 #include "api/test_support.h"
 #include "core/run/run.h"
 #include "gis/results_export.h"
+#include "server/openapi_text.h"
 #include "server/ui_assets.h"
 
 namespace fragsim::server {
@@ -418,8 +419,16 @@ TEST_F(ServiceAuth, PublicRoutesNeedNoToken) {
   const Response openapi = get_anonymous("/v1/openapi.yaml");
   EXPECT_EQ(openapi.status, 200);
   EXPECT_EQ(openapi.content_type, "application/yaml");
-  EXPECT_EQ(openapi.body.rfind("openapi: 3.0.3", 0), 0u);
-  EXPECT_EQ(openapi.body, api::testing::read_text(api::testing::source_path("api/openapi.yaml")));
+  EXPECT_EQ(openapi.body.rfind("openapi: 3.1.0", 0), 0u);
+  // api/openapi.yaml with the scenario schema inlined (api/openapi_bundle.cmake): self-contained.
+  EXPECT_EQ(openapi.body, openapi_yaml());
+  EXPECT_NE(openapi.body.find("\n    scenario.site:\n"), std::string::npos);
+  EXPECT_EQ(openapi.body.find("schema/scenario.schema.json#"), std::string::npos);
+  const std::string source = api::testing::read_text(api::testing::source_path("api/openapi.yaml"));
+  const std::size_t first_ref = source.find("schema/scenario.schema.json#");
+  ASSERT_NE(first_ref, std::string::npos);
+  EXPECT_EQ(openapi.body.substr(0, first_ref), source.substr(0, first_ref))
+      << "up to its first reference to the scenario schema, the served document is the source";
 
   // A wrong token does not spoil a public route.
   EXPECT_EQ(call("GET", "/v1/health", {}, {}, {{"authorization", "Bearer wrong"}}).status, 200);
