@@ -568,6 +568,21 @@ def exercise(c):
                 c.call("GET", url, expect)
         c.call("GET", f"/v1/jobs/{long_job}/{route}", 409)
         c.call("GET", f"/v1/jobs/{unknown_job}/{route}", 404)
+    # A paired comparison (docs/comparison.md): a variant of the done job with compare_with; its
+    # JobStatus links the comparison, GET compare and compare.h5 answer; a job without one 404,
+    # a variant that cannot be paired 422.
+    variant = job_body(site_a, 300, compare_with=done)
+    variant["atmosphere"] = {"model": "isa", "wind_mps": [3, 0, 0]}
+    compared = c.call("POST", "/v1/jobs", 202, variant).json()["job_id"]
+    c.call("POST", "/v1/jobs", 422, job_body(site_a, 301, compare_with=done))
+    c.call("POST", "/v1/jobs", 422, job_body(site_a, 300, compare_with=unknown_job))
+    status = wait_state(c, compared, {"done"})
+    c.check("GET", f"/v1/jobs/{compared}", status, 200)
+    for route in ("compare", "compare.h5"):
+        c.call("GET", f"/v1/jobs/{compared}/{route}", 200)
+        c.call("GET", f"/v1/jobs/{done}/{route}", 404)
+        c.call("GET", f"/v1/jobs/{long_job}/{route}", 409)
+        c.call("GET", f"/v1/jobs/{unknown_job}/{route}", 404)
     c.call("GET", f"/v1/jobs/{inline_job}/ptn?format=geojson", 200)  # site metres, no CRS
     c.call("GET", f"/v1/jobs/{inline_job}/maps", 200)
     listing = c.request("GET", f"/v1/jobs/{done}/maps").json()
