@@ -322,18 +322,16 @@ Store::Insert Store::insert_job(JobRow row) {
 }
 
 std::optional<JobRow> Store::job(const std::string& job_id) {
-  const std::lock_guard<std::mutex> lock(mutex_);
-  Statement s(*this, std::string("SELECT ") + kJobStatusColumns + " FROM jobs WHERE job_id = ?1",
-              "get job");
-  s.bind(1, job_id);
-  if (!s.step()) return std::nullopt;
-  return read_job(s);
+  return job_by_id(job_id, kJobStatusColumns);
 }
 
 std::optional<JobRow> Store::job_with_scenario(const std::string& job_id) {
+  return job_by_id(job_id, kJobColumns);
+}
+
+std::optional<JobRow> Store::job_by_id(const std::string& job_id, const char* columns) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  Statement s(*this, std::string("SELECT ") + kJobColumns + " FROM jobs WHERE job_id = ?1",
-              "get job with its scenario");
+  Statement s(*this, std::string("SELECT ") + columns + " FROM jobs WHERE job_id = ?1", "get job");
   s.bind(1, job_id);
   if (!s.step()) return std::nullopt;
   return read_job(s);

@@ -128,6 +128,7 @@ class Store {
   template <class F>
   auto transaction(F&& body);
   JobRow read_job(Statement& s);
+  std::optional<JobRow> job_by_id(const std::string& job_id, const char* columns);
 
   std::mutex mutex_;
   sqlite3* db_ = nullptr;

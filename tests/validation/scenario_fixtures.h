@@ -71,6 +71,15 @@ inline run::Scenario rolling_sphere_scenario(std::int64_t samples) {
   return sc;
 }
 
+// Materials "wall" and "roof" that a fragment penetrates above `ke_per_area_j_per_m2` (normal
+// kinetic energy per presented area), for box_building.
+inline void add_wall_and_roof(run::Scenario& sc, double ke_per_area_j_per_m2) {
+  scene::MaterialSpec wall;
+  wall.penetration_ke_per_area_j_per_m2 = ke_per_area_j_per_m2;
+  sc.site.materials["wall"] = wall;
+  sc.site.materials["roof"] = wall;
+}
+
 // A footprint box building with the given materials.
 inline scene::BuildingSpec box_building(const std::string& id, double x0, double y0, double x1,
                                         double y1, double height_m) {

@@ -22,10 +22,7 @@ constexpr double kRealFragments = 1000.0;
 Scenario fan_at_target(std::int64_t samples, std::uint64_t seed) {
   Scenario sc = validation::flat_site_scenario(200.0, 10.0);
   sc.gravity_mps2 = 0.0;
-  scene::MaterialSpec wall;
-  wall.penetration_ke_per_area_j_per_m2 = 1.0e5;
-  sc.site.materials["wall"] = wall;
-  sc.site.materials["roof"] = wall;
+  validation::add_wall_and_roof(sc, 1.0e5);
   const double half = 100.0 * std::tan(10.0 * kDegToRad);
   sc.site.buildings = {validation::box_building("target", 100, -half, 110, half, 10.0)};
   auto g = validation::sphere_group(Vec3(0.0, 0.0, 3.0), 0.2, 800.0, kRealFragments, samples);

@@ -51,10 +51,7 @@ const char* name(Method m) {
 Scenario cone_at_box(std::uint64_t seed, Method m) {
   Scenario sc = validation::flat_site_scenario(200.0, 10.0);
   sc.gravity_mps2 = 0.0;
-  scene::MaterialSpec wall;
-  wall.penetration_ke_per_area_j_per_m2 = 1.0e5;
-  sc.site.materials["wall"] = wall;
-  sc.site.materials["roof"] = wall;
+  validation::add_wall_and_roof(sc, 1.0e5);
   sc.site.buildings = {validation::box_building("box", 50, -5, 60, 5, 10.0)};
   auto g = validation::sphere_group(Vec3(0.0, 0.0, 3.0), 0.2, 800.0, kCount, 300);
   g.direction.elevation_min_deg = 0.0;
