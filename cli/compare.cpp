@@ -12,6 +12,7 @@
 #include "cli/progress.h"
 #include "core/common/error.h"
 #include "core/run/paired.h"
+#include "gis/results_export.h"
 
 namespace fragsim::cli {
 
@@ -90,21 +91,28 @@ int compare_command(const Options& o, const std::atomic<bool>& cancel) {
   in.variant_sha256 = api::sha256_hex(variant.text);
   in.provenance = api::build_provenance();
   const nlohmann::ordered_json compare = api::compare_to_json(in);
-  root->stage(api::kCompareH5FileName, [&](const std::filesystem::path& tmp) {
-    api::write_compare_h5(tmp, paired, *base.site, compare);
-  });
-  root->stage_text(api::kCompareFileName, compare.dump(2) + "\n");
   if (cancel.load()) {
     std::cerr << "cancelled: no output written\n";
     return kExitCancelled;
   }
-  // compare.json last: when it is there, both runs' files are.
+  // compare.json last: when it is there, both runs' files are (the map is made from them).
   base_dir->commit();
   variant_dir->commit();
+  root->stage(api::kCompareH5FileName, [&](const std::filesystem::path& tmp) {
+    api::write_compare_h5(tmp, paired, *base.site, compare);
+  });
   root->commit();
+  const auto dir = root->path();
+  const bool map =
+      gis::write_difference_map(dir / "base" / api::kResultsFileName, dir / api::kCompareH5FileName,
+                                dir / gis::kDifferenceMapName);
+  api::OutputDir last(dir);
+  last.stage_text(api::kCompareFileName, compare.dump(2) + "\n");
+  last.commit();
   if (!o.quiet)
     std::cout << api::render_compare_text(compare, o.units) << "\nWrote " << root->path().string()
-              << "/{compare.json, compare.h5, base/, variant/}\n";
+              << "/{compare.json, compare.h5, " << (map ? "density_difference.tif, " : "")
+              << "base/, variant/}\n";
   return kExitOk;
 }
 

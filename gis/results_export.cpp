@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -81,6 +82,56 @@ void write_density_tif(const fs::path& path, const PlanRaster& pr, const Results
   ds->SetMetadataItem("FRAGSIM_CELL_VALUE",
                       "mean of the terrain triangles' values weighted by their plan area in the "
                       "cell");
+}
+
+// The paired difference (band 1) and its se (band 2); NaN where nothing covers a cell (a
+// difference can be negative, so no sentinel value).
+void write_difference_tif(const fs::path& path, const PlanRaster& pr,
+                          const OGRSpatialReference* srs) {
+  const NoAuxXml no_aux;
+  GDALDatasetUniquePtr ds = create_tif(path, pr, 2, GDT_Float64, srs);
+  const char* names[] = {"PTN density difference, variant - base (1/m2)",
+                         "paired standard error of the difference (1/m2; area-weighted)"};
+  for (int b = 0; b < 2; ++b) {
+    std::vector<double> v(static_cast<std::size_t>(pr.cols) * pr.rows);
+    for (int row = 0; row < pr.rows; ++row)
+      for (int col = 0; col < pr.cols; ++col)
+        v[static_cast<std::size_t>(row) * pr.cols + col] =
+            pr.mean(static_cast<std::size_t>(b), col, pr.rows - 1 - row);
+    GDALRasterBand* band = ds->GetRasterBand(b + 1);
+    band->SetNoDataValue(std::numeric_limits<double>::quiet_NaN());
+    band->SetDescription(names[b]);
+    if (band->RasterIO(GF_Write, 0, 0, pr.cols, pr.rows, v.data(), pr.cols, pr.rows, GDT_Float64, 0,
+                       0) != CE_None)
+      throw std::runtime_error("cannot write " + path.string());
+  }
+  ds->SetMetadataItem("FRAGSIM_CELL_VALUE",
+                      "mean of the terrain triangles' values weighted by their plan area in the "
+                      "cell (docs/comparison.md)");
+}
+
+// The results with compare.h5's difference and se in place of the density and its se; nullopt
+// when compare.h5 has none (the terrains differ).
+std::optional<ResultsFile> with_difference(ResultsFile r, const fs::path& compare_h5) {
+  const auto names = api::list_datasets(compare_h5);
+  if (std::find(names.begin(), names.end(), "/density/difference_per_m2") == names.end())
+    return std::nullopt;
+  r.density = api::read_dataset_double(compare_h5, "/density/difference_per_m2");
+  r.std_error = api::read_dataset_double(compare_h5, "/density/paired_std_error_per_m2");
+  if (r.density.size() != r.triangles.size() || r.std_error.size() != r.triangles.size())
+    throw InputError(compare_h5.string(),
+                     "its density difference has " + std::to_string(r.density.size()) +
+                         " triangles, the results' terrain " + std::to_string(r.triangles.size()));
+  return r;
+}
+
+std::optional<OGRSpatialReference> site_crs(const ResultsFile& r) {
+  if (r.crs.empty()) return std::nullopt;
+  try {
+    return crs_from_text(r.crs, "site.origin.crs");
+  } catch (const InputError&) {
+    return std::nullopt;  // a label PROJ does not know: local metres, as export_results reads it
+  }
 }
 
 // Classes relative to the threshold t: 0 no data, 1 no hazardous fragment, 2 < t/100,
@@ -502,6 +553,22 @@ void stage_paraview(const fs::path& h5, const Vec2& offset,
 
 }  // namespace
 
+bool write_difference_map(const fs::path& results_h5, const fs::path& compare_h5,
+                          const fs::path& out_tif, std::optional<double> pixel_m) {
+  const ResultsFile base = read_results_file(results_h5);
+  const std::optional<ResultsFile> d = with_difference(base, compare_h5);
+  if (!d) return false;
+  const PlanRaster pr =
+      rasterise(*d, pixel_m.value_or(default_cell(*d)), d->grid_origin && !pixel_m);
+  const std::optional<OGRSpatialReference> srs = site_crs(*d);
+  GdalErrorCapture quiet;
+  api::OutputDir out(out_tif.parent_path());
+  out.stage(out_tif.filename().string(),
+            [&](const fs::path& p) { write_difference_tif(p, pr, srs ? &*srs : nullptr); });
+  out.commit();
+  return true;
+}
+
 ExportReport export_results(const ExportOptions& o) {
   const ResultsFile r = read_results_file(o.results_h5);
   ExportReport report;
@@ -545,6 +612,12 @@ ExportReport export_results(const ExportOptions& o) {
   stage("ptn_density.tif", [&](const fs::path& p) { write_density_tif(p, pr, r, site_srs); });
   stage("ptn_classes.tif",
         [&](const fs::path& p) { write_classes_tif(p, pr, r.threshold, site_srs); });
+  if (o.compare_h5) {
+    if (const auto d = with_difference(r, *o.compare_h5)) {
+      const PlanRaster dr = rasterise(*d, report.pixel_m, r.grid_origin && !o.pixel_m);
+      stage(kDifferenceMapName, [&](const fs::path& p) { write_difference_tif(p, dr, site_srs); });
+    }
+  }
   const auto all_layers = [&](GDALDataset& ds, const OGRSpatialReference* s,
                               OGRCoordinateTransformation* tr) {
     write_hazard_layer(ds, r, g, s, tr, o.units);

@@ -26,6 +26,8 @@ struct ExportOptions {
   api::UnitSystem units = api::UnitSystem::kSi;  // kUs: US fields beside the SI ones
   // The site-plan boundary's closing radius (gis/plan_boundary.h); default: 2 raster cells.
   std::optional<double> smoothing_m = std::nullopt;
+  // A paired comparison's compare.h5 of this run: also density_difference.tif (when it has one).
+  std::optional<std::filesystem::path> compare_h5 = std::nullopt;
 };
 
 struct ExportReport {
@@ -38,5 +40,18 @@ struct ExportReport {
 };
 
 ExportReport export_results(const ExportOptions& options);
+
+// The map of a paired comparison (docs/comparison.md): compare.h5's density difference per
+// terrain triangle (variant - base) and its paired standard error, rasterised over results_h5's
+// terrain (either run's: both have the same triangles) as ptn_density.tif is, into a GeoTIFF of
+// two float64 bands (NaN where no triangle covers a cell) in the site's CRS. Returns false, and
+// writes nothing, when the comparison has no per-triangle difference (the terrains differ).
+// Throws InputError naming the file when compare.h5 does not fit results_h5.
+bool write_difference_map(const std::filesystem::path& results_h5,
+                          const std::filesystem::path& compare_h5,
+                          const std::filesystem::path& out_tif,
+                          std::optional<double> pixel_m = std::nullopt);
+
+inline constexpr const char* kDifferenceMapName = "density_difference.tif";
 
 }  // namespace fragsim::gis

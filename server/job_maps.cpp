@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "api/compare_json.h"
 #include "api/output_dir.h"
 #include "api/run_outputs.h"
 #include "gis/results_export.h"
@@ -86,6 +87,9 @@ MapSet JobMaps::make(const fs::path& job_dir) {
   gis::ExportOptions options;
   options.results_h5 = job_dir / api::kResultsFileName;
   options.out_dir = dir;
+  // A job with compare_with: its maps include the density difference (docs/comparison.md).
+  if (std::error_code no; fs::exists(job_dir / api::kCompareH5FileName, no))
+    options.compare_h5 = job_dir / api::kCompareH5FileName;
   const gis::ExportReport report = gis::export_results(options);
   MapSet m;
   m.crs = report.crs;

@@ -44,8 +44,8 @@ TEST_F(CompareCli, WritesBothRunsAndTheirPairedDifference) {
   const auto r = run({"compare", base, variant, "--out", (dir_ / "out").string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("changed: site.buildings"), std::string::npos) << r.out;
-  for (const char* f : {"compare.json", "compare.h5", "base/summary.json", "base/results.h5",
-                        "variant/summary.json", "variant/results.h5"})
+  for (const char* f : {"compare.json", "compare.h5", "density_difference.tif", "base/summary.json",
+                        "base/results.h5", "variant/summary.json", "variant/results.h5"})
     EXPECT_TRUE(fs::exists(dir_ / "out" / f)) << f;
   const nlohmann::json c = read_json(dir_ / "out/compare.json");
   const nlohmann::json sb = read_json(dir_ / "out/base/summary.json");

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <map>
 
+#include "api/h5_writer.h"
 #include "api/ptn_json.h"
 #include "api/results_h5.h"
 #include "api/run_outputs.h"
@@ -342,6 +343,61 @@ TEST_F(ResultsExport, ACrsLabelPROJDoesNotKnowIsReadAsNoCrs) {
                                       "terrain.vtkhdf", "buildings.vtkhdf"}));
   ASSERT_EQ(rep.notes.size(), 4u);  // the HFD a lower bound, the label, no trajectories, no CRS
   EXPECT_NE(rep.notes[1].find("\"local\" is not a CRS PROJ knows"), std::string::npos);
+}
+
+// A paired comparison's map (docs/comparison.md): compare.h5's per-triangle difference and se
+// rasterised as ptn_density.tif is. With the difference set to minus the run's density, every
+// cell is minus ptn_density.tif's and the se band equals its; the CRS is the site's. A compare.h5
+// without a difference (other terrains) writes nothing; one of another terrain is refused.
+TEST_F(ResultsExport, TheDifferenceMapIsThePairedDifferenceRasterisedAsTheDensity) {
+  const fs::path h5 = run_minimal("EPSG:32611");
+  const Terrain t = read_terrain(h5);
+  auto write_compare = [&](const fs::path& p, bool with_density, std::size_t drop) {
+    std::vector<double> minus(t.d.begin(), t.d.end() - static_cast<long>(drop));
+    for (double& x : minus) x = -x;
+    const std::lock_guard<std::mutex> lock(api::h5::hdf5_mutex());
+    api::h5::Writer w(p);
+    if (with_density) {
+      const auto g = w.group("/density");
+      w.dataset("/density/difference_per_m2", minus);
+      w.dataset("/density/paired_std_error_per_m2",
+                std::vector<double>(t.se.begin(), t.se.end() - static_cast<long>(drop)));
+    }
+    w.close();
+  };
+  write_compare(dir_ / "compare.h5", true, 0);
+  ASSERT_TRUE(write_difference_map(h5, dir_ / "compare.h5", dir_ / "d.tif"));
+  const ExportReport rep = export_results(
+      {h5, dir_ / "gis", std::nullopt, api::UnitSystem::kSi, std::nullopt, dir_ / "compare.h5"});
+  EXPECT_NE(std::find(rep.files.begin(), rep.files.end(), kDifferenceMapName), rep.files.end());
+  auto bands = [](const fs::path& tif) {
+    GDALDatasetUniquePtr ds(GDALDataset::Open(tif.c_str(), GDAL_OF_RASTER));
+    EXPECT_TRUE(ds);
+    EXPECT_EQ(crs_name(*ds->GetSpatialRef()), "EPSG:32611");
+    std::vector<double> b(3200);
+    for (int k = 0; k < 2; ++k)
+      EXPECT_EQ(ds->GetRasterBand(k + 1)->RasterIO(GF_Read, 0, 0, 40, 40, b.data() + 1600 * k, 40,
+                                                   40, GDT_Float64, 0, 0),
+                CE_None);
+    return b;
+  };
+  const auto density = bands(dir_ / "gis/ptn_density.tif"), d = bands(dir_ / "d.tif"),
+             in_export = bands(dir_ / "gis" / kDifferenceMapName);
+  double total = 0;
+  for (std::size_t p = 0; p < 1600; ++p) {
+    EXPECT_EQ(d[p], -density[p]) << p;
+    EXPECT_EQ(d[1600 + p], density[1600 + p]) << p;
+    EXPECT_EQ(in_export[p], d[p]) << p;
+    total += density[p];
+  }
+  EXPECT_GT(total, 0.0);
+
+  write_compare(dir_ / "other.h5", false, 0);
+  EXPECT_FALSE(write_difference_map(h5, dir_ / "other.h5", dir_ / "none.tif"));
+  EXPECT_FALSE(fs::exists(dir_ / "none.tif"));
+  write_compare(dir_ / "short.h5", true, 2);
+  EXPECT_THROW(write_difference_map(h5, dir_ / "short.h5", dir_ / "bad.tif"), InputError);
+  EXPECT_FALSE(fs::exists(dir_ / "bad.tif"));
 }
 
 TEST_F(ResultsExport, NotAResultsFileIsAnInputErrorNamingIt) {

@@ -1004,6 +1004,11 @@ TEST_F(ServiceJobs, CompareWithPairsTheBaseJobsHistories) {
   EXPECT_EQ(h5.status, 200);
   EXPECT_EQ(h5.content_type, "application/x-hdf5");
   expect_error(get("/v1/jobs/" + base + "/compare"), 404, "not_found");
+  // Its maps include the density difference (the same terrain in both sites).
+  const Json maps = body_of(get("/v1/jobs/" + id + "/maps"));
+  bool difference_map = false;
+  for (const Json& f : maps["files"]) difference_map |= f["name"] == "density_difference.tif";
+  EXPECT_TRUE(difference_map) << maps.dump();
 
   const std::size_t jobs_before = body_of(get("/v1/jobs"))["jobs"].size();
   Json bad = job_on(site, 300);
