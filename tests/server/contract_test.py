@@ -578,6 +578,9 @@ def exercise(c):
     c.call("POST", "/v1/jobs", 422, job_body(site_a, 300, compare_with=unknown_job))
     status = wait_state(c, compared, {"done"})
     c.check("GET", f"/v1/jobs/{compared}", status, 200)
+    maps = c.call("GET", f"/v1/jobs/{compared}/maps", 200).json()
+    assert "density_difference.tif" in [f["name"] for f in maps["files"]], maps
+    c.call("GET", f"/v1/jobs/{compared}/maps/density_difference.tif", 200)
     for route in ("compare", "compare.h5"):
         c.call("GET", f"/v1/jobs/{compared}/{route}", 200)
         c.call("GET", f"/v1/jobs/{done}/{route}", 404)
