@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <map>
 
+#include "api/job_request.h"
 #include "api/scenario_json.h"
 #include "core/run/partial.h"
 
@@ -139,6 +140,11 @@ bool take_submit_option(const std::vector<std::string>& args, std::size_t& k, Op
     o.priority = parse_priority(value);
   } else if (take_value(args, k, "--idempotency-key", value)) {
     o.idempotency_key = value;
+  } else if (take_value(args, k, "--compare-with", value)) {
+    if (!api::is_job_id(value))
+      throw UsageError("--compare-with: expected a job id (j_ and 16 hex digits), got \"" + value +
+                       "\"");
+    o.compare_with = value;
   } else if (a == "--no-wait") {
     o.wait = false;
   } else if (a == "--maps") {
@@ -346,7 +352,8 @@ Usage:
   fragsim report RESULTS.h5 --out REPORT.html [--pdf REPORT.pdf] [--units si|us]
                  [--compare COMPARE.json]
   fragsim submit SCENARIO.json [--server URL] [--token-file FILE] [--priority N]
-                 [--idempotency-key KEY] [--no-wait] [--out DIR [--maps]] [--quiet]
+                 [--idempotency-key KEY] [--compare-with JOB_ID] [--no-wait]
+                 [--out DIR [--maps]] [--quiet]
                  [--units si|us]
   fragsim --version
   fragsim --help
@@ -425,6 +432,9 @@ Options (submit):
   --token-file FILE   Bearer token: the first token in FILE (one per line, # comments).
   --priority N        Job priority in [-1000, 1000] (default 0; higher runs first).
   --idempotency-key K Resubmitting with the same key returns the same job.
+  --compare-with J    Submit the scenario as the variant of a paired comparison with job J
+                      (docs/comparison.md); prints the comparison, and --out also downloads
+                      compare.json and compare.h5.
   --no-wait           Print the job id and return once the job is queued.
   --out DIR           Download summary.json and results.h5 into DIR when the job is done.
   --maps              With --out: also download the job's GIS maps (GET /v1/jobs/{id}/maps,

@@ -56,8 +56,9 @@ struct Options {
   std::string token_file;
   std::optional<int> priority;
   std::string idempotency_key;
-  bool wait = true;   // follow the job to its end
-  bool maps = false;  // with --out: also download the job's GIS maps into DIR/maps
+  std::string compare_with;  // submit: --compare-with JOB_ID (a paired comparison's base job)
+  bool wait = true;          // follow the job to its end
+  bool maps = false;         // with --out: also download the job's GIS maps into DIR/maps
   // export (RESULTS.h5 in `scenario`, DIR in `out`)
   std::optional<double> pixel_m;
   std::optional<double> smoothing_m;  // export: the site-plan boundary's closing radius

@@ -10,6 +10,7 @@
 #include <thread>
 #include <utility>
 
+#include "api/compare_json.h"
 #include "api/output_dir.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
@@ -158,6 +159,7 @@ std::pair<std::string, bool> submit_job(Client& client, Json scenario, const Opt
   }
   if (o.priority) scenario["priority"] = *o.priority;
   if (!o.idempotency_key.empty()) scenario["idempotency_key"] = o.idempotency_key;
+  if (!o.compare_with.empty()) scenario["compare_with"] = o.compare_with;
   const auto [status, body] = client.request("POST", "/v1/jobs", scenario.dump());
   const Json reply = Json::parse(body);
   if (!o.quiet) print_warnings(reply);
@@ -185,20 +187,30 @@ Json follow_job(Client& client, const std::string& job_id, const Options& o,
   }
 }
 
-// A done job's summary (printed unless quiet) and, with --out, its results (and --maps).
+// A done job's summary (printed unless quiet) and, with --out, its results (and --maps; with
+// --compare-with, the comparison's files).
 void fetch_results(Client& client, const std::string& job_id, const Options& o) {
   const std::string summary_text = client.request("GET", "/v1/jobs/" + job_id + "/summary").second;
+  const std::string base = "/v1/jobs/" + job_id;
+  const std::string compare =
+      o.compare_with.empty() ? "" : client.request("GET", base + "/compare").second;
   const std::filesystem::path dir(o.out);
   if (!o.out.empty()) {
-    const std::string h5 = client.request("GET", "/v1/jobs/" + job_id + "/results.h5").second;
+    const std::string h5 = client.request("GET", base + "/results.h5").second;
     api::OutputDir out(o.out);
     out.stage_text(api::kSummaryFileName, summary_text);
     out.stage_text(api::kResultsFileName, h5);
+    if (!compare.empty()) {
+      out.stage_text(api::kCompareH5FileName, client.request("GET", base + "/compare.h5").second);
+      out.stage_text(api::kCompareFileName, compare);
+    }
     out.commit();
     if (o.maps) download_maps(client, job_id, dir / "maps");
   }
   if (o.quiet) return;
   std::cout << api::render_summary_text(nlohmann::ordered_json::parse(summary_text), o.units);
+  if (!compare.empty())
+    std::cout << "\n" << api::render_compare_text(nlohmann::ordered_json::parse(compare), o.units);
   if (!o.out.empty())
     std::cout << "\nWrote " << (dir / api::kSummaryFileName).string() << " and "
               << (dir / api::kResultsFileName).string()

@@ -63,6 +63,10 @@ TEST(Args, SubmitTakesItsOptions) {
   EXPECT_TRUE(o.maps);
   EXPECT_EQ(o.out, "d");
   EXPECT_EQ(parse_args({"submit", "s.json"}).server, "http://127.0.0.1:8080");
+  EXPECT_EQ(parse_args({"submit", "s.json", "--compare-with", "j_0123456789abcdef"}).compare_with,
+            "j_0123456789abcdef");
+  EXPECT_EQ(usage_error({"submit", "s.json", "--compare-with", "nope"}),
+            "--compare-with: expected a job id (j_ and 16 hex digits), got \"nope\"");
   EXPECT_EQ(usage_error({"submit", "s.json", "--maps"}),
             "--maps needs --out DIR (the maps go to DIR/maps)");
   EXPECT_EQ(usage_error({"submit", "s.json", "--server", "h:1"}),

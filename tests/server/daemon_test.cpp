@@ -582,6 +582,27 @@ TEST(Daemon, SubmitCommandRunsAScenarioOnTheServer) {
             std::string::npos)
       << read_text(dir / "submit_small.log");
 
+  // --compare-with (docs/comparison.md): the minimal scenario with B1 moved, as the variant of
+  // the first job; the comparison is printed and downloaded with the variant's results.
+  const Json jobs = Json::parse(d.client()->Get("/v1/jobs?state=done&limit=1000")->body);
+  const std::string first_job = jobs["jobs"].back()["job_id"];
+  Json moved = minimal_scenario();
+  moved["site"]["buildings"][0]["footprint_m"] = {{80, -10}, {100, -10}, {100, 10}, {80, 10}};
+  write_text(dir / "moved.json", moved.dump());
+  const fs::path compared = dir / "compared";
+  ASSERT_EQ(run_process({"/bin/sh", "-c", "exec \"$0\" \"$@\" > " + (dir / "cmp.txt").string(),
+                         FRAGSIM_CLI, "submit", (dir / "moved.json").string(), "--server", url,
+                         "--token-file", (dir / "tokens").string(), "--compare-with", first_job,
+                         "--out", compared.string()},
+                        dir / "submit_cmp.log"),
+            0)
+      << read_text(dir / "submit_cmp.log");
+  EXPECT_NE(read_text(dir / "cmp.txt").find("Paired comparison (2000 histories"), std::string::npos)
+      << read_text(dir / "cmp.txt");
+  EXPECT_EQ(Json::parse(read_text(compared / "compare.json"))["changed"].dump(),
+            R"(["site.buildings"])");
+  EXPECT_TRUE(fs::is_regular_file(compared / "compare.h5"));
+
   // A second daemon on the same data directory refuses to start.
   Daemon other(dir);
   EXPECT_THROW(other.start(), std::runtime_error);
