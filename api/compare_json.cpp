@@ -169,7 +169,8 @@ Json limitations_json(const run::PairedRun& p) {
   return out;
 }
 
-std::string format(const char* fmt, double a, double b) {
+// A printf format of one or two doubles.
+std::string format(const char* fmt, double a, double b = 0.0) {
   char buf[96];
   std::snprintf(buf, sizeof buf, fmt, a, b);
   return buf;
@@ -296,7 +297,7 @@ std::string render_compare_text(const Json& c, UnitSystem units) {
           << format(": %.4g -> %.4g,", f["base"].get<double>(), f["variant"].get<double>())
           << format(" difference %+.4g +- %.2g (paired;", f["difference"].get<double>(),
                     f["paired_std_error"].get<double>())
-          << format(" +- %.2g unpaired)\n", f["unpaired_std_error"].get<double>(), 0.0);
+          << format(" +- %.2g unpaired)\n", f["unpaired_std_error"].get<double>());
     }
   }
   if (unchanged > 0)

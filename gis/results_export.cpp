@@ -4,6 +4,7 @@
 #include <ogrsf_frmts.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -57,27 +58,34 @@ GDALDatasetUniquePtr create_tif(const fs::path& path, const PlanRaster& pr, int 
   return ds;
 }
 
-// Row r of the file is raster row rows-1-r (GeoTIFF rows run north to south).
-void write_density_tif(const fs::path& path, const PlanRaster& pr, const ResultsFile& res,
-                       const OGRSpatialReference* srs) {
-  const NoAuxXml no_aux;
-  GDALDatasetUniquePtr ds = create_tif(path, pr, 2, GDT_Float64, srs);
-  const char* names[] = {"PTN hazardous fragment density (1/m2)",
-                         "standard error of the density (1/m2; area-weighted, an upper bound)"};
+// Value sets 0 and 1 of `pr` as two float64 bands named `names`, `nodata` where nothing covers a
+// cell. Row r of the file is raster row rows-1-r (GeoTIFF rows run north to south).
+void write_two_bands(GDALDataset& ds, const fs::path& path, const PlanRaster& pr,
+                     const std::array<const char*, 2>& names, double nodata) {
   for (int b = 0; b < 2; ++b) {
     std::vector<double> v(static_cast<std::size_t>(pr.cols) * pr.rows);
     for (int row = 0; row < pr.rows; ++row)
       for (int col = 0; col < pr.cols; ++col) {
         const double m = pr.mean(static_cast<std::size_t>(b), col, pr.rows - 1 - row);
-        v[static_cast<std::size_t>(row) * pr.cols + col] = std::isnan(m) ? kNoData : m;
+        v[static_cast<std::size_t>(row) * pr.cols + col] = std::isnan(m) ? nodata : m;
       }
-    GDALRasterBand* band = ds->GetRasterBand(b + 1);
-    band->SetNoDataValue(kNoData);
-    band->SetDescription(names[b]);
+    GDALRasterBand* band = ds.GetRasterBand(b + 1);
+    band->SetNoDataValue(nodata);
+    band->SetDescription(names[static_cast<std::size_t>(b)]);
     if (band->RasterIO(GF_Write, 0, 0, pr.cols, pr.rows, v.data(), pr.cols, pr.rows, GDT_Float64, 0,
                        0) != CE_None)
       throw std::runtime_error("cannot write " + path.string());
   }
+}
+
+void write_density_tif(const fs::path& path, const PlanRaster& pr, const ResultsFile& res,
+                       const OGRSpatialReference* srs) {
+  const NoAuxXml no_aux;
+  GDALDatasetUniquePtr ds = create_tif(path, pr, 2, GDT_Float64, srs);
+  write_two_bands(*ds, path, pr,
+                  {"PTN hazardous fragment density (1/m2)",
+                   "standard error of the density (1/m2; area-weighted, an upper bound)"},
+                  kNoData);
   ds->SetMetadataItem("FRAGSIM_THRESHOLD_PER_M2", std::to_string(res.threshold).c_str());
   ds->SetMetadataItem("FRAGSIM_CELL_VALUE",
                       "mean of the terrain triangles' values weighted by their plan area in the "
@@ -90,21 +98,10 @@ void write_difference_tif(const fs::path& path, const PlanRaster& pr,
                           const OGRSpatialReference* srs) {
   const NoAuxXml no_aux;
   GDALDatasetUniquePtr ds = create_tif(path, pr, 2, GDT_Float64, srs);
-  const char* names[] = {"PTN density difference, variant - base (1/m2)",
-                         "paired standard error of the difference (1/m2; area-weighted)"};
-  for (int b = 0; b < 2; ++b) {
-    std::vector<double> v(static_cast<std::size_t>(pr.cols) * pr.rows);
-    for (int row = 0; row < pr.rows; ++row)
-      for (int col = 0; col < pr.cols; ++col)
-        v[static_cast<std::size_t>(row) * pr.cols + col] =
-            pr.mean(static_cast<std::size_t>(b), col, pr.rows - 1 - row);
-    GDALRasterBand* band = ds->GetRasterBand(b + 1);
-    band->SetNoDataValue(std::numeric_limits<double>::quiet_NaN());
-    band->SetDescription(names[b]);
-    if (band->RasterIO(GF_Write, 0, 0, pr.cols, pr.rows, v.data(), pr.cols, pr.rows, GDT_Float64, 0,
-                       0) != CE_None)
-      throw std::runtime_error("cannot write " + path.string());
-  }
+  write_two_bands(*ds, path, pr,
+                  {"PTN density difference, variant - base (1/m2)",
+                   "paired standard error of the difference (1/m2; area-weighted)"},
+                  std::numeric_limits<double>::quiet_NaN());
   ds->SetMetadataItem("FRAGSIM_CELL_VALUE",
                       "mean of the terrain triangles' values weighted by their plan area in the "
                       "cell (docs/comparison.md)");

@@ -273,10 +273,7 @@ void Scheduler::run_job(const JobRow& job) {
 // at upload; an inline one: built now), and compare_with.
 Scheduler::LoadedJob Scheduler::load(const JobRow& job) {
   LoadedJob out;
-  const api::SiteResolver resolve = [&](const std::string& site_id) -> const nlohmann::json* {
-    out.entry = sites_.find(site_id);
-    return out.entry ? &out.entry->normalised : nullptr;
-  };
+  const api::SiteResolver resolve = sites_.resolver(out.entry);
   const auto t_parse = Clock::now();
   api::StoredRequest request = api::split_stored_request(api::parse_json_text(job.scenario_json));
   out.compare_with = std::move(request.compare_with);
@@ -590,10 +587,7 @@ void Scheduler::finish_backend_job(Tracked& t) {
       return;
     }
     std::shared_ptr<const SiteEntry> entry;
-    const api::SiteResolver resolve = [&](const std::string& site_id) -> const nlohmann::json* {
-      entry = sites_.find(site_id);
-      return entry ? &entry->normalised : nullptr;
-    };
+    const api::SiteResolver resolve = sites_.resolver(entry);
     api::ScenarioDocument doc = api::parse_scenario_document(
         api::split_stored_request(api::parse_json_text(job.scenario_json)).scenario, &resolve);
     const std::shared_ptr<const scene::Site> site =

@@ -758,10 +758,7 @@ Response Service::post_job(const Request& req) {
   // `held` keeps the site's JSON alive while the request is parsed, even if the site is
   // deleted meanwhile (that is caught below, under the catalogue lock).
   std::shared_ptr<const SiteEntry> held;
-  const api::SiteResolver resolve = [&](const std::string& id) -> const nlohmann::json* {
-    held = sites_.find(id);
-    return held ? &held->normalised : nullptr;
-  };
+  const api::SiteResolver resolve = sites_.resolver(held);
   const api::JobRequest jr = api::parse_job_request(body, resolve);
   check_comparison(jr);
   if (jr.total_samples > config_.max_samples_per_job)
@@ -1016,10 +1013,7 @@ void Service::check_comparison(const api::JobRequest& jr) {
   const auto base = store_.job_with_scenario(*jr.compare_with);
   if (!base) throw InputError("compare_with", "no job " + *jr.compare_with);
   std::shared_ptr<const SiteEntry> held;
-  const api::SiteResolver resolve = [&](const std::string& site_id) -> const nlohmann::json* {
-    held = sites_.find(site_id);
-    return held ? &held->normalised : nullptr;
-  };
+  const api::SiteResolver resolve = sites_.resolver(held);
   api::ScenarioDocument base_doc;
   try {
     base_doc = api::parse_scenario_document(

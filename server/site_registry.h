@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "api/scenario_json.h"
 #include "api/site_document.h"
 #include "core/scene/site.h"
 #include "server/store.h"
@@ -47,6 +48,14 @@ class SiteRegistry {
   Added add(const api::SiteDocument& doc, std::int64_t max_sites);
 
   std::shared_ptr<const SiteEntry> find(const std::string& site_id) const;
+  // A resolver of "site_id" for api::parse_scenario_document that keeps the site it finds alive
+  // in `held` (the caller's), even if the site is deleted meanwhile.
+  api::SiteResolver resolver(std::shared_ptr<const SiteEntry>& held) const {
+    return [this, &held](const std::string& site_id) -> const nlohmann::json* {
+      held = find(site_id);
+      return held ? &held->normalised : nullptr;
+    };
+  }
   std::vector<std::shared_ptr<const SiteEntry>> list() const;  // oldest first
   std::size_t size() const;
   // Removes from memory, store and disk. The caller has checked that no job needs it.
