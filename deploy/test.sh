@@ -4,4 +4,4 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$root/deploy/build.sh"
 cd "$root/build"
-ctest --output-on-failure -j "$(nproc 2>/dev/null || echo 2)" --timeout 1200
+"$root/deploy/ctest-scratch.sh" --output-on-failure -j "$(nproc 2>/dev/null || echo 2)" --timeout 1200

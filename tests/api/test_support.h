@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "api/scenario_json.h"
 #include "core/common/error.h"
@@ -26,8 +27,35 @@ inline std::string read_text(const std::filesystem::path& path) {
   return s.str();
 }
 
+// Removes, when a test passes, the directories fresh_test_dir made for it; a failed test's are
+// kept to look at. Daemon tests leave results of up to 300 MB each: left behind on every run they
+// filled the CI machine's disk (stop 33).
+class TestDirCleaner : public ::testing::EmptyTestEventListener {
+ public:
+  static TestDirCleaner& instance() {
+    static TestDirCleaner* cleaner = [] {
+      auto* c = new TestDirCleaner;  // the listener list owns it
+      ::testing::UnitTest::GetInstance()->listeners().Append(c);
+      return c;
+    }();
+    return *cleaner;
+  }
+  void add(const std::filesystem::path& dir) { dirs_.push_back(dir); }
+  void OnTestEnd(const ::testing::TestInfo& info) override {
+    if (info.result()->Passed()) {
+      std::error_code ignored;
+      for (const auto& d : dirs_) std::filesystem::remove_all(d, ignored);
+    }
+    dirs_.clear();
+  }
+
+ private:
+  std::vector<std::filesystem::path> dirs_;
+};
+
 // An empty directory of the test's own under the system temp directory (process id and test name
-// in its name, so parallel test processes never share one). Removed first if a crashed run left it.
+// in its name, so parallel test processes never share one). Removed first if a crashed run left it,
+// and removed after the test if it passes (TestDirCleaner).
 inline std::filesystem::path fresh_test_dir(const std::string& prefix) {
   namespace fs = std::filesystem;
   const fs::path dir =
@@ -35,6 +63,7 @@ inline std::filesystem::path fresh_test_dir(const std::string& prefix) {
                                    ::testing::UnitTest::GetInstance()->current_test_info()->name());
   fs::remove_all(dir);
   fs::create_directories(dir);
+  TestDirCleaner::instance().add(dir);
   return dir;
 }
 
