@@ -121,7 +121,8 @@ bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const Fli
                             double ta, double tb, const Vec3& pa, const Vec3& pb, double e_step,
                             scene::BuildingProximity& near_buildings, FlightEvent& ev) {
   const double zlo = std::min(pa.z(), pb.z());
-  const std::optional<scene::SceneHit> hit = query_chord(pa, pb, near_buildings);
+  const double clear = terrain_clearance(pa, pb);
+  const std::optional<scene::SceneHit> hit = query_chord(pa, pb, clear, near_buildings);
   const double t_hit = hit ? refine_hit(integ, s, *hit, ta, tb, pa, pb) : tb;
   // A finite body touches the terrain before its centre gets there.
   std::optional<FlightEvent> touch;
@@ -151,7 +152,8 @@ bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const Fli
   if (may_be_hazardous) {
     add_ptn_segment(
         pa, pa + s_end * (pb - pa),
-        [&](double u) { return integ.velocity(ta + u * s_end * (tb - ta)); }, flight_mechanism());
+        [&](double u) { return integ.velocity(ta + u * s_end * (tb - ta)); }, flight_mechanism(),
+        clear);
   }
   return touch || hit;
 }
@@ -159,10 +161,10 @@ bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const Fli
 // The scene query for the chord's straight segment, with the parts of the scene it can reach.
 // A surface met from behind (moving away from it) is where the path starts on it, e.g. a
 // launch from ground level or a bounce: looked past (at most a few surfaces meet at a point).
-std::optional<scene::SceneHit> History::query_chord(const Vec3& pa, const Vec3& pb,
+std::optional<scene::SceneHit> History::query_chord(const Vec3& pa, const Vec3& pb, double clear,
                                                     scene::BuildingProximity& near_buildings) {
   unsigned mask = 0;
-  if (std::min(pa.z(), pb.z()) <= ctx_.terrain_max_z) mask |= scene::kQueryTerrain;
+  if (clear <= kTerrainQuerySlack_m) mask |= scene::kQueryTerrain;
   if (near_buildings.maybe_near(pa, pb) && site_.segment_near_buildings(pa, pb))
     mask |= scene::kQueryBuildings;
   if (mask == 0) return std::nullopt;
@@ -178,6 +180,14 @@ std::optional<scene::SceneHit> History::query_chord(const Vec3& pa, const Vec3& 
   }
   if (hit && hit->normal.dot(d) >= 0.0) hit.reset();
   return hit;
+}
+
+// The chord's clearance over the terrain (TerrainIndex2D::clearance), +inf above every prism.
+// The walk stops once the chord is within kTerrainQuerySlack_m of a bucket's highest terrain:
+// then both the scene query and the PTN walk are needed anyway.
+double History::terrain_clearance(const Vec3& pa, const Vec3& pb) const {
+  if (std::min(pa.z(), pb.z()) > ctx_.prisms.top_z()) return kInfinity;
+  return site_.terrain_index().clearance(pa, pb, kTerrainQuerySlack_m);
 }
 
 // The centre's path meets a surface: the crossing refined on the interpolant against the hit

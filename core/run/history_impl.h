@@ -141,7 +141,14 @@ class History {
   bool examine_chord(const flight::TrajectoryIntegrator& integ, const FlightStep& s, double ta,
                      double tb, const Vec3& pa, const Vec3& pb, double e_step,
                      scene::BuildingProximity& near_buildings, FlightEvent& ev);
-  std::optional<scene::SceneHit> query_chord(const Vec3& pa, const Vec3& pb,
+  // A chord whose clearance over the terrain (TerrainIndex2D::clearance) is more than this
+  // cannot meet the terrain: the scene query leaves the terrain out. The slack covers the scene's
+  // float hit tests (Embree rounds to ~1e-7 of the coordinates, 0.1 mm at 1 km): a chord that
+  // skims a surface closer than that is still queried, so the answer is the query's.
+  static constexpr double kTerrainQuerySlack_m = 0.01;
+  static constexpr double kInfinity = std::numeric_limits<double>::infinity();
+  double terrain_clearance(const Vec3& pa, const Vec3& pb) const;
+  std::optional<scene::SceneHit> query_chord(const Vec3& pa, const Vec3& pb, double clear,
                                              scene::BuildingProximity& near_buildings);
   double refine_hit(const flight::TrajectoryIntegrator& integ, const FlightStep& s,
                     const scene::SceneHit& hit, double ta, double tb, const Vec3& pa,
@@ -159,8 +166,10 @@ class History {
 
   // ---- tallies ----
   template <class VelocityFn>
+  // `clear`: the path's clearance over the terrain when known (terrain_clearance): a path
+  // higher than a person over every bucket's terrain crosses no prism.
   void add_ptn_segment(const Vec3& a, const Vec3& b, const VelocityFn& velocity_at,
-                       PtnMechanism mechanism);
+                       PtnMechanism mechanism, double clear = -kInfinity);
   // A flight's contributions: direct until the history's first terrain contact.
   PtnMechanism flight_mechanism() const {
     return bounces_ + takeoffs_ > 0 ? PtnMechanism::kAfterRicochet : PtnMechanism::kDirectFlight;
@@ -218,11 +227,14 @@ class History {
 // adds w / A_PTN (paper eqs. 37-39), tagged with the mechanism that made it.
 template <class VelocityFn>
 void History::add_ptn_segment(const Vec3& a, const Vec3& b, const VelocityFn& velocity_at,
-                              PtnMechanism mechanism) {
+                              PtnMechanism mechanism, double clear) {
   if (std::min(a.z(), b.z()) > ctx_.prisms.top_z()) return;
+  if (clear > ctx_.prisms.person_height_m() + scene::kClearanceSlack_m) return;
   SectionTimer timer(prof_, out_.tally_s);
-  site_.terrain_index().for_each_candidate(
-      Vec2(a.x(), a.y()), Vec2(b.x(), b.y()), [&](std::uint32_t tri) {
+  // Buckets where the path is higher than a person over their highest terrain are skipped:
+  // none of their prisms reaches it (the exact clip would reject each).
+  site_.terrain_index().for_each_candidate_below(
+      a, b, ctx_.prisms.person_height_m(), [&](std::uint32_t tri) {
         ++out_.stats.ptn_triangle_tests;
         double s_in, s_out;
         if (!ctx_.prisms.clip(tri, a, b, s_in, s_out)) return;

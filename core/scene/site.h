@@ -85,6 +85,18 @@ class TerrainIndex2D {
   // A triangle may be reported more than once; callers do the exact clipping.
   template <class F>
   void for_each_candidate(const Vec2& a, const Vec2& b, F&& f) const;
+  // As for_each_candidate for the segment's xy-projection, but skips the buckets where the
+  // segment stays higher than `above_m` over the bucket's highest terrain (max_z) all the way
+  // across: no point of those buckets' triangles, nor of anything within `above_m` above them,
+  // is on that part of the segment. (The PTN walk, with above_m = person height.)
+  template <class F>
+  void for_each_candidate_below(const Vec3& a, const Vec3& b, double above_m, F&& f) const;
+  // The least height of the segment a->b over the highest terrain (max_z) of the buckets its
+  // xy-projection passes through: min over them of (the segment's lowest z in the bucket -
+  // max_z). +inf when it passes over none. A segment with clearance > 0 meets no terrain. The
+  // walk stops at the first bucket where the height is `enough` or less, and returns it.
+  double clearance(const Vec3& a, const Vec3& b,
+                   double enough = -std::numeric_limits<double>::infinity()) const;
   // Calls f(triangle) for the candidates of the bucket containing p.
   template <class F>
   void for_each_candidate_at(const Vec2& p, F&& f) const;
@@ -99,10 +111,18 @@ class TerrainIndex2D {
 
  private:
   template <class F>
-  void visit_bucket(int i, int j, F& f) const;
-  // for_each_candidate in bucket units.
-  template <class F>
-  void walk(const Vec2& pa, const Vec2& pb, F& f) const;
+  void visit_bucket(std::size_t bucket, F& f) const;
+  // The buckets the xy-segment pa->pb (bucket units) passes through, in order: visit(bucket,
+  // s_in, s_out) with the parameters where it enters and leaves the bucket, reported as
+  // s_base + s_scale * s for the segment's own s in [0, 1]. The walk stops when visit returns
+  // false; then walk returns true.
+  template <class V>
+  bool walk(const Vec2& pa, const Vec2& pb, double s_base, double s_scale, V& visit) const;
+  // The segment's lowest z over [s_in, s_out] minus max_z of the bucket.
+  double clearance_in(std::size_t bucket, double za, double zb, double s_in, double s_out) const {
+    return std::min(za + s_in * (zb - za), za + s_out * (zb - za)) -
+           static_cast<double>(max_z[bucket]);
+  }
 };
 
 // floor(f) as a bucket index clamped to [0, n - 1], with the clamp done in double: a cast of a
@@ -295,8 +315,7 @@ class Site {
 
 // ---- inline template members ----
 template <class F>
-void TerrainIndex2D::visit_bucket(int i, int j, F& f) const {
-  const std::size_t b = static_cast<std::size_t>(j) * nx + i;
+void TerrainIndex2D::visit_bucket(std::size_t b, F& f) const {
   for (std::uint32_t k = start[b]; k < start[b + 1]; ++k) f(triangles[k]);
 }
 
@@ -305,43 +324,85 @@ void TerrainIndex2D::for_each_candidate_at(const Vec2& p, F&& f) const {
   const double fx = (p.x() - origin.x()) / cell.x(), fy = (p.y() - origin.y()) / cell.y();
   if (!(fx >= 0 && fy >= 0 && fx <= nx && fy <= ny)) return;  // also rejects NaN
   const int i = std::min(static_cast<int>(fx), nx - 1), j = std::min(static_cast<int>(fy), ny - 1);
-  visit_bucket(i, j, f);
+  visit_bucket(static_cast<std::size_t>(j) * nx + i, f);
 }
 
-// Amanatides & Woo (1987) grid traversal of the xy-segment a->b, clipped to the grid.
-// Buckets the segment only touches (at a corner or along a bucket edge) may or may not be visited;
-// the builder pads bucket contents so that every triangle the segment crosses is reported.
 template <class F>
 void TerrainIndex2D::for_each_candidate(const Vec2& a, const Vec2& b, F&& f) const {
   if (nx <= 0 || ny <= 0) return;
   const Vec2 pa = (a - origin).cwiseQuotient(cell), pb = (b - origin).cwiseQuotient(cell);
   if (!pa.allFinite() || !pb.allFinite()) return;  // NaN would reach an int cast below (UB)
-  walk(pa, pb, f);
+  auto visit = [&](std::size_t bucket, double, double) {
+    visit_bucket(bucket, f);
+    return true;
+  };
+  walk(pa, pb, 0.0, 1.0, visit);
 }
 
+// The skip is conservative by kClearanceSlack_m: the bucket parameters s_in, s_out are rounded
+// (to ~1e-16 of the segment), so a bucket is skipped only when the segment is clearly higher.
+inline constexpr double kClearanceSlack_m = 1e-6;
+
 template <class F>
-void TerrainIndex2D::walk(const Vec2& pa, const Vec2& pb, F& f) const {
+void TerrainIndex2D::for_each_candidate_below(const Vec3& a, const Vec3& b, double above_m,
+                                              F&& f) const {
+  if (nx <= 0 || ny <= 0) return;
+  const Vec2 pa = (a.head<2>() - origin).cwiseQuotient(cell);
+  const Vec2 pb = (b.head<2>() - origin).cwiseQuotient(cell);
+  if (!pa.allFinite() || !pb.allFinite()) return;
+  const double za = a.z(), zb = b.z(), limit = above_m + kClearanceSlack_m;
+  auto visit = [&](std::size_t bucket, double s_in, double s_out) {
+    // `!(x > limit)`: a NaN height is not skipped (the exact tests then decide).
+    if (!(clearance_in(bucket, za, zb, s_in, s_out) > limit)) visit_bucket(bucket, f);
+    return true;
+  };
+  walk(pa, pb, 0.0, 1.0, visit);
+}
+
+inline double TerrainIndex2D::clearance(const Vec3& a, const Vec3& b, double enough) const {
+  double least = std::numeric_limits<double>::infinity();
+  if (nx <= 0 || ny <= 0) return least;
+  const Vec2 pa = (a.head<2>() - origin).cwiseQuotient(cell);
+  const Vec2 pb = (b.head<2>() - origin).cwiseQuotient(cell);
+  if (!pa.allFinite() || !pb.allFinite()) return -least;  // cannot tell: not clear
+  const double za = a.z(), zb = b.z();
+  auto visit = [&](std::size_t bucket, double s_in, double s_out) {
+    const double c = clearance_in(bucket, za, zb, s_in, s_out) - kClearanceSlack_m;
+    if (!(c >= least)) least = std::isnan(c) ? -std::numeric_limits<double>::infinity() : c;
+    return least > enough && least > -std::numeric_limits<double>::infinity();
+  };
+  walk(pa, pb, 0.0, 1.0, visit);
+  return least;
+}
+
+// Amanatides & Woo (1987) grid traversal of the xy-segment a->b, clipped to the grid.
+// Buckets the segment only touches (at a corner or along a bucket edge) may or may not be visited;
+// the builder pads bucket contents so that every triangle the segment crosses is reported.
+template <class V>
+bool TerrainIndex2D::walk(const Vec2& pa, const Vec2& pb, double s_base, double s_scale,
+                          V& visit) const {
   if (std::max(pa.x(), pb.x()) < 0 || std::min(pa.x(), pb.x()) > nx ||
       std::max(pa.y(), pb.y()) < 0 || std::min(pa.y(), pb.y()) > ny)
-    return;  // beside the grid
+    return false;  // beside the grid
   const Vec2 d = pb - pa;
   // The clipping below resolves a segment to ~1e-16 of its length (and a difference of ends
   // near the largest doubles overflows, and 0 * inf is NaN): a segment longer than 2^32 buckets
   // is halved first, and halves beside the grid are dropped. Only a far-away point (a footprint
-  // far from a fine terrain, a core caller's extreme input) makes one; chords are short.
+  // far from a fine terrain, a core caller's extreme input) makes one; chords are short. The
+  // halves report parameters of the whole segment (s_base, s_scale).
   constexpr double kLongest = 4294967296.0;
   if (!(std::abs(d.x()) <= kLongest && std::abs(d.y()) <= kLongest)) {
     const Vec2 pm = 0.5 * pa + 0.5 * pb;
-    walk(pa, pm, f);
-    walk(pm, pb, f);
-    return;
+    const double half = 0.5 * s_scale;
+    if (walk(pa, pm, s_base, half, visit)) return true;
+    return walk(pm, pb, s_base + half, half, visit);
   }
   // Clip the parametric segment to [0,nx]x[0,ny].
   double s0 = 0.0, s1 = 1.0;
   for (int k = 0; k < 2; ++k) {
     const double lo = 0.0, hi = (k == 0) ? nx : ny;
     if (d[k] == 0.0) {
-      if (pa[k] < lo || pa[k] > hi) return;
+      if (pa[k] < lo || pa[k] > hi) return false;
     } else {
       double u0 = (lo - pa[k]) / d[k], u1 = (hi - pa[k]) / d[k];
       if (u0 > u1) std::swap(u0, u1);
@@ -349,7 +410,7 @@ void TerrainIndex2D::walk(const Vec2& pa, const Vec2& pb, F& f) const {
       s1 = std::min(s1, u1);
     }
   }
-  if (s0 > s1) return;
+  if (s0 > s1) return false;
   const Vec2 p0 = pa + s0 * d;
   int i = clamped_bucket(p0.x(), nx);
   int j = clamped_bucket(p0.y(), ny);
@@ -368,9 +429,13 @@ void TerrainIndex2D::walk(const Vec2& pa, const Vec2& pb, F& f) const {
     return sj != 0 ? ((jj + (sj > 0 ? 1 : 0)) - pa.y()) / d.y() : inf;
   };
   double tmx = next_x(i), tmy = next_y(j);
+  double s_in = s0;
   // Bounded loop: at most nx + ny + 2 buckets for any segment.
   for (int guard = nx + ny + 2; guard > 0; --guard) {
-    visit_bucket(i, j, f);
+    const double s_out = std::clamp(std::min(tmx, tmy), s_in, s1);
+    if (!visit(static_cast<std::size_t>(j) * nx + i, s_base + s_scale * s_in,
+               s_base + s_scale * s_out))
+      return true;
     if (i == iend && j == jend) break;
     if (tmx < tmy) {
       if (tmx > s1) break;
@@ -381,8 +446,10 @@ void TerrainIndex2D::walk(const Vec2& pa, const Vec2& pb, F& f) const {
       j += sj;
       tmy = next_y(j);
     }
+    s_in = s_out;
     if (i < 0 || j < 0 || i >= nx || j >= ny) break;
   }
+  return false;
 }
 
 }  // namespace fragsim::scene
