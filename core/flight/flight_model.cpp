@@ -31,16 +31,22 @@ DragCoefficient::DragCoefficient(const fragments::CdSpec& spec) : constant_(spec
   }
   mach_ = spec.mach;
   cd_ = spec.cd;
+  build_grid();
 }
 
-double DragCoefficient::from_table(double mach) const {
-  if (!(mach > mach_.front())) return cd_.front();  // clamped (and NaN-safe)
-  if (mach >= mach_.back()) return cd_.back();
-  // First node strictly above `mach`; tables are short, binary search is enough.
-  const auto it = std::upper_bound(mach_.begin(), mach_.end(), mach);
-  const std::size_t j = static_cast<std::size_t>(it - mach_.begin());
-  const double w = (mach - mach_[j - 1]) / (mach_[j] - mach_[j - 1]);
-  return cd_[j - 1] + w * (cd_[j] - cd_[j - 1]);
+// A uniform grid over [front, back] with 8 cells per node interval on average (node_above
+// scans from the cell's entry). Each cell's entry is the first node strictly above the cell's
+// lower edge, so it is at most the node node_above returns for any Mach number in the cell.
+void DragCoefficient::build_grid() {
+  const std::size_t cells = 8 * mach_.size();
+  inv_cell_ = static_cast<double>(cells) / (mach_.back() - mach_.front());
+  first_above_.resize(cells);
+  for (std::size_t k = 0; k < cells; ++k) {
+    const double lower = mach_.front() + static_cast<double>(k) / inv_cell_;
+    const auto it = std::upper_bound(mach_.begin(), mach_.end(), lower);
+    first_above_[k] = static_cast<std::uint32_t>(
+        std::clamp<std::ptrdiff_t>(it - mach_.begin(), 1, std::ssize(mach_) - 1));
+  }
 }
 
 }  // namespace fragsim::flight

@@ -1,6 +1,8 @@
 #pragma once
 // Translational flight of one fragment: gravity + quadratic drag (paper eqs. 3-5).
 //   m r'' = -m g e_z - 1/2 rho(z) Cd(Mach) A |v - w| (v - w)
+#include <algorithm>
+#include <cstdint>
 #include <vector>
 
 #include "core/common/types.h"
@@ -18,9 +20,29 @@ class DragCoefficient {
   bool is_constant() const { return mach_.empty(); }
 
  private:
-  double from_table(double mach) const;
+  // Inline: it is called on every right-hand side of a Mach-table fragment.
+  double from_table(double mach) const {
+    if (!(mach > mach_.front())) return cd_.front();  // clamped (and NaN-safe)
+    if (mach >= mach_.back()) return cd_.back();
+    const std::size_t j = node_above(mach);
+    const double w = (mach - mach_[j - 1]) / (mach_[j] - mach_[j - 1]);
+    return cd_[j - 1] + w * (cd_[j] - cd_[j - 1]);
+  }
+  // The first node strictly above `mach` (front < mach < back), as std::upper_bound finds it: a
+  // uniform grid over the table's range gives a node at most a few below or above it, and a short
+  // scan corrects the grid cell's rounding either way.
+  std::size_t node_above(double mach) const {
+    const double f = (mach - mach_.front()) * inv_cell_;
+    std::size_t j = first_above_[std::min(static_cast<std::size_t>(f), first_above_.size() - 1)];
+    while (mach_[j] <= mach) ++j;
+    while (mach_[j - 1] > mach) --j;
+    return j;
+  }
+  void build_grid();
   double constant_ = 1.0;
   std::vector<double> mach_, cd_;
+  std::vector<std::uint32_t> first_above_;  // per grid cell: first node above its lower edge
+  double inv_cell_ = 0.0;
 };
 
 // A null atmosphere or Cd, or zero area, means no drag (vacuum flight).
