@@ -131,8 +131,10 @@ class MpiBatchExchange : public run::BatchSynchronizer {
   MpiBatchExchange(api::PartialIdentity id, std::size_t bins) : id_(std::move(id)), bins_(bins) {}
 
   std::optional<run::BatchState> exchange(const run::BatchState& mine) override {
+    const auto t0 = std::chrono::steady_clock::now();
     std::string bytes = api::encode_batch(mine, id_);
     std::vector<std::string> all;
+    const auto t1 = std::chrono::steady_clock::now();
     {
       std::unique_lock<std::mutex> lock(mutex_);
       if (aborted_) return std::nullopt;
@@ -144,6 +146,7 @@ class MpiBatchExchange : public run::BatchSynchronizer {
       all = std::move(result_);
       has_result_ = false;
     }
+    const auto t2 = std::chrono::steady_clock::now();
     run::BatchState merged;
     for (std::size_t r = 0; r < all.size(); ++r) {
       api::PartialIdentity theirs;
@@ -156,6 +159,9 @@ class MpiBatchExchange : public run::BatchSynchronizer {
         run::merge(merged, std::move(b));
       }
     }
+    const auto t3 = std::chrono::steady_clock::now();
+    codec_s_ += std::chrono::duration<double>((t1 - t0) + (t3 - t2)).count();
+    wait_s_ += std::chrono::duration<double>(t2 - t1).count();
     return merged;
   }
 
@@ -188,6 +194,10 @@ class MpiBatchExchange : public run::BatchSynchronizer {
     cv_.notify_all();
   }
   std::int64_t exchanges() const { return exchanges_; }
+  // The shard's seconds encoding, decoding and merging states, and waiting for the exchange
+  // (for the other ranks to reach the boundary, and the transfer).
+  double codec_s() const { return codec_s_; }
+  double wait_s() const { return wait_s_; }
   std::uint64_t bytes() const { return bytes_; }
   void count(std::uint64_t bytes) {
     ++exchanges_;
@@ -202,8 +212,9 @@ class MpiBatchExchange : public run::BatchSynchronizer {
   std::string posted_;
   std::vector<std::string> result_;
   bool has_posted_ = false, has_result_ = false, aborted_ = false;
-  std::int64_t exchanges_ = 0;  // main thread only
-  std::uint64_t bytes_ = 0;     // this rank's states sent
+  double codec_s_ = 0.0, wait_s_ = 0.0;  // shard thread only (read after it ends)
+  std::int64_t exchanges_ = 0;           // main thread only
+  std::uint64_t bytes_ = 0;              // this rank's states sent
 };
 
 // Histories of the whole run when it is not a settings.precision run (whose shards report their
@@ -284,7 +295,8 @@ run::PartialRun run_shard(const cli::Options& o, const cli::PreparedRun& p, int 
   if (error) std::rethrow_exception(error);
   if (divided && rank == 0 && std::getenv("FRAGSIM_MPI_EXCHANGE_STATS") != nullptr)
     std::cerr << "batch exchanges: " << batches.exchanges() << ", rank 0 sent " << batches.bytes()
-              << " bytes\n";
+              << " bytes; encode/decode/merge " << batches.codec_s() << " s, waited "
+              << batches.wait_s() << " s\n";
   return std::move(*part);
 }
 
