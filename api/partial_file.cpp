@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <bit>
 #include <cstdio>
 #include <cstring>
@@ -441,6 +442,88 @@ run::PartialRun decode_partial(std::string_view bytes, std::size_t tally_bins, P
   for (std::uint64_t k = 0; k < trajectories; ++k) p.trajectories.push_back(get_trajectory(r));
   if (!r.at_end()) r.fail("bytes after its end");
   return p;
+}
+
+namespace {
+
+constexpr std::string_view kBatchMagic = "FSBATCH1";
+
+template <class T>
+void put_array(Writer& w, const std::vector<T>& v) {
+  w.put<std::uint64_t>(v.size());
+  for (const T& x : v) w.put(x);
+}
+
+template <class T>
+std::vector<T> get_array(Reader& r) {
+  std::vector<T> v(r.count(sizeof(T)));
+  for (T& x : v) x = r.get<T>();
+  return v;
+}
+
+void put_learner_input(Writer& w, const run::LearnerInput& in) {
+  put_array(w, in.group);
+  put_array(w, in.cell);
+  put_array(w, in.likelihood_ratio);
+  put_array(w, in.building);
+  put_array(w, in.contributed);
+  put_array(w, in.entries_end);
+  put_array(w, in.bin);
+  put_array(w, in.x);
+}
+
+// The ranges of the values are checked where they are replayed (DirectionLearner::replay).
+run::LearnerInput get_learner_input(Reader& r) {
+  run::LearnerInput in;
+  in.group = get_array<std::uint32_t>(r);
+  in.cell = get_array<std::uint32_t>(r);
+  in.likelihood_ratio = get_array<double>(r);
+  in.building = get_array<std::int32_t>(r);
+  in.contributed = get_array<std::uint8_t>(r);
+  in.entries_end = get_array<std::uint32_t>(r);
+  in.bin = get_array<std::uint16_t>(r);
+  in.x = get_array<double>(r);
+  return in;
+}
+
+}  // namespace
+
+std::string encode_batch(const run::BatchState& b, const PartialIdentity& id) {
+  Writer w;
+  for (const char c : kBatchMagic) w.put(c);
+  w.put(b.batch);
+  w.put(b.elapsed_s);
+  w.put_string(encode_partial(b.part, id));
+  w.put<std::uint64_t>(b.learnt.size());
+  for (const auto& l : b.learnt) {
+    w.put(l.shard);
+    put_learner_input(w, l.input);
+  }
+  return w.take();
+}
+
+run::BatchState decode_batch(std::string_view bytes, std::size_t tally_bins, PartialIdentity& id,
+                             const std::string& what) {
+  if (bytes.substr(0, kBatchMagic.size()) != kBatchMagic)
+    throw InputError(what, "not a batch state (no FSBATCH1 header)");
+  Reader r(bytes.substr(kBatchMagic.size()), what);
+  run::BatchState b;
+  b.batch = r.get<std::int64_t>();
+  b.elapsed_s = r.get<double>();
+  if (b.batch < 0 || b.batch > 1'000'000 || !(b.elapsed_s >= 0.0)) r.fail("a bad batch");
+  b.part = decode_partial(r.get_string(), tally_bins, id, what);
+  const std::uint64_t learnt = r.count(8 + 8 * 8);
+  for (std::uint64_t k = 0; k < learnt; ++k) {
+    run::BatchState::Learnt l;
+    l.shard = r.get<std::int64_t>();
+    if (std::find(b.part.shards.begin(), b.part.shards.end(), l.shard) == b.part.shards.end() ||
+        (k > 0 && b.learnt.back().shard >= l.shard))
+      r.fail("learner input of a shard not in the batch, or out of order");
+    l.input = get_learner_input(r);
+    b.learnt.push_back(std::move(l));
+  }
+  if (!r.at_end()) r.fail("bytes after its end");
+  return b;
 }
 
 void write_partial_file(const std::filesystem::path& path, const run::PartialRun& partial,

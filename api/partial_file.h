@@ -37,6 +37,14 @@ std::string encode_partial(const run::PartialRun& partial, const PartialIdentity
 run::PartialRun decode_partial(std::string_view bytes, std::size_t tally_bins,
                                PartialIdentity& identity, const std::string& what);
 
+// A shard's state at a batch boundary of a divided settings.precision run (core/run/partial.h,
+// BatchState), as fragsim-mpi's ranks exchange it (bytes, never a file): "FSBATCH1", the batch,
+// the elapsed time, the encoded partial of the batch's tally and counts, and the importance
+// learner's input per shard. Decoding checks it as a partial file is checked.
+std::string encode_batch(const run::BatchState& state, const PartialIdentity& identity);
+run::BatchState decode_batch(std::string_view bytes, std::size_t tally_bins,
+                             PartialIdentity& identity, const std::string& what);
+
 // A file (callers stage it in an OutputDir, so no half-written partial.fsp is ever seen).
 void write_partial_file(const std::filesystem::path& path, const run::PartialRun& partial,
                         const PartialIdentity& identity);

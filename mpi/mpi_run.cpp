@@ -2,11 +2,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
+#include <cstdlib>
 #include <exception>
 #include <future>
 #include <iostream>
 #include <memory>
+#include <mutex>
 #include <new>
 #include <optional>
 #include <thread>
@@ -74,20 +77,148 @@ std::optional<run::PartialRun> reduce_partials(run::PartialRun mine, const cli::
 }
 
 // What the ranks tell each other at each tick: histories done and to do, how many ranks still
-// run their shard, and how many were told to stop (a signal, or a failure of theirs).
+// run their shard, how many were told to stop (a signal, or a failure of theirs), and how many
+// wait at a batch boundary of a divided settings.precision run with their batch's state.
 struct Tick {
-  std::int64_t done = 0, total = 0, running = 0, stopping = 0;
+  std::int64_t done = 0, total = 0, running = 0, stopping = 0, posted = 0;
 };
 constexpr auto kTickInterval = std::chrono::milliseconds(250);
 
+// A nonblocking MPI_Allreduce, polled every 0.5 ms: a rank that comes early (at a batch
+// boundary) waits for the others' next tick without spinning a core in the collective.
 Tick exchange(Tick mine, MPI_Comm comm) {
-  std::int64_t v[4] = {mine.done, mine.total, mine.running, mine.stopping};
-  MPI_Allreduce(MPI_IN_PLACE, v, 4, MPI_INT64_T, MPI_SUM, comm);
-  return {v[0], v[1], v[2], v[3]};
+  std::int64_t v[5] = {mine.done, mine.total, mine.running, mine.stopping, mine.posted};
+  MPI_Request request;
+  MPI_Iallreduce(MPI_IN_PLACE, v, 5, MPI_INT64_T, MPI_SUM, comm, &request);
+  for (int complete = 0;;) {
+    MPI_Test(&request, &complete, MPI_STATUS_IGNORE);
+    if (complete) break;
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+  return {v[0], v[1], v[2], v[3], v[4]};
 }
 
-// Histories of the whole run when it is not a settings.precision run (which runs on one rank and
-// reports its own total): the shards partition each group's samples.
+// Every rank's bytes on every rank, in rank order: the sizes by MPI_Allgather, then each rank's
+// bytes by MPI_Bcast from it (in messages of <= kMessageBytes).
+std::vector<std::string> all_gather_bytes(const std::string& mine, int rank, int size,
+                                          MPI_Comm comm) {
+  std::vector<std::uint64_t> sizes(static_cast<std::size_t>(size));
+  std::uint64_t n = mine.size();
+  MPI_Allgather(&n, 1, MPI_UINT64_T, sizes.data(), 1, MPI_UINT64_T, comm);
+  std::vector<std::string> all(static_cast<std::size_t>(size));
+  for (int r = 0; r < size; ++r) {
+    std::string& b = all[static_cast<std::size_t>(r)];
+    if (r == rank) {
+      b = mine;
+    } else {
+      b.resize(sizes[static_cast<std::size_t>(r)]);
+    }
+    for (std::uint64_t at = 0; at < b.size(); at += kMessageBytes) {
+      const auto k = static_cast<int>(std::min<std::uint64_t>(kMessageBytes, b.size() - at));
+      MPI_Bcast(b.data() + at, k, MPI_BYTE, r, comm);
+    }
+  }
+  return all;
+}
+
+// The batch boundaries of a divided settings.precision run (core/run/partial.h): the shard's
+// thread posts its batch's encoded state and waits; the main thread, the only one that calls
+// MPI, exchanges the states at a tick where every rank has posted and hands them back, or
+// aborts the boundary when a rank is told to stop. The shard's thread decodes and merges them
+// (in rank order; any order gives the same bits).
+class MpiBatchExchange : public run::BatchSynchronizer {
+ public:
+  MpiBatchExchange(api::PartialIdentity id, std::size_t bins) : id_(std::move(id)), bins_(bins) {}
+
+  std::optional<run::BatchState> exchange(const run::BatchState& mine) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::string bytes = api::encode_batch(mine, id_);
+    std::vector<std::string> all;
+    const auto t1 = std::chrono::steady_clock::now();
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      if (aborted_) return std::nullopt;
+      posted_ = std::move(bytes);
+      has_posted_ = true;
+      cv_.notify_all();
+      cv_.wait(lock, [&] { return has_result_ || aborted_; });
+      if (!has_result_) return std::nullopt;
+      all = std::move(result_);
+      has_result_ = false;
+    }
+    const auto t2 = std::chrono::steady_clock::now();
+    run::BatchState merged;
+    for (std::size_t r = 0; r < all.size(); ++r) {
+      api::PartialIdentity theirs;
+      run::BatchState b =
+          api::decode_batch(all[r], bins_, theirs, "batch state of rank " + std::to_string(r));
+      if (!(theirs == id_)) throw std::runtime_error("a rank ran another scenario");
+      if (r == 0) {
+        merged = std::move(b);
+      } else {
+        run::merge(merged, std::move(b));
+      }
+    }
+    const auto t3 = std::chrono::steady_clock::now();
+    codec_s_ += std::chrono::duration<double>((t1 - t0) + (t3 - t2)).count();
+    wait_s_ += std::chrono::duration<double>(t2 - t1).count();
+    return merged;
+  }
+
+  // The main thread's side. Waits until `deadline` or until the shard posts its state: true
+  // when one is posted.
+  bool wait_posted(std::chrono::steady_clock::time_point deadline) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return cv_.wait_until(lock, deadline, [&] { return has_posted_; });
+  }
+  std::string take_posted() {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    has_posted_ = false;
+    return std::move(posted_);
+  }
+  void deliver(std::vector<std::string> all) {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      result_ = std::move(all);
+      has_result_ = true;
+    }
+    cv_.notify_all();
+  }
+  // Every boundary from now on ends the run (the shard ends cancelled).
+  void abort() {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      aborted_ = true;
+      has_posted_ = false;
+    }
+    cv_.notify_all();
+  }
+  std::int64_t exchanges() const { return exchanges_; }
+  // The shard's seconds encoding, decoding and merging states, and waiting for the exchange
+  // (for the other ranks to reach the boundary, and the transfer).
+  double codec_s() const { return codec_s_; }
+  double wait_s() const { return wait_s_; }
+  std::uint64_t bytes() const { return bytes_; }
+  void count(std::uint64_t bytes) {
+    ++exchanges_;
+    bytes_ += bytes;
+  }
+
+ private:
+  const api::PartialIdentity id_;
+  const std::size_t bins_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::string posted_;
+  std::vector<std::string> result_;
+  bool has_posted_ = false, has_result_ = false, aborted_ = false;
+  double codec_s_ = 0.0, wait_s_ = 0.0;  // shard thread only (read after it ends)
+  std::int64_t exchanges_ = 0;           // main thread only
+  std::uint64_t bytes_ = 0;              // this rank's states sent
+};
+
+// Histories of the whole run when it is not a settings.precision run (whose shards report their
+// totals: every batch it may run): the shards partition each group's samples.
 std::int64_t whole_samples(const cli::PreparedRun& p) {
   std::int64_t n = 0;
   for (const auto& g : p.doc.scenario.groups) n += g.samples;
@@ -99,13 +230,21 @@ std::int64_t whole_samples(const cli::PreparedRun& p) {
 // up to date for the whole run, and a signal or a failure on any rank stops every rank's shard
 // within a tick. The ticks are collective, so every rank makes the same number of them: they
 // end together when no rank runs any more. The exception of a failed shard is rethrown.
-run::PartialRun run_shard(const cli::PreparedRun& p, int rank, int size, MPI_Comm comm,
-                          const std::atomic<bool>& cancel, cli::ProgressFile& progress,
-                          bool& stopped) {
+//
+// A divided settings.precision run adds its batch boundaries to the ticks: a rank whose shard has
+// posted its batch's state does not wait for the interval, and when a tick finds every rank
+// posted (and none stopping), the ranks exchange their states at once (all_gather_bytes). A stop
+// aborts the boundary on every rank alike: they all end at the same one.
+run::PartialRun run_shard(const cli::Options& o, const cli::PreparedRun& p, int rank, int size,
+                          MPI_Comm comm, const std::atomic<bool>& cancel,
+                          cli::ProgressFile& progress, bool& stopped) {
   std::atomic<bool> stop{false};
   std::atomic<std::int64_t> done{0}, total{0};
+  const bool divided = p.doc.scenario.settings.precision && size > 1;
+  MpiBatchExchange batches(cli::identity_of(o, p), run::tally_bins(p.doc.scenario, *p.site).total);
   run::RunControl control;
   control.cancel = &stop;
+  if (divided) control.synchronizer = &batches;
   control.on_progress = [&](const run::Progress& pr) {
     done.store(pr.histories_done);
     total.store(pr.histories_total);
@@ -127,19 +266,26 @@ run::PartialRun run_shard(const cli::PreparedRun& p, int rank, int size, MPI_Com
     // After an exchange every rank waits one interval: they reach the next one together, so
     // little time is spent spinning in MPI_Allreduce on a shared node.
     const auto next = std::chrono::steady_clock::now() + kTickInterval;
-    const bool running = shard.wait_until(next) != std::future_status::ready;
-    if (!running) std::this_thread::sleep_until(next);
+    const bool posted = divided && batches.wait_posted(next);
+    const bool running = shard.wait_until(posted ? std::chrono::steady_clock::now() : next) !=
+                         std::future_status::ready;
+    if (!running && !posted) std::this_thread::sleep_until(next);
     const Tick mine{done.load(), total.load(), running ? 1 : 0,
-                    cancel.load() || failed.load() ? 1 : 0};
+                    cancel.load() || failed.load() ? 1 : 0, posted ? 1 : 0};
     const Tick all = exchange(mine, comm);
     if (all.stopping > 0) {
       stop.store(true);
       stopped = true;
+      batches.abort();
+    } else if (divided && all.posted == size) {
+      const std::string state = batches.take_posted();
+      batches.count(state.size());
+      batches.deliver(all_gather_bytes(state, rank, size, comm));
     }
     if (rank == 0) {
       run::Progress pr;
       pr.histories_done = all.done;
-      pr.histories_total = size == 1 && all.total > 0 ? all.total : fallback_total;
+      pr.histories_total = (size == 1 || divided) && all.total > 0 ? all.total : fallback_total;
       pr.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       progress.update(pr);
     }
@@ -147,6 +293,10 @@ run::PartialRun run_shard(const cli::PreparedRun& p, int rank, int size, MPI_Com
   }
   std::optional<run::PartialRun> part = shard.get();
   if (error) std::rethrow_exception(error);
+  if (divided && rank == 0 && std::getenv("FRAGSIM_MPI_EXCHANGE_STATS") != nullptr)
+    std::cerr << "batch exchanges: " << batches.exchanges() << ", rank 0 sent " << batches.bytes()
+              << " bytes; encode/decode/merge " << batches.codec_s() << " s, waited "
+              << batches.wait_s() << " s\n";
   return std::move(*part);
 }
 
@@ -154,7 +304,7 @@ int run_ranks(const cli::Options& o, const cli::PreparedRun& p, int rank, int si
               const std::atomic<bool>& cancel, api::OutputDir* out) {
   cli::ProgressFile progress(rank == 0 ? o.progress_file : std::string());
   bool stopped = false;
-  run::PartialRun part = run_shard(p, rank, size, comm, cancel, progress, stopped);
+  run::PartialRun part = run_shard(o, p, rank, size, comm, cancel, progress, stopped);
   if (stopped || part.cancelled) {
     progress.finish("cancelled");
     if (rank == 0) std::cerr << "cancelled: no output written\n";
@@ -228,10 +378,6 @@ int run_mpi(const std::vector<std::string>& args, MPI_Comm comm, const std::atom
   std::optional<cli::PreparedRun> p;
   try {
     p = cli::prepare_text(o, std::move(text));
-    if (size > 1 && p->doc.scenario.settings.precision)
-      throw InputError("settings.precision",
-                       "cannot be divided among MPI ranks: its checks at batch boundaries need "
-                       "every history of a batch in one process (run it with one rank)");
   } catch (const InputError& e) {
     if (rank == 0) std::cerr << "error: " << e.what() << "\n";
     return cli::kExitInvalidInput;

@@ -1,7 +1,9 @@
 #pragma once
 // `fragsim run` over MPI: rank r of P runs shard r/P (core/run/partial.h) with its own threads;
 // the partials are merged exactly up a binary tree to rank 0, which writes the outputs
-// `fragsim run` writes, bit-identical to a one-process run (docs/cluster.md, "MPI").
+// `fragsim run` writes, bit-identical to a one-process run (docs/cluster.md, "MPI"). A
+// settings.precision run's ranks run each batch together and exchange it at every batch boundary
+// (docs/cluster.md, "Precision runs divided").
 #include <mpi.h>
 
 #include <atomic>

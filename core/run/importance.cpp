@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/common/error.h"
 #include "core/fragments/sampling.h"
 
 namespace fragsim::run {
@@ -133,22 +134,72 @@ int DirectionLearner::distance_bin(double d_m) {
   return std::clamp(static_cast<int>(b), 0, kDistanceBins - 1);
 }
 
+void LearnerInput::clear() {
+  group.clear();
+  cell.clear();
+  likelihood_ratio.clear();
+  building.clear();
+  contributed.clear();
+  entries_end.clear();
+  bin.clear();
+  x.clear();
+}
+
 void DirectionLearner::add(std::uint32_t group, std::uint32_t cell, double likelihood_ratio,
                            std::int32_t building, const PtnContribution* begin,
                            const PtnContribution* end) {
-  GroupStats& g = groups_[group];
-  ++g.histories;
-  ++g.n[cell];
-  if ((building >= 0 && building_used_[static_cast<std::size_t>(building)]) ||
-      (ring_used_ && begin != end))
-    ++g.touching;
-  if (building >= 0) {
-    const auto b = static_cast<std::size_t>(building);
-    ++g.hits[cell * buildings_ + b];
-    g.building_mean[b] += likelihood_ratio;
+  reduce(group, likelihood_ratio, begin, end, entries_);
+  apply(group, cell, likelihood_ratio, building, begin != end, entries_.data(),
+        entries_.data() + entries_.size());
+}
+
+void DirectionLearner::observe(std::uint32_t group, std::uint32_t cell, double likelihood_ratio,
+                               std::int32_t building, const PtnContribution* begin,
+                               const PtnContribution* end, LearnerInput& out) {
+  reduce(group, likelihood_ratio, begin, end, entries_);
+  out.group.push_back(group);
+  out.cell.push_back(cell);
+  out.likelihood_ratio.push_back(likelihood_ratio);
+  out.building.push_back(building);
+  out.contributed.push_back(begin != end ? 1 : 0);
+  for (const auto& [bin, x] : entries_) {
+    out.bin.push_back(bin);
+    out.x.push_back(x);
   }
+  out.entries_end.push_back(static_cast<std::uint32_t>(out.bin.size()));
+}
+
+void DirectionLearner::replay(const LearnerInput& in) {
+  const std::size_t n = in.size();
+  if (in.cell.size() != n || in.likelihood_ratio.size() != n || in.building.size() != n ||
+      in.contributed.size() != n || in.entries_end.size() != n || in.x.size() != in.bin.size())
+    throw InputError("learner input", "arrays of different lengths");
+  std::uint32_t first = 0;
+  for (std::size_t h = 0; h < n; ++h) {
+    const std::uint32_t last = in.entries_end[h];
+    if (in.group[h] >= groups_.size() || in.cell[h] >= static_cast<std::uint32_t>(cells_) ||
+        in.building[h] >= static_cast<std::int32_t>(buildings_) || in.building[h] < -1 ||
+        last < first || last > in.bin.size() || (last > first && !ring_used_))
+      throw InputError("learner input", "a history out of range");
+    entries_.clear();
+    for (std::uint32_t k = first; k < last; ++k) {
+      if (in.bin[k] >= kDistanceBins) throw InputError("learner input", "a bin out of range");
+      entries_.emplace_back(in.bin[k], in.x[k]);
+    }
+    apply(in.group[h], in.cell[h], in.likelihood_ratio[h], in.building[h], in.contributed[h] != 0,
+          entries_.data(), entries_.data() + entries_.size());
+    first = last;
+  }
+}
+
+// x per distance bin without the likelihood ratio (the density under the group's own p), in the
+// order the bins were first touched.
+void DirectionLearner::reduce(std::uint32_t group, double likelihood_ratio,
+                              const PtnContribution* begin, const PtnContribution* end,
+                              std::vector<std::pair<std::uint16_t, double>>& entries) {
+  entries.clear();
   if (!ring_used_ || begin == end) return;
-  // x per distance bin without the likelihood ratio (the density under the group's own p).
+  GroupStats& g = groups_[group];
   std::vector<int>& touched = g.touched;
   touched.clear();
   for (const PtnContribution* c = begin; c != end; ++c) {
@@ -158,10 +209,30 @@ void DirectionLearner::add(std::uint32_t group, std::uint32_t cell, double likel
   }
   for (const int bin : touched) {
     const auto k = static_cast<std::size_t>(bin);
-    const double x = g.scratch[k];
-    g.ring_sq[cell * static_cast<std::size_t>(kDistanceBins) + k] += x * x;
-    g.bin_mean[k] += likelihood_ratio * x;
+    entries.emplace_back(static_cast<std::uint16_t>(bin), g.scratch[k]);
     g.scratch[k] = 0.0;
+  }
+}
+
+void DirectionLearner::apply(std::uint32_t group, std::uint32_t cell, double likelihood_ratio,
+                             std::int32_t building, bool contributed,
+                             const std::pair<std::uint16_t, double>* begin,
+                             const std::pair<std::uint16_t, double>* end) {
+  GroupStats& g = groups_[group];
+  ++g.histories;
+  ++g.n[cell];
+  if ((building >= 0 && building_used_[static_cast<std::size_t>(building)]) ||
+      (ring_used_ && contributed))
+    ++g.touching;
+  if (building >= 0) {
+    const auto b = static_cast<std::size_t>(building);
+    ++g.hits[cell * buildings_ + b];
+    g.building_mean[b] += likelihood_ratio;
+  }
+  for (const auto* e = begin; e != end; ++e) {
+    const double x = e->second;
+    g.ring_sq[cell * static_cast<std::size_t>(kDistanceBins) + e->first] += x * x;
+    g.bin_mean[e->first] += likelihood_ratio * x;
   }
 }
 

@@ -11,6 +11,7 @@
 // (defensive share delta' >= delta, larger while few histories have touched a figure) so that no
 // likelihood ratio exceeds 1/delta.
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/fragments/direction_cells.h"
@@ -19,6 +20,23 @@
 #include "core/scene/site.h"
 
 namespace fragsim::run {
+
+// What the learner takes from a sequence of histories, reduced to what it adds up: replayed in
+// the histories' order (DirectionLearner::replay) it gives the learner the same bits as add()ing
+// them. A shard of a divided settings.precision run hands its batch's over at the batch boundary
+// (core/run/partial.h, BatchState), and every shard replays all of them in shard order: for each
+// group, the order of its histories in one process.
+struct LearnerInput {
+  std::vector<std::uint32_t> group, cell;  // per history
+  std::vector<double> likelihood_ratio;    // per history
+  std::vector<std::int32_t> building;      // per history: the building hit, or -1
+  std::vector<std::uint8_t> contributed;   // per history: 1 when it had PTN contributions
+  std::vector<std::uint32_t> entries_end;  // per history: end of its entries in bin and x
+  std::vector<std::uint16_t> bin;          // per entry: a distance bin
+  std::vector<double> x;                   // per entry: its x (without the likelihood ratio)
+  std::size_t size() const { return group.size(); }
+  void clear();
+};
 
 class DirectionLearner {
  public:
@@ -29,6 +47,13 @@ class DirectionLearner {
   // none) and its PTN contributions [begin, end) (values include the likelihood ratio).
   void add(std::uint32_t group, std::uint32_t cell, double likelihood_ratio, std::int32_t building,
            const PtnContribution* begin, const PtnContribution* end);
+  // The same history appended to `out` instead (to be replayed, here or on another shard).
+  void observe(std::uint32_t group, std::uint32_t cell, double likelihood_ratio,
+               std::int32_t building, const PtnContribution* begin, const PtnContribution* end,
+               LearnerInput& out);
+  // add()s the histories of `in`, in order. Throws InputError for input of another shape (a
+  // group, cell, building or bin out of range: a damaged exchange).
+  void replay(const LearnerInput& in);
 
   // The densities for the next batch, per group; `hfd_m` places the ring of triangles whose
   // density decides the HFD ([0.85, 1.15] HFD; none when 0).
@@ -54,6 +79,12 @@ class DirectionLearner {
 
  private:
   static constexpr int kDistanceBins = 300;  // ln-spaced by 5 %: 1 m ... 2e6 m
+  // One history's x per distance bin touched, into `entries` (in the order add() sums them).
+  void reduce(std::uint32_t group, double likelihood_ratio, const PtnContribution* begin,
+              const PtnContribution* end, std::vector<std::pair<std::uint16_t, double>>& entries);
+  void apply(std::uint32_t group, std::uint32_t cell, double likelihood_ratio,
+             std::int32_t building, bool contributed, const std::pair<std::uint16_t, double>* begin,
+             const std::pair<std::uint16_t, double>* end);
   static int distance_bin(double d_m);
   static constexpr int kEvidence = 5;  // histories of evidence for half the learnt share
   static constexpr double kNeighbourTrust = 20.0;  // histories of a cell that halve the floor
@@ -81,6 +112,7 @@ class DirectionLearner {
     std::vector<double> scratch;  // per distance bin: this history's x
     std::vector<int> touched;     // the bins of scratch in use
   };
+  std::vector<std::pair<std::uint16_t, double>> entries_;  // reduce()'s output, reused
   const DirectionImportanceSettings settings_;
   int cells_;
   std::size_t buildings_;

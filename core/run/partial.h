@@ -9,8 +9,10 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
+#include "core/run/importance.h"
 #include "core/run/result.h"
 #include "core/run/run.h"
 #include "core/run/scenario.h"
@@ -85,9 +87,43 @@ struct TallyBins {
 };
 TallyBins tally_bins(const Scenario& scenario, const scene::Site& site);
 
+// A settings.precision run divided into shards (docs/precision.md, "Divided runs"): the shards
+// run each batch together. At every batch boundary each hands the synchronizer its batch's exact
+// state and gets back every shard's merged; from that, the same bits on every shard, it decides
+// whether to stop and learns the next batch's launch densities. So a run divided in any way
+// stops at the batch, and gives the bits, of the run in one process.
+//
+// The partial of a synchronized shard: shard 0's carries the tallies and counts of every batch
+// (all shards'), each shard's its own records, trajectories, statistics and timings (and the
+// histories of a batch a cancellation cut short); merged, they are the whole run's.
+struct BatchState {
+  std::int64_t batch = 0;  // 0-based (batch 0 is the importance-sampling pilot, when there is one)
+  double elapsed_s = 0.0;  // since the run's start at the boundary: the longest of the shards'
+  PartialRun part;         // the batch's tally and counts (no records, trajectories or stats)
+  struct Learnt {
+    std::int64_t shard = 0;
+    LearnerInput input;  // what the importance learner takes from the shard's batch
+  };
+  std::vector<Learnt> learnt;  // ascending shard
+};
+
+// Adds `other` into `into`: exact, any order gives the same bits. Throws InputError when they
+// are of different batches or splits, or share a shard.
+void merge(BatchState& into, BatchState&& other);
+
+class BatchSynchronizer {
+ public:
+  virtual ~BatchSynchronizer() = default;
+  // Called by every shard once per batch boundary (from one of its threads, under its fold's
+  // lock: the shard's other threads wait): returns every shard's state of the batch merged, or
+  // nullopt when the run stops without it (cancelled, or another shard failed): the shard ends
+  // cancelled.
+  virtual std::optional<BatchState> exchange(const BatchState& mine) = 0;
+};
+
 // Runs shard `shard` of the scenario on a built site. Throws InputError for a shard that is not
-// one of 0..count-1, or a split scenario with settings.precision (its batch-boundary checks need
-// every history of a batch in one process).
+// one of 0..count-1, or a split scenario with settings.precision without
+// control.synchronizer (its batch-boundary checks need every history of a batch).
 PartialRun run_partial(const Scenario& scenario, std::shared_ptr<const scene::Site> site,
                        const Shard& shard, const RunControl& control = {});
 

@@ -204,9 +204,8 @@ int thread_count(const Settings& st, std::int64_t chunks) {
 // whether the run stops there.
 class PrecisionControl {
  public:
-  PrecisionControl(const Scenario& sc, const scene::Site& site, const PartialRun& tallies,
-                   Clock::time_point t_start)
-      : sc_(sc), site_(site), tallies_(tallies), bins_(tally_bins(sc, site)), t_start_(t_start) {
+  PrecisionControl(const Scenario& sc, const scene::Site& site, const PartialRun& tallies)
+      : sc_(sc), site_(site), tallies_(tallies), bins_(tally_bins(sc, site)) {
     if (!sc.settings.precision) return;
     p_ = &*sc.settings.precision;
     if (p_->hfd_half_band_m || p_->hfd_half_band_rel || p_->ptn_rel_error_at_hfd ||
@@ -216,10 +215,11 @@ class PrecisionControl {
 
   // After batch `batches` (1-based) has been folded, `tallied` of them into the estimates (all
   // but an importance-sampling pilot): true when the run stops here.
-  bool batch_done(std::int64_t batches, std::int64_t tallied, std::int64_t histories_run) {
+  // `elapsed`: seconds since the run's start (of divided shards: the longest's).
+  bool batch_done(std::int64_t batches, std::int64_t tallied, std::int64_t histories_run,
+                  double elapsed) {
     if (p_ == nullptr) return true;  // one batch
     if (tallied == 0) return false;  // the pilot: nothing to check yet
-    const double elapsed = std::chrono::duration<double>(Clock::now() - t_start_).count();
     const std::int64_t histories = tallies_.histories_done;
     const PrecisionSnapshot snap = snapshot(tallied);
     hfd_m_ = snap.hfd_m;
@@ -307,7 +307,6 @@ class PrecisionControl {
   const scene::Site& site_;
   const PartialRun& tallies_;
   const TallyBins bins_;
-  Clock::time_point t_start_;
   const PrecisionSettings* p_ = nullptr;
   std::optional<HfdGeometry> geometry_;
   PrecisionTracker tracker_;
@@ -365,8 +364,9 @@ SamplingPlans::Cells drawable(SamplingPlans::Cells cells, const LaunchStrata& st
   return cells;
 }
 
-// Feeds a folded chunk's histories to the importance learner.
-void learn(DirectionLearner& learner, const ChunkOutput& c) {
+// Feeds a folded chunk's histories to the importance learner, or with `out` (a shard of a
+// divided run) keeps them for the batch boundary's exchange.
+void learn(DirectionLearner& learner, const ChunkOutput& c, LearnerInput* out) {
   std::uint32_t begin = 0;
   for (std::size_t i = 0; i < static_cast<std::size_t>(c.count); ++i) {
     const std::uint32_t end = c.ptn_end[i];
@@ -374,8 +374,12 @@ void learn(DirectionLearner& learner, const ChunkOutput& c) {
     const std::int32_t building =
         bi >= 0 ? static_cast<std::int32_t>(c.buildings[static_cast<std::size_t>(bi)].building)
                 : -1;
-    learner.add(c.group, c.cells[i], c.weights[i] / c.weight, building, c.ptn.data() + begin,
-                c.ptn.data() + end);
+    if (out != nullptr)
+      learner.observe(c.group, c.cells[i], c.weights[i] / c.weight, building, c.ptn.data() + begin,
+                      c.ptn.data() + end, *out);
+    else
+      learner.add(c.group, c.cells[i], c.weights[i] / c.weight, building, c.ptn.data() + begin,
+                  c.ptn.data() + end);
     begin = end;
   }
 }
@@ -502,14 +506,15 @@ std::string missing_shards(const PartialRun& p) {
   return "shards " + list + " (" + std::to_string(count) + " of " + total + ") missing";
 }
 
-void check_shard(const Scenario& sc, const Shard& shard) {
+void check_shard(const Scenario& sc, const Shard& shard, const RunControl& control) {
   if (shard.count < 1 || shard.index < 0 || shard.index >= shard.count)
     throw InputError("shard", "must be I/N with 0 <= I < N (got " + std::to_string(shard.index) +
                                   "/" + std::to_string(shard.count) + ")");
-  if (shard.count > 1 && sc.settings.precision)
+  if (shard.count > 1 && sc.settings.precision && control.synchronizer == nullptr)
     throw InputError("settings.precision",
-                     "cannot be split into shards: its checks at batch boundaries need every "
-                     "history of a batch in one process");
+                     "cannot be split into independent shards: its checks at batch boundaries "
+                     "need every history of a batch (divide it with fragsim-mpi, whose ranks "
+                     "exchange each batch)");
 }
 
 // A chunk's output, its fields set and its per-history arrays reserved.
@@ -536,6 +541,8 @@ ChunkOutput chunk_output(const ChunkSpec& cs, std::int64_t first,
 // sequencer. Its fold, under its lock and in chunk order, tallies each chunk (or, in the
 // importance-sampling pilot, only learns from it) and at each batch boundary checks the
 // precision targets: the run ends there, or the next batch's sampling plan is published.
+// With a synchronizer (a divided settings.precision run) part_ holds the current batch's tally
+// and counts, exchanged at its boundary; the decisions read global_, every shard's batches.
 class ShardRunner {
  public:
   ShardRunner(const Scenario& sc, std::shared_ptr<const scene::Site> site, const Shard& shard,
@@ -555,6 +562,9 @@ class ShardRunner {
                       ChunkOutput& out);
   void fold(ChunkOutput& c);
   void end_batch(bool pilot);
+  bool exchange_batch(double& elapsed);
+  void absorb(const BatchState& all);
+  void idle_batches();
   void count_done(std::int64_t histories);
   bool cancelled() const {
     return control_.cancel != nullptr && control_.cancel->load(std::memory_order_relaxed);
@@ -565,6 +575,8 @@ class ShardRunner {
   const Scenario& sc_;
   const std::shared_ptr<const scene::Site> site_;
   const RunControl& control_;
+  const Shard shard_;
+  BatchSynchronizer* const sync_;  // null unless a divided settings.precision run
   const Clock::time_point t_start_ = Clock::now();
   const RunContext ctx_;
   const BatchPlan plan_;
@@ -574,6 +586,8 @@ class ShardRunner {
   const int threads_;
   const LaunchStrata strata_;
   PartialRun part_;
+  PartialRun global_;    // with sync_: every shard's completed batches (tally and counts)
+  LearnerInput learnt_;  // with sync_ and a learner: the current batch's input
   Reducer reducer_;
   PrecisionControl precision_;
   std::unique_ptr<DirectionLearner> learner_;
@@ -582,8 +596,8 @@ class ShardRunner {
   const std::int64_t report_every_ns_;
 
   // Under the sequencer's lock: batches folded; of them, the importance-sampling pilot (batch 0,
-  // learnt from, not tallied: docs/precision.md) and its histories.
-  std::int64_t batches_ = 0, pilot_batches_ = 0, pilot_histories_ = 0;
+  // learnt from, not tallied: docs/precision.md); histories folded (the pilot's included).
+  std::int64_t batches_ = 0, pilot_batches_ = 0, folded_ = 0;
   OrderedSequencer<ChunkOutput, Fold> sequencer_{Fold{this}};
   std::atomic<bool> finished_{false};  // the last batch is folded: later chunks are not needed
   std::atomic<bool> stop_{false};      // cancelled, or a worker failed
@@ -599,6 +613,8 @@ ShardRunner::ShardRunner(const Scenario& sc, std::shared_ptr<const scene::Site> 
     : sc_(sc),
       site_(std::move(site)),
       control_(control),
+      shard_(shard),
+      sync_(sc.settings.precision ? control.synchronizer : nullptr),
       ctx_(sc, *site_),
       plan_(plan_batches(sc, shard)),
       per_batch_(static_cast<std::int64_t>(plan_.chunks.size())),
@@ -607,7 +623,7 @@ ShardRunner::ShardRunner(const Scenario& sc, std::shared_ptr<const scene::Site> 
       threads_(thread_count(sc.settings, plan_.total_chunks())),
       strata_(sc),
       reducer_(sc, *site_, strata_, part_),
-      precision_(sc, *site_, part_, t_start_),
+      precision_(sc, *site_, sync_ != nullptr ? global_ : part_),
       report_every_ns_(
           static_cast<std::int64_t>(std::max(0.0, control.progress_interval_s) * 1e9)) {
   // Trajectories are recorded for the first max_recorded_trajectories histories in global order.
@@ -615,6 +631,11 @@ ShardRunner::ShardRunner(const Scenario& sc, std::shared_ptr<const scene::Site> 
     group_offset_[g] = group_offset_[g - 1] + sc.groups[g - 1].samples;
   part_.shard_count = shard.count;
   part_.shards = {shard.index};
+  if (sync_) {
+    global_.shard_count = shard.count;
+    global_.tally =
+        tally::StratifiedTally(part_.tally.size(), static_cast<int>(part_.tally.partitions()));
+  }
   const Settings& st = sc.settings;
   if (st.precision && st.precision->direction_importance) {
     learner_ = std::make_unique<DirectionLearner>(sc, *site_, precision_.distances());
@@ -627,6 +648,10 @@ ShardRunner::ShardRunner(const Scenario& sc, std::shared_ptr<const scene::Site> 
 }
 
 PartialRun ShardRunner::run() {
+  if (sync_ && plan_.chunks.empty()) {
+    idle_batches();
+    return finish();
+  }
   std::vector<std::thread> pool;
   for (int i = 1; i < threads_; ++i) pool.emplace_back([this] { work_guarded(); });
   work_guarded();
@@ -704,9 +729,10 @@ bool ShardRunner::simulate_chunk(std::int64_t k, const SamplingPlans::Cells* cel
 void ShardRunner::fold(ChunkOutput& c) {
   if (finished_.load(std::memory_order_relaxed)) return;
   const bool pilot = learner_ && batches_ == 0;
-  if (learner_) learn(*learner_, c);
+  if (learner_) learn(*learner_, c, sync_ != nullptr ? &learnt_ : nullptr);
+  folded_ += c.count;
   if (pilot) {
-    pilot_histories_ += c.count;
+    part_.pilot_histories += c.count;
   } else {
     if (control_.on_chunk) control_.on_chunk(c);
     reducer_.fold(c);
@@ -717,14 +743,86 @@ void ShardRunner::fold(ChunkOutput& c) {
 // At a batch boundary: the precision targets decide whether the run ends here; if not, the
 // importance learner's plan for the next batch is published.
 void ShardRunner::end_batch(bool pilot) {
+  double elapsed = std::chrono::duration<double>(Clock::now() - t_start_).count();
+  if (sync_ && !exchange_batch(elapsed)) return;
   ++batches_;
   pilot_batches_ += pilot ? 1 : 0;
+  const PartialRun& all = sync_ != nullptr ? global_ : part_;
   if (precision_.batch_done(batches_, batches_ - pilot_batches_,
-                            part_.histories_done + pilot_histories_)) {
+                            all.histories_done + all.pilot_histories, elapsed)) {
     finished_.store(true);
     plans_.abort();
   } else if (learner_) {
     plans_.publish(batches_, drawable(learner_->plan(precision_.hfd_m()), strata_));
+  }
+}
+
+// A divided run's batch boundary: hands this shard's batch (tally, counts, learner input) to the
+// synchronizer and absorbs every shard's, merged, into global_ and the learner; `elapsed` becomes
+// the longest shard's. False when the run stops instead (the batch stays in part_).
+bool ShardRunner::exchange_batch(double& elapsed) {
+  BatchState mine;
+  mine.batch = batches_;
+  mine.elapsed_s = elapsed;
+  PartialRun& b = mine.part;
+  b.shard_count = part_.shard_count;
+  b.shards = part_.shards;
+  b.outcome_histories = part_.outcome_histories;
+  b.left_hazardous_histories = part_.left_hazardous_histories;
+  b.histories_done = part_.histories_done;
+  b.pilot_histories = part_.pilot_histories;
+  b.tally = std::move(part_.tally);
+  mine.learnt.push_back({shard_.index, std::move(learnt_)});
+  std::optional<BatchState> all;
+  try {
+    all = sync_->exchange(mine);
+  } catch (...) {
+    part_.tally = std::move(b.tally);
+    throw;
+  }
+  part_.tally = std::move(b.tally);
+  learnt_ = std::move(mine.learnt.front().input);
+  if (!all) {
+    stop_.store(true);
+    plans_.abort();
+    return false;
+  }
+  part_.tally.clear();
+  learnt_.clear();
+  part_.outcome_histories = {};
+  part_.left_hazardous_histories = part_.histories_done = part_.pilot_histories = 0;
+  absorb(*all);
+  elapsed = all->elapsed_s;
+  return true;
+}
+
+// Adds every shard's batch to global_ and, in shard order (for each group: the order of its
+// histories in one process), to the learner.
+void ShardRunner::absorb(const BatchState& all) {
+  const PartialRun& b = all.part;
+  if (all.batch != batches_ || b.shard_count != shard_.count ||
+      static_cast<std::int64_t>(b.shards.size()) != shard_.count)
+    throw std::runtime_error("a batch boundary without every shard's batch (batch " +
+                             std::to_string(all.batch) + ", " + std::to_string(b.shards.size()) +
+                             " of " + std::to_string(shard_.count) + " shards)");
+  global_.tally.merge(b.tally);
+  for (std::size_t o = 0; o < kOutcomeCount; ++o)
+    global_.outcome_histories[o] += b.outcome_histories[o];
+  global_.left_hazardous_histories += b.left_hazardous_histories;
+  global_.histories_done += b.histories_done;
+  global_.pilot_histories += b.pilot_histories;
+  if (learner_)
+    for (const BatchState::Learnt& l : all.learnt) learner_->replay(l.input);
+}
+
+// A shard of a divided run that holds no history still takes part in every batch boundary.
+void ShardRunner::idle_batches() {
+  while (!finished_.load() && !stop_.load()) {
+    if (cancelled()) {
+      stop_.store(true);
+      break;
+    }
+    end_batch(learner_ && batches_ == 0);
   }
 }
 
@@ -753,15 +851,23 @@ PartialRun ShardRunner::finish() {
   PartialRun& part = part_;
   part.cancelled = !finished_.load() && (cancelled() || stop_.load());
   part.tallied_batches = batches_ - pilot_batches_;
-  // A shard without histories has no batch to fold (shards run without settings.precision).
-  part.batches = plan_.chunks.empty() && !part.cancelled ? 1 : batches_;
-  if (plan_.chunks.empty()) part.tallied_batches = part.batches;
-  part.pilot_histories = pilot_histories_;
+  // A shard without histories has no batch to fold (unless the shards run each batch together).
+  const bool idle = plan_.chunks.empty() && sync_ == nullptr;
+  part.batches = idle && !part.cancelled ? 1 : batches_;
+  if (idle) part.tallied_batches = part.batches;
+  if (sync_ != nullptr && shard_.index == 0) {  // every shard's completed batches
+    part.tally.merge(global_.tally);
+    for (std::size_t o = 0; o < kOutcomeCount; ++o)
+      part.outcome_histories[o] += global_.outcome_histories[o];
+    part.left_hazardous_histories += global_.left_hazardous_histories;
+    part.histories_done += global_.histories_done;
+    part.pilot_histories += global_.pilot_histories;
+  }
   part.stop_reason = part.cancelled ? StopReason::kCancelled : precision_.reason();
   part.precision = precision_.report();
   part.wall_s = std::chrono::duration<double>(Clock::now() - t_start_).count();
   part.threads = threads_;
-  if (control_.on_progress) progress(part.histories_done + pilot_histories_, part.wall_s);
+  if (control_.on_progress) progress(folded_, part.wall_s);
   return std::move(part);
 }
 
@@ -769,7 +875,7 @@ PartialRun ShardRunner::finish() {
 
 PartialRun run_partial(const Scenario& sc, std::shared_ptr<const scene::Site> site,
                        const Shard& shard, const RunControl& control) {
-  check_shard(sc, shard);
+  check_shard(sc, shard, control);
   ShardRunner runner(sc, std::move(site), shard, control);
   return runner.run();
 }
@@ -823,6 +929,17 @@ void merge(PartialRun& into, PartialRun&& other) {
   if (__builtin_add_overflow(sum.threads, other.threads, &sum.threads))
     throw InputError("shards", "thread counts out of range (a damaged or forged partial)");
   into = std::move(sum);
+}
+
+void merge(BatchState& into, BatchState&& other) {
+  if (into.batch != other.batch)
+    throw InputError("shards", "states of different batches (" + std::to_string(into.batch) +
+                                   " and " + std::to_string(other.batch) + ")");
+  merge(into.part, std::move(other.part));
+  into.elapsed_s = std::max(into.elapsed_s, other.elapsed_s);
+  for (auto& l : other.learnt) into.learnt.push_back(std::move(l));
+  std::stable_sort(into.learnt.begin(), into.learnt.end(),
+                   [](const auto& a, const auto& b) { return a.shard < b.shard; });
 }
 
 RunResult finish(const Scenario& sc, const scene::Site& site, PartialRun p,

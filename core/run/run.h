@@ -12,7 +12,8 @@
 
 namespace fragsim::run {
 
-struct ChunkOutput;  // core/run/history.h
+struct ChunkOutput;       // core/run/history.h
+class BatchSynchronizer;  // core/run/partial.h
 
 struct Progress {
   std::int64_t histories_done = 0;
@@ -31,6 +32,11 @@ struct RunControl {
   // Sees every tallied chunk of histories before it is tallied: in chunk order, under the fold's
   // lock, so a slow observer slows the run (the paired fold of a comparison: core/run/paired.h).
   std::function<void(const ChunkOutput&)> on_chunk;
+  // A settings.precision run divided into shards that run each batch together: at every batch
+  // boundary the shard's batch is merged exactly with the other shards' here, and the stop and
+  // the next batch's launch densities are decided from the merge (core/run/partial.h). Null: the
+  // shard decides alone (one shard: the whole run).
+  BatchSynchronizer* synchronizer = nullptr;
 };
 
 // Runs the scenario on an already built site (the daemon shares one Site between jobs).

@@ -114,6 +114,17 @@ void StratifiedTally::close_open_strata() {
   open_.clear();
 }
 
+void StratifiedTally::clear() {
+  mean_.clear();
+  for (ExactBins& v : var_) v.clear();
+  open_.clear();
+  for (Scratch& p : parts_) {
+    p.s.clear();
+    p.q.clear();
+    p.n = 0;
+  }
+}
+
 double StratifiedTally::std_error(std::size_t bin) const {
   double v = 0.0;
   for (const ExactBins& p : var_) v = std::max(v, p.value(bin));

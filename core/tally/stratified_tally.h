@@ -115,6 +115,8 @@ class StratifiedTally {
   void merge(const StratifiedTally& o);
   // Closes every open stratum with the histories it has (a cancelled run's partial strata).
   void close_open_strata();
+  // Forgets every sum and open stratum, keeping the shape (visits only the touched bins).
+  void clear();
   const std::map<StratumKey, OpenStratum>& open_strata() const { return open_; }
 
   double mean(std::size_t bin) const { return mean_.value(bin); }

@@ -783,6 +783,44 @@ TEST_P(PartialFile, FilesRoundTripAndUnreadableOnesNameThePath) {
   fs::remove_all(dir);
 }
 
+// A divided precision run's batch state (fragsim-mpi's exchange): the batch's partial, the
+// elapsed time and the learner's input round-trip to the same bytes; a truncated state, or
+// learner input of a shard not in the batch, is an InputError.
+TEST_P(PartialFile, BatchStatesRoundTripAndDamageIsAnError) {
+  run::BatchState b;
+  b.batch = 3;
+  b.elapsed_s = 1.25;
+  b.part = c().middle();
+  b.part.records.clear();
+  b.part.trajectories.clear();
+  run::LearnerInput in;
+  in.group = {0, 1};
+  in.cell = {5, 7};
+  in.likelihood_ratio = {0.5, 2.0};
+  in.building = {-1, 0};
+  in.contributed = {1, 0};
+  in.entries_end = {2, 2};
+  in.bin = {10, 11};
+  in.x = {0.25, 1e-9};
+  b.learnt.push_back({1, in});
+  const std::string once = encode_batch(b, kIdentity);
+  PartialIdentity id;
+  const run::BatchState back = decode_batch(once, c().bins, id, kWhat);
+  EXPECT_EQ(id, kIdentity);
+  EXPECT_EQ(back.batch, 3);
+  EXPECT_EQ(back.elapsed_s, 1.25);
+  ASSERT_EQ(back.learnt.size(), 1u);
+  EXPECT_EQ(back.learnt[0].shard, 1);
+  EXPECT_EQ(back.learnt[0].input.x, in.x);
+  EXPECT_EQ(back.learnt[0].input.entries_end, in.entries_end);
+  EXPECT_EQ(back.part.histories_done, b.part.histories_done);
+  EXPECT_TRUE(encode_batch(back, id) == once);
+  EXPECT_THROW((void)decode_batch(once.substr(0, once.size() - 3), c().bins, id, kWhat),
+               InputError);
+  b.learnt[0].shard = 2;  // the middle shard is shard 1
+  EXPECT_THROW((void)decode_batch(encode_batch(b, kIdentity), c().bins, id, kWhat), InputError);
+}
+
 INSTANTIATE_TEST_SUITE_P(Tallies, PartialFile, ::testing::Bool(),
                          [](const ::testing::TestParamInfo<bool>& i) {
                            return i.param ? "StratifiedLaunch" : "OnePartition";

@@ -86,9 +86,13 @@ class MpiRun : public ::testing::Test {
     fs::create_directories(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
+
+ public:
   std::vector<std::string> mpirun(int np) const {
     return {MPIEXEC, "-np", std::to_string(np), FRAGSIM_MPI};
   }
+
+ protected:
   fs::path dir_;
   const std::string scenario_ = std::string(FRAGSIM_SOURCE_DIR) + "/examples/demo/scenario.json";
 };
@@ -186,18 +190,106 @@ TEST_F(MpiRun, BadInputIsOneMessageAndExitTwo) {
   EXPECT_FALSE(fs::exists("/tmp/unused"));
 }
 
-TEST_F(MpiRun, PrecisionRunsAreRefusedOnSeveralRanks) {
-  nlohmann::json sc = nlohmann::json::parse(read_text(scenario_));
-  sc["settings"]["precision"] = {{"max_batches", 2}};
-  const fs::path file = dir_ / "precision.json";
+// A settings.precision run divided among ranks (docs/precision.md, "Divided runs"): the ranks
+// exchange every batch, so -np 2 and 3 stop at the batch of `fragsim run`, for the same reason,
+// with the same figures and precision report to the bit (its ETA aside: a wall-clock rate).
+nlohmann::json precision_figures(const fs::path& summary) {
+  nlohmann::json j = figures(summary);
+  if (j["precision"].is_object()) j["precision"].erase("eta_s");
+  return j;
+}
+
+fs::path precision_scenario(const fs::path& dir, const std::string& demo, bool importance,
+                            bool targets) {
+  nlohmann::json sc = nlohmann::json::parse(read_text(demo));
+  nlohmann::json p = {{"min_batches", 2}, {"max_batches", 3}};
+  if (targets) {  // met after 18 batches (8 with importance) at --samples-scale 0.05
+    p["hfd_half_band_m"] = 8;
+    p["max_batches"] = 30;
+  }
+  if (importance) p["direction_importance"] = {{"elevation_cells", 6}, {"azimuth_cells", 24}};
+  sc["settings"]["precision"] = p;
+  const fs::path file =
+      dir / (std::string(importance ? "is" : "plain") + (targets ? "_targets" : "_max") + ".json");
   std::ofstream(file) << sc.dump();
-  const fs::path out = dir_ / "out";
+  return file;
+}
+
+void expect_divided_equals_one_process(const MpiRun& t, const fs::path& dir,
+                                       const fs::path& scenario, const std::string& reason) {
+  const std::vector<std::string> common = {"--samples-scale", "0.05", "--threads", "1", "--quiet"};
+  auto one_args = std::vector<std::string>{FRAGSIM_CLI, "run", scenario.string(), "--out",
+                                           (dir / "one").string()};
+  one_args.insert(one_args.end(), common.begin(), common.end());
+  const Result one = run(dir, one_args);
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  const nlohmann::json expected = precision_figures(dir / "one" / "summary.json");
+  ASSERT_EQ(expected["stop_reason"], reason);
+  for (const int np : {2, 3}) {
+    SCOPED_TRACE(np);
+    const fs::path out = dir / ("np" + std::to_string(np));
+    auto args = t.mpirun(np);
+    for (const std::string& a :
+         {std::string("run"), scenario.string(), std::string("--out"), out.string()})
+      args.push_back(a);
+    args.insert(args.end(), common.begin(), common.end());
+    const Result r = run(dir, args);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json got = precision_figures(out / "summary.json");
+    EXPECT_EQ(got["batches"], expected["batches"]);
+    EXPECT_EQ(got["stop_reason"], expected["stop_reason"]);
+    EXPECT_EQ(got, expected);
+  }
+  fs::remove_all(dir / "one");
+  fs::remove_all(dir / "np2");
+  fs::remove_all(dir / "np3");
+}
+
+TEST_F(MpiRun, APrecisionRunDividedAmongRanksStopsAndEndsAsOneProcess) {
+  expect_divided_equals_one_process(*this, dir_, precision_scenario(dir_, scenario_, false, true),
+                                    "targets_met");
+  expect_divided_equals_one_process(*this, dir_, precision_scenario(dir_, scenario_, false, false),
+                                    "max_batches");
+}
+
+TEST_F(MpiRun, ImportanceSamplingDividedAmongRanksLearnsAsOneProcess) {
+  expect_divided_equals_one_process(*this, dir_, precision_scenario(dir_, scenario_, true, true),
+                                    "targets_met");
+  expect_divided_equals_one_process(*this, dir_, precision_scenario(dir_, scenario_, true, false),
+                                    "max_batches");
+}
+
+// SIGINT during a divided precision run stops every rank (at one batch boundary): no output.
+TEST_F(MpiRun, AnInterruptStopsADividedPrecisionRun) {
+  nlohmann::json sc = nlohmann::json::parse(read_text(scenario_));
+  sc["settings"]["precision"] = {{"max_batches", 1000}};
+  sc["settings"]["record_fragments"] = false;  // 1000 batches of records exceed the limit
+  const fs::path file = dir_ / "precision.json", out = dir_ / "out";
+  const fs::path progress_file = dir_ / "progress.json";
+  std::ofstream(file) << sc.dump();
   auto args = mpirun(2);
-  for (const char* a : {"run", file.c_str(), "--out", out.c_str()}) args.emplace_back(a);
-  const Result r = run(dir_, args);
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("settings.precision"), std::string::npos) << r.err;
-  EXPECT_FALSE(fs::exists(out / "summary.json"));
+  for (const char* a : {"run", file.c_str(), "--out", out.c_str(), "--samples-scale", "0.05",
+                        "--threads", "1", "--quiet", "--progress-file", progress_file.c_str()})
+    args.emplace_back(a);
+  const pid_t pid = start(dir_, args);
+  nlohmann::json seen;
+  for (int i = 0; i < 1200; ++i) {  // up to 120 s: past the first boundaries
+    ::usleep(100000);
+    const std::string text = read_text(progress_file);
+    if (text.empty()) continue;
+    seen = nlohmann::json::parse(text);
+    if (seen["histories_done"].get<std::int64_t>() > 3 * 4000) break;  // batch 3 begun
+  }
+  ASSERT_TRUE(seen.is_object()) << "no progress file";
+  ASSERT_EQ(seen.value("state", ""), "running") << seen.dump();
+  // Every batch the run may take: 1000 of 4,000 histories.
+  EXPECT_EQ(seen["histories_total"], 4000000) << seen.dump();
+  ::kill(pid, SIGINT);
+  const Result r = finish(dir_, pid);
+  EXPECT_NE(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("cancelled: no output written"), std::string::npos) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(read_text(progress_file))["state"], "cancelled");
+  EXPECT_FALSE(fs::exists(out));
 }
 
 }  // namespace
