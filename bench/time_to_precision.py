@@ -13,7 +13,10 @@ the gain T5(plain) / T5(method), i.e. the ratio of the figures of merit 1/(se^2 
 HFD half band (target 1 m instead of 5 %), each building's expected impacts and penetrations,
 the PTN density at several distances (the median T5 over the terrain triangles whose centroid is
 within [d, 1.1 d) of the HFD origin and whose density is nonzero in every run; read from
-results.h5 with h5dump, Debian's hdf5-tools), the building and left_site outcome counts. It also
+results.h5 with h5dump, Debian's hdf5-tools) and over the triangles that decide the HFD (plain
+density within [0.5, 2] x the threshold, centroid at least 0.9 x the plain HFD out: the HFD's
+precision is theirs; the half band is a step function of them, too noisy to extrapolate, see
+docs/benchmarks.md §8), the building and left_site outcome counts. It also
 prints, per method, z = (mean - plain mean) / combined se for every figure, and the time until
 the slowest building figure (nonzero in every run) reaches 5 %.
 docs/benchmarks.md, "Time to precision".
@@ -94,12 +97,35 @@ def time_to(mean, se, wall, absolute):
     return wall * (se / target) ** 2
 
 
+def hfd_triangles(out, origin, density, threshold, hfd_m):
+    """The triangles that decide the HFD: plain density within [0.5, 2] x the threshold and
+    centroid at least 0.9 x plain HFD from the origin."""
+    path = os.path.join(out, "results.h5")
+    v = h5(path, "/terrain/vertices_m")
+    t = [int(x) for x in h5(path, "/terrain/triangles")]
+    use = []
+    for k in range(len(t) // 3):
+        if not 0.5 * threshold <= density[k] <= 2.0 * threshold:
+            continue
+        cx = sum(v[3 * t[3 * k + i]] for i in range(3)) / 3 - origin[0]
+        cy = sum(v[3 * t[3 * k + i] + 1] for i in range(3)) / 3 - origin[1]
+        if math.hypot(cx, cy) >= 0.9 * hfd_m:
+            use.append(k)
+    return use
+
+
 def ptn_times(runs, rings):
-    """Per distance: per method the median T5 over the ring's triangles nonzero in every run."""
+    """Per distance: per method the median T5 over the ring's triangles nonzero in every run;
+    and the same over the triangles that decide the HFD (hfd_triangles of the plain run)."""
     density = {m: h5(os.path.join(d, "results.h5"), "/ptn/density_per_m2")
                for m, (_, d) in runs.items()}
     se = {m: h5(os.path.join(d, "results.h5"), "/ptn/std_error_per_m2")
           for m, (_, d) in runs.items()}
+    plain, plain_out = runs["plain"]
+    rings = dict(rings)
+    rings["HFD"] = hfd_triangles(plain_out, plain["hfd_origin_m"], density["plain"],
+                                 plain["hfd_threshold_per_m2"],
+                                 plain["hazardous_fragment_distance_m"])
     out = {}
     for dist, tris in rings.items():
         use = [k for k in tris if all(density[m][k] > 0 and se[m][k] > 0 for m in runs)]
@@ -110,7 +136,10 @@ def ptn_times(runs, rings):
             wall = s["timing"]["wall_s"]
             t5 = sorted(time_to(density[m][k], se[m][k], wall, None) for k in use)
             times[m] = t5[len(t5) // 2]
-        out[f"PTN density at {dist:g} m ({len(use)} triangles)"] = times
+        if dist == "HFD":
+            out[f"PTN density deciding the HFD ({len(use)} triangles)"] = times
+        else:
+            out[f"PTN density at {dist:g} m ({len(use)} triangles)"] = times
     return out
 
 
@@ -214,6 +243,9 @@ def report(a, methods, runs, ptn):
             gains[m].append(g)
             line += f"{g:15.1f} {'':5s} "
         print(line)
+    print("HFD and half band (indicative: one draw of a step function, not a standard error): " +
+          ", ".join(f"{m} {figs[m]['HFD half band (m)'][0]:.1f} m ± {figs[m]['HFD half band (m)'][1]:.2f}"
+                    for m in methods))
     print("slowest building figure (when a study with building targets is done): " +
           ", ".join(f"{m} {study[m]:.1f} s" for m in methods) + "; gains " +
           ", ".join(f"{m} {study['plain'] / study[m]:.1f} x" for m in rest if study[m] > 0))
