@@ -7,13 +7,17 @@ does exactly --batches batches of the groups' samples, once per method:
   stratified   settings.stratified_launch (2 histories per stratum of launch cells);
   importance   settings.precision.direction_importance (its pilot batch included in its time);
   both         importance sampling with stratified launch cells.
-For every figure with a nonzero mean it prints the wall time each run would need for a 5 %
-relative standard error, extrapolated as T5 = T * (se / (0.05 * mean))^2 (se ~ 1/sqrt(n)), and
+For every figure with a nonzero mean it prints the time each run would need for a 5 %
+relative standard error, extrapolated as T5 = T * (se / (0.05 * mean))^2 (se ~ 1/sqrt(n)), T the
+run's CPU time (--clock wall: its wall time, which other jobs on the machine inflate), and
 the gain T5(plain) / T5(method), i.e. the ratio of the figures of merit 1/(se^2 T). Figures: the
 HFD half band (target 1 m instead of 5 %), each building's expected impacts and penetrations,
 the PTN density at several distances (the median T5 over the terrain triangles whose centroid is
 within [d, 1.1 d) of the HFD origin and whose density is nonzero in every run; read from
-results.h5 with h5dump, Debian's hdf5-tools), the building and left_site outcome counts. It also
+results.h5 with h5dump, Debian's hdf5-tools) and over the triangles that decide the HFD (plain
+density within [0.5, 2] x the threshold, centroid at least 0.9 x the plain HFD out: the HFD's
+precision is theirs; the half band is a step function of them, too noisy to extrapolate, see
+docs/benchmarks.md §8), the building and left_site outcome counts. It also
 prints, per method, z = (mean - plain mean) / combined se for every figure, and the time until
 the slowest building figure (nonzero in every run) reaches 5 %.
 docs/benchmarks.md, "Time to precision".
@@ -22,12 +26,14 @@ docs/benchmarks.md, "Time to precision".
                                [--batches 10] [--threads 2] [--seed N] [--cells 24x72[x1[x4]]]
                                [--defensive 0.3] [--methods plain,stratified,importance,both]
                                [--distances 50,100,150,200] [--focus all|buildings|hfd]
+                               [--clock cpu|wall]
 """
 import argparse
 import json
 import math
 import os
 import re
+import resource
 import subprocess
 import sys
 import tempfile
@@ -44,9 +50,23 @@ def run(cli, scenario, settings, threads, seed, out):
     path = os.path.join(out, "scenario.json")
     with open(path, "w") as f:
         json.dump(s, f)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     subprocess.run([cli, "run", path, "--out", out, "--quiet"], check=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     with open(os.path.join(out, "summary.json")) as f:
-        return json.load(f)
+        summary = json.load(f)
+    # CPU time of the run (all threads): unlike the wall time it does not grow when other jobs
+    # share the machine's cores.
+    summary["timing"]["cpu_s"] = (after.ru_utime - before.ru_utime) + (after.ru_stime -
+                                                                        before.ru_stime)
+    return summary
+
+
+CLOCK = "cpu_s"  # --clock: the time each figure's T5 is computed from
+
+
+def cost(summary):
+    return summary["timing"][CLOCK]
 
 
 def h5(path, dataset):
@@ -94,12 +114,35 @@ def time_to(mean, se, wall, absolute):
     return wall * (se / target) ** 2
 
 
+def hfd_triangles(out, origin, density, threshold, hfd_m):
+    """The triangles that decide the HFD: plain density within [0.5, 2] x the threshold and
+    centroid at least 0.9 x plain HFD from the origin."""
+    path = os.path.join(out, "results.h5")
+    v = h5(path, "/terrain/vertices_m")
+    t = [int(x) for x in h5(path, "/terrain/triangles")]
+    use = []
+    for k in range(len(t) // 3):
+        if not 0.5 * threshold <= density[k] <= 2.0 * threshold:
+            continue
+        cx = sum(v[3 * t[3 * k + i]] for i in range(3)) / 3 - origin[0]
+        cy = sum(v[3 * t[3 * k + i] + 1] for i in range(3)) / 3 - origin[1]
+        if math.hypot(cx, cy) >= 0.9 * hfd_m:
+            use.append(k)
+    return use
+
+
 def ptn_times(runs, rings):
-    """Per distance: per method the median T5 over the ring's triangles nonzero in every run."""
+    """Per distance: per method the median T5 over the ring's triangles nonzero in every run;
+    and the same over the triangles that decide the HFD (hfd_triangles of the plain run)."""
     density = {m: h5(os.path.join(d, "results.h5"), "/ptn/density_per_m2")
                for m, (_, d) in runs.items()}
     se = {m: h5(os.path.join(d, "results.h5"), "/ptn/std_error_per_m2")
           for m, (_, d) in runs.items()}
+    plain, plain_out = runs["plain"]
+    rings = dict(rings)
+    rings["HFD"] = hfd_triangles(plain_out, plain["hfd_origin_m"], density["plain"],
+                                 plain["hfd_threshold_per_m2"],
+                                 plain["hazardous_fragment_distance_m"])
     out = {}
     for dist, tris in rings.items():
         use = [k for k in tris if all(density[m][k] > 0 and se[m][k] > 0 for m in runs)]
@@ -107,10 +150,13 @@ def ptn_times(runs, rings):
             continue
         times = {}
         for m, (s, _) in runs.items():
-            wall = s["timing"]["wall_s"]
+            wall = cost(s)
             t5 = sorted(time_to(density[m][k], se[m][k], wall, None) for k in use)
             times[m] = t5[len(t5) // 2]
-        out[f"PTN density at {dist:g} m ({len(use)} triangles)"] = times
+        if dist == "HFD":
+            out[f"PTN density deciding the HFD ({len(use)} triangles)"] = times
+        else:
+            out[f"PTN density at {dist:g} m ({len(use)} triangles)"] = times
     return out
 
 
@@ -150,7 +196,12 @@ def main():
     ap.add_argument("--distances", default="50,100,150,200", help="PTN rings, m")
     ap.add_argument("--focus", default="all", choices=list(FOCUS),
                     help="the figures importance sampling aims at (targets never met)")
+    ap.add_argument("--clock", default="cpu", choices=["cpu", "wall"],
+                    help="T5 from each run's CPU time (default: robust to other jobs on the "
+                    "machine) or its wall time")
     a = ap.parse_args()
+    global CLOCK
+    CLOCK = a.clock + "_s"
     methods = a.methods.split(",")
     if methods[0] != "plain" or any(m not in METHODS for m in methods):
         ap.error("--methods: plain first, then any of " + ", ".join(list(METHODS)[1:]))
@@ -182,7 +233,8 @@ def main():
 def report(a, methods, runs, ptn):
     print(f"{a.batches} batches, {a.threads} threads; " + "; ".join(
         f"{m}: {s['histories_done']} histories ({s['pilot_histories']} pilot) in "
-        f"{s['timing']['wall_s']:.2f} s" for m, (s, _) in runs.items()))
+        f"{s['timing']['wall_s']:.2f} s wall, {s['timing']['cpu_s']:.2f} s CPU"
+        for m, (s, _) in runs.items()) + f"; T5 from the {CLOCK[:-2]} time")
     figs = {m: figures(s) for m, (s, _) in runs.items()}
     rest = methods[1:]
     print(f"{'figure':44s} {'plain mean ± se':>22s} {'T5 plain s':>10s} " +
@@ -190,8 +242,8 @@ def report(a, methods, runs, ptn):
     gains = {m: [] for m in rest}
     study = {m: 0.0 for m in methods}  # the slowest building figure
     for name, (mp, sp, absolute) in figs["plain"].items():
-        t5 = {m: time_to(figs[m][name][0], figs[m][name][1], runs[m][0]["timing"]["wall_s"],
-                         absolute) for m in methods}
+        t5 = {m: time_to(figs[m][name][0], figs[m][name][1], cost(runs[m][0]), absolute)
+              for m in methods}
         if all(t5.values()) and name.startswith("B"):
             for m in methods:
                 study[m] = max(study[m], t5[m])
@@ -214,6 +266,9 @@ def report(a, methods, runs, ptn):
             gains[m].append(g)
             line += f"{g:15.1f} {'':5s} "
         print(line)
+    print("HFD and half band (indicative: one draw of a step function, not a standard error): " +
+          ", ".join(f"{m} {figs[m]['HFD half band (m)'][0]:.1f} m ± {figs[m]['HFD half band (m)'][1]:.2f}"
+                    for m in methods))
     print("slowest building figure (when a study with building targets is done): " +
           ", ".join(f"{m} {study[m]:.1f} s" for m in methods) + "; gains " +
           ", ".join(f"{m} {study['plain'] / study[m]:.1f} x" for m in rest if study[m] > 0))

@@ -44,7 +44,7 @@ DirectionLearner::DirectionLearner(const Scenario& sc, const scene::Site& site,
       g.bin_mean.assign(kDistanceBins, 0.0);
       g.scratch.assign(kDistanceBins, 0.0);
     }
-    prior_.push_back(site_prior(sc.groups[k], site));
+    prior_.push_back(site_prior(sc.groups[k], site, g.wedge));
   }
 }
 
@@ -104,7 +104,8 @@ AzimuthSpan cell_span(const fragments::FragmentGroupSpec& g, int i, int j, int n
 }  // namespace
 
 std::vector<double> DirectionLearner::site_prior(const fragments::FragmentGroupSpec& group,
-                                                 const scene::Site& site) const {
+                                                 const scene::Site& site,
+                                                 std::vector<std::vector<char>>& wedges) const {
   const int ne = settings_.elevation_cells, na = settings_.azimuth_cells;
   const int inner = settings_.speed_cells * settings_.mass_cells;
   std::vector<AzimuthSpan> cells;
@@ -112,15 +113,20 @@ std::vector<double> DirectionLearner::site_prior(const fragments::FragmentGroupS
     for (int j = 0; j < na; ++j) cells.push_back(cell_span(group, i, j, ne, na));
   const Vec3 origin = site.to_local(group.frame.origin_m);
   std::vector<double> w(cells.size(), ring_used_ ? 1.0 / static_cast<double>(cells.size()) : 0.0);
+  wedges.assign(buildings_, {});
   for (std::size_t b = 0; b < buildings_; ++b) {
     if (!building_used_[b]) continue;
+    wedges[b].assign(cells.size(), 0);
     const scene::Building& bd = site.buildings()[b];
     const AzimuthSpan span =
         span_of(building_points(site, bd), origin, 0.5 * (bd.bounds.lo + bd.bounds.hi));
     std::vector<std::size_t> hit;
     for (std::size_t c = 0; c < cells.size(); ++c)
       if (cells[c].overlaps(span)) hit.push_back(c);
-    for (const std::size_t c : hit) w[c] += 1.0 / static_cast<double>(hit.size());
+    for (const std::size_t c : hit) {
+      w[c] += 1.0 / static_cast<double>(hit.size());
+      wedges[b][c] = 1;
+    }
   }
   std::vector<double> out;
   out.reserve(cells.size() * static_cast<std::size_t>(inner));
@@ -304,6 +310,33 @@ std::vector<double> DirectionLearner::smoothed_hit_rates(const GroupStats& g,
   return r;
 }
 
+// A building's hit rates for the plan: the learnt rates (smoothed_hit_rates) blended with the
+// rate spread evenly over the cells facing the building (its wedge, from the site as for the
+// pilot) in proportion to the evidence,
+//   r_c = lambda r_learnt,c + (1 - lambda) r_wedge [c faces b],   r_wedge = E_p[hit] N / N_wedge,
+//   lambda = H / (H + kBuildingEvidence),  H = the group's hits of the building so far.
+// Both parts hold the same expected hits (sum_c r_c / N = E_p[hit]). A pilot with a handful of
+// hits of a rare building (one, for the demo's B08) then does not concentrate the next batch on
+// their neighbourhoods, where a hit from a facing cell outside them carried a likelihood ratio
+// of 1/delta, hundreds of times the others' (docs/precision.md, "Learning q").
+std::vector<double> DirectionLearner::building_rates(const GroupStats& g, std::size_t building,
+                                                     double mean) const {
+  std::vector<double> r = smoothed_hit_rates(g, building);
+  const std::vector<char>& wedge = g.wedge[building];
+  const auto inner = static_cast<std::size_t>(settings_.speed_cells * settings_.mass_cells);
+  double facing = 0.0;
+  for (const char f : wedge) facing += f ? static_cast<double>(inner) : 0.0;
+  if (!(facing > 0.0)) return r;
+  double hits = 0.0;
+  for (std::size_t c = 0; c < r.size(); ++c)
+    hits += static_cast<double>(g.hits[c * buildings_ + building]);
+  const double lambda = hits / (hits + kBuildingEvidence);
+  const double r_wedge = mean * static_cast<double>(cells_) / facing;
+  for (std::size_t c = 0; c < r.size(); ++c)
+    r[c] = lambda * r[c] + (wedge[c / inner] ? (1.0 - lambda) * r_wedge : 0.0);
+  return r;
+}
+
 std::vector<fragments::DirectionCells> DirectionLearner::uniform() const {
   return std::vector<fragments::DirectionCells>(
       groups_.size(), fragments::DirectionCells(settings_.elevation_cells, settings_.azimuth_cells,
@@ -346,7 +379,7 @@ std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m) cons
     for (std::size_t b = 0; b < buildings_ && n > 0; ++b) {
       const double mean = g.building_mean[b] / n;  // E_p[hit]
       if (!building_used_[b] || !(mean > 0.0)) continue;
-      const std::vector<double> rate = smoothed_hit_rates(g, b);
+      const std::vector<double> rate = building_rates(g, b, mean);
       for (std::size_t c = 0; c < cells; ++c) a[c] += rate[c] / (mean * mean);
     }
     double ring_mean = 0.0;

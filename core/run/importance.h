@@ -61,9 +61,10 @@ class DirectionLearner {
 
   // Bytes of the learning tables for `groups` groups of `cells` cells each with `buildings`
   // buildings (per cell: histories, hits per building, squared ring contributions per distance
-  // bin, the neighbour list). The api layer bounds it (docs/scenario.md, "Limits").
+  // bin, whether it faces each building, the neighbour list). The api layer bounds it
+  // (docs/scenario.md, "Limits").
   static double table_bytes(double groups, double cells, double buildings) {
-    return groups * cells * (8.0 * (1.0 + buildings + kDistanceBins) + 4.0 * 81.0);
+    return groups * cells * (8.0 * (1.0 + buildings + kDistanceBins) + buildings + 4.0 * 81.0);
   }
 
   // Uniform cells (groups with nothing learnt): the plain draw, cells reported.
@@ -90,15 +91,22 @@ class DirectionLearner {
   static constexpr double kNeighbourTrust = 20.0;  // histories of a cell that halve the floor
   // Histories of prior weight on a cell's hit rate, centred on its neighbourhood's rate.
   static constexpr double kPriorHistories = 20.0;
+  // A building's hits that earn its learnt hit rates half of its share; the rest stays spread
+  // evenly over the cells facing it (its wedge, as in the pilot). See building_rates(); 5
+  // measured better than 20 on the demo (docs/benchmarks.md §8).
+  static constexpr double kBuildingEvidence = 5.0;
   // delta / N + (1 - delta) s_c / sum s (the defensive mixture), or uniform cells when s holds
   // nothing to follow.
   fragments::DirectionCells mixture(const std::vector<double>& s, double delta) const;
-  std::vector<double> site_prior(const fragments::FragmentGroupSpec& group,
-                                 const scene::Site& site) const;
+  // The pilot's learnt part per cell; fills `wedges` (per building and direction cell: 1 when
+  // the cell faces the building, 0 else; empty for buildings no target names).
+  std::vector<double> site_prior(const fragments::FragmentGroupSpec& group, const scene::Site& site,
+                                 std::vector<std::vector<char>>& wedges) const;
   struct GroupStats;
   std::vector<std::vector<std::uint32_t>> neighbour_lists(bool wraps) const;
   std::vector<double> spread_to_neighbours(const std::vector<double>& s, const GroupStats& g) const;
   std::vector<double> smoothed_hit_rates(const GroupStats& g, std::size_t building) const;
+  std::vector<double> building_rates(const GroupStats& g, std::size_t building, double mean) const;
   struct GroupStats {
     std::vector<std::int64_t> n;        // per cell: histories
     std::vector<std::int64_t> hits;     // per cell x building: hits
@@ -111,6 +119,7 @@ class DirectionLearner {
     std::int64_t touching = 0;    // histories that hit a used building or have PTN contributions
     std::vector<double> scratch;  // per distance bin: this history's x
     std::vector<int> touched;     // the bins of scratch in use
+    std::vector<std::vector<char>> wedge;  // per building and direction cell: faces it
   };
   std::vector<std::pair<std::uint16_t, double>> entries_;  // reduce()'s output, reused
   const DirectionImportanceSettings settings_;
