@@ -3,7 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
+#include <vector>
 
 #include "core/common/error.h"
 
@@ -38,6 +41,32 @@ TEST(DragCoefficient, PiecewiseLinearClamped) {
   EXPECT_EQ(cd.at_mach(2.0), 0.7);
   EXPECT_EQ(cd.at_mach(0.0), 0.5);  // clamped below
   EXPECT_EQ(cd.at_mach(7.0), 0.7);  // clamped above
+}
+
+// The lookup through the table's uniform grid finds the node std::upper_bound finds, so the value
+// is the interpolation's to the bit: uneven spacing (nodes closer than a grid cell, long gaps),
+// every node, its neighbouring doubles and random Mach numbers.
+TEST(DragCoefficient, GridLookupIsTheBinarySearchToTheBit) {
+  const std::vector<double> mach = {0.0, 0.6, 0.6000001, 0.8, 1.0, 1.05, 1.2, 1.5, 2.0, 9.0};
+  const std::vector<double> cdv = {0.85, 0.9, 0.91, 1.1, 1.5, 1.48, 1.45, 1.35, 1.3, 1.1};
+  const DragCoefficient cd(table(mach, cdv));
+  const auto reference = [&](double m) {
+    if (!(m > mach.front())) return cdv.front();
+    if (m >= mach.back()) return cdv.back();
+    const std::size_t j =
+        static_cast<std::size_t>(std::upper_bound(mach.begin(), mach.end(), m) - mach.begin());
+    const double w = (m - mach[j - 1]) / (mach[j] - mach[j - 1]);
+    return cdv[j - 1] + w * (cdv[j] - cdv[j - 1]);
+  };
+  std::vector<double> probes;
+  for (const double m : mach)
+    for (const double q : {std::nextafter(m, -1.0), m, std::nextafter(m, 10.0)})
+      probes.push_back(q);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-0.5, 9.5);
+  for (int k = 0; k < 20000; ++k) probes.push_back(u(rng));
+  for (int k = 0; k <= 900; ++k) probes.push_back(k * 0.01);  // across every grid cell edge
+  for (const double m : probes) ASSERT_EQ(cd.at_mach(m), reference(m)) << "Mach " << m;
 }
 
 TEST(DragCoefficient, SinglePointTableIsConstant) {

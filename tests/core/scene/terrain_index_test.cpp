@@ -165,6 +165,64 @@ TEST(TerrainIndex, MeshTraversalMatchesBruteForce) {
   check_random_segments(*s, 13, 800);
 }
 
+// The clearance walk and the culled candidate walk (the flight's terrain-query and PTN skips):
+// random 3-D segments over a bumpy grid and a mesh, at heights from below the terrain to above it.
+//   - clearance is a lower bound of the segment's height above the terrain at every point over it
+//     (sampled at 200 points), so a segment with clearance > 0 meets no terrain;
+//   - with `enough`, the walk stops at a value <= enough, or returns the full walk's value;
+//   - for_each_candidate_below(H) reports every triangle whose prism (0..H above it) the segment
+//     enters: checked against a brute-force scan of all triangles at the sampled points.
+void check_clearance(const Site& s, std::uint64_t seed, int count, double h) {
+  const Box3& box = s.terrain_bounds();
+  const TerrainIndex2D& ix = s.terrain_index();
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-0.1, 1.1), zu(-3, 25);
+  const Vec3 size = box.hi - box.lo;
+  const auto point = [&] {
+    return Vec3(box.lo.x() + u(rng) * size.x(), box.lo.y() + u(rng) * size.y(),
+                box.lo.z() + zu(rng) * std::max(1.0, size.z()) / 10);
+  };
+  int culled_some = 0, clear_some = 0;
+  for (int k = 0; k < count; ++k) {
+    const Vec3 a = point();
+    const Vec3 b = (k % 3 == 0) ? Vec3(a + 0.05 * (point() - a)) : point();  // short chords too
+    const double c = ix.clearance(a, b);
+    const double stop = ix.clearance(a, b, 0.5);
+    EXPECT_TRUE(stop == c || stop <= 0.5) << stop << " vs " << c;
+    std::set<std::uint32_t> below, all;
+    ix.for_each_candidate_below(a, b, h, [&](std::uint32_t t) { below.insert(t); });
+    ix.for_each_candidate(a.head<2>(), b.head<2>(), [&](std::uint32_t t) { all.insert(t); });
+    if (below.size() < all.size()) ++culled_some;
+    if (c > 0) ++clear_some;
+    for (int q = 0; q <= 200; ++q) {
+      const Vec3 x = a + (b - a) * (q / 200.0);
+      const std::int64_t t = s.terrain_triangle_at(x.x(), x.y());
+      if (t < 0) continue;
+      const double above = x.z() - s.terrain_height(x.x(), x.y());
+      ASSERT_LE(c, above + 1e-9) << "clearance above the segment's height at " << x.transpose();
+      // Inside the prism of the triangle under x: it must be among the reported candidates.
+      if (above >= 0 && above <= h) {
+        ASSERT_TRUE(below.count(static_cast<std::uint32_t>(t)))
+            << "triangle " << t << " under " << x.transpose() << " (" << above << " m up) culled";
+      }
+    }
+  }
+  // The cases are not vacuous: some segments are clear, and some walks skip buckets.
+  EXPECT_GT(clear_some, count / 10);
+  EXPECT_GT(culled_some, count / 10);
+}
+
+TEST(TerrainIndex, ClearanceBoundsTheHeightAndTheCullKeepsEveryPrism) {
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> zd(0, 12);
+  const auto g = make_grid(1000.3, -200.7, 4.0, 30, 20, [&](double, double) { return zd(rng); });
+  check_clearance(*Site::build(grid_site(g)), 31, 600, 2.0);
+  SiteSpec spec = plane_site();
+  spec.terrain.geometry = jittered_mesh(9, 25, 8.0);
+  check_clearance(*Site::build(spec), 32, 600, 2.0);
+  check_clearance(*Site::build(plane_site({0, 0, 100, 100}, 10, 3)), 33, 300, 2.0);
+}
+
 TEST(TerrainIndex, DegenerateInputsVisitNothingOrOneBucket) {
   const auto s = Site::build(plane_site({0, 0, 100, 100}, 10, 0));
   const auto count = [&](const Vec2& a, const Vec2& b) {
