@@ -796,6 +796,16 @@ bool ShardRunner::exchange_batch(double& elapsed) {
   return true;
 }
 
+// Adds the tallies and history counts of `from` into `into` (exact sums: any order).
+void add_tallies(PartialRun& into, const PartialRun& from) {
+  into.tally.merge(from.tally);
+  for (std::size_t o = 0; o < kOutcomeCount; ++o)
+    into.outcome_histories[o] += from.outcome_histories[o];
+  into.left_hazardous_histories += from.left_hazardous_histories;
+  into.histories_done += from.histories_done;
+  into.pilot_histories += from.pilot_histories;
+}
+
 // Adds every shard's batch to global_ and, in shard order (for each group: the order of its
 // histories in one process), to the learner.
 void ShardRunner::absorb(const BatchState& all) {
@@ -805,12 +815,7 @@ void ShardRunner::absorb(const BatchState& all) {
     throw std::runtime_error("a batch boundary without every shard's batch (batch " +
                              std::to_string(all.batch) + ", " + std::to_string(b.shards.size()) +
                              " of " + std::to_string(shard_.count) + " shards)");
-  global_.tally.merge(b.tally);
-  for (std::size_t o = 0; o < kOutcomeCount; ++o)
-    global_.outcome_histories[o] += b.outcome_histories[o];
-  global_.left_hazardous_histories += b.left_hazardous_histories;
-  global_.histories_done += b.histories_done;
-  global_.pilot_histories += b.pilot_histories;
+  add_tallies(global_, b);
   if (learner_)
     for (const BatchState::Learnt& l : all.learnt) learner_->replay(l.input);
 }
@@ -856,12 +861,7 @@ PartialRun ShardRunner::finish() {
   part.batches = idle && !part.cancelled ? 1 : batches_;
   if (idle) part.tallied_batches = part.batches;
   if (sync_ != nullptr && shard_.index == 0) {  // every shard's completed batches
-    part.tally.merge(global_.tally);
-    for (std::size_t o = 0; o < kOutcomeCount; ++o)
-      part.outcome_histories[o] += global_.outcome_histories[o];
-    part.left_hazardous_histories += global_.left_hazardous_histories;
-    part.histories_done += global_.histories_done;
-    part.pilot_histories += global_.pilot_histories;
+    add_tallies(part, global_);
   }
   part.stop_reason = part.cancelled ? StopReason::kCancelled : precision_.reason();
   part.precision = precision_.report();

@@ -116,37 +116,14 @@ Divided divided(const Scenario& sc, std::int64_t n, const std::atomic<bool>* can
   return d;
 }
 
-template <class T>
-bool same_bits(const T& a, const T& b) {
-  return std::memcmp(&a, &b, sizeof(T)) == 0;
-}
-template <class T>
-bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
+using testing::same_bits;
 
 // Every figure to the bit; the precision report but its ETA (a wall-clock rate).
 void expect_same_run(const RunResult& a, const RunResult& b) {
   EXPECT_EQ(a.batches, b.batches);
   EXPECT_EQ(a.stop_reason, b.stop_reason);
-  EXPECT_EQ(a.samples, b.samples);
-  EXPECT_EQ(a.histories_done, b.histories_done);
   EXPECT_EQ(a.pilot_histories, b.pilot_histories);
-  EXPECT_TRUE(same_bits(a.ptn_density_per_m2, b.ptn_density_per_m2));
-  EXPECT_TRUE(same_bits(a.ptn_std_error_per_m2, b.ptn_std_error_per_m2));
-  EXPECT_TRUE(same_bits(a.hazardous_fragment_distance_m, b.hazardous_fragment_distance_m));
-  EXPECT_TRUE(same_bits(a.hfd_lower_m, b.hfd_lower_m));
-  EXPECT_TRUE(same_bits(a.hfd_upper_m, b.hfd_upper_m));
-  EXPECT_TRUE(same_bits(a.hfd_by_sector_m, b.hfd_by_sector_m));
-  ASSERT_EQ(a.buildings.size(), b.buildings.size());
-  for (std::size_t i = 0; i < a.buildings.size(); ++i) {
-    EXPECT_TRUE(same_bits(a.buildings[i].impacts, b.buildings[i].impacts)) << i;
-    EXPECT_TRUE(same_bits(a.buildings[i].penetrations, b.buildings[i].penetrations)) << i;
-    EXPECT_TRUE(same_bits(a.buildings[i].residual_ke_j, b.buildings[i].residual_ke_j)) << i;
-  }
-  EXPECT_TRUE(same_bits(a.outcome_fragments, b.outcome_fragments));
-  EXPECT_EQ(a.outcome_histories, b.outcome_histories);
-  EXPECT_EQ(a.stats.integrator_steps, b.stats.integrator_steps);
+  testing::expect_same_figures(a, b);
   ASSERT_EQ(a.fragments.size(), b.fragments.size());
   for (std::size_t i = 0; i < a.fragments.size(); ++i) {
     EXPECT_EQ(a.fragments[i].history, b.fragments[i].history);

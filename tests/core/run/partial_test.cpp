@@ -24,47 +24,9 @@ Scenario shard_scenario() {
   return sc;
 }
 
-template <class T>
-bool same_bits(const T& a, const T& b) {
-  return std::memcmp(&a, &b, sizeof(T)) == 0;
-}
-template <class T>
-bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
+using testing::same_bits;
 
-void expect_same_figures(const RunResult& a, const RunResult& b) {
-  EXPECT_TRUE(same_bits(a.ptn_density_per_m2, b.ptn_density_per_m2));
-  EXPECT_TRUE(same_bits(a.ptn_std_error_per_m2, b.ptn_std_error_per_m2));
-  EXPECT_TRUE(same_bits(a.hazardous_fragment_distance_m, b.hazardous_fragment_distance_m));
-  EXPECT_TRUE(same_bits(a.hfd_lower_m, b.hfd_lower_m));
-  EXPECT_TRUE(same_bits(a.hfd_upper_m, b.hfd_upper_m));
-  EXPECT_TRUE(same_bits(a.hfd_by_sector_m, b.hfd_by_sector_m));
-  ASSERT_EQ(a.buildings.size(), b.buildings.size());
-  for (std::size_t i = 0; i < a.buildings.size(); ++i) {
-    EXPECT_TRUE(same_bits(a.buildings[i].impacts, b.buildings[i].impacts)) << i;
-    EXPECT_TRUE(same_bits(a.buildings[i].penetrations, b.buildings[i].penetrations)) << i;
-    EXPECT_TRUE(same_bits(a.buildings[i].impacts_by_surface, b.buildings[i].impacts_by_surface));
-    EXPECT_TRUE(same_bits(a.buildings[i].residual_ke_j, b.buildings[i].residual_ke_j));
-  }
-  EXPECT_TRUE(same_bits(a.outcome_fragments, b.outcome_fragments));
-  EXPECT_EQ(a.outcome_histories, b.outcome_histories);
-  EXPECT_EQ(a.samples, b.samples);
-  EXPECT_EQ(a.histories_done, b.histories_done);
-  EXPECT_EQ(a.stats.integrator_steps, b.stats.integrator_steps);
-  EXPECT_EQ(a.stats.scene_queries, b.stats.scene_queries);
-  ASSERT_EQ(a.fragments.size(), b.fragments.size());
-  for (std::size_t i = 0; i < a.fragments.size(); ++i) {
-    EXPECT_EQ(a.fragments[i].history, b.fragments[i].history);
-    EXPECT_TRUE(same_bits(a.fragments[i].end_position_m, b.fragments[i].end_position_m));
-  }
-  ASSERT_EQ(a.trajectories.size(), b.trajectories.size());
-  for (std::size_t i = 0; i < a.trajectories.size(); ++i) {
-    EXPECT_EQ(a.trajectories[i].group, b.trajectories[i].group);
-    EXPECT_EQ(a.trajectories[i].history, b.trajectories[i].history);
-    EXPECT_TRUE(same_bits(a.trajectories[i].t_s, b.trajectories[i].t_s));
-  }
-}
+using testing::expect_same_figures;
 
 // Runs the scenario as `n` shards, each with its own thread count and chunk size (drawn from
 // `gen`), and merges them in a shuffled order.
