@@ -5,6 +5,9 @@
 # (deploy/test.sh, ASan, TSan) left gigabytes in /tmp and filled the disk (stop 33).
 set -euo pipefail
 scratch="$(mktemp -d "${TMPDIR:-/tmp}/fragsim-ctest.XXXXXX")"
+# Searchable by all (not listable): the private Slurm's munged refuses a socket below a directory
+# others cannot enter (deploy/cluster/slurm-local.sh).
+chmod 0711 "$scratch"
 status=0
 TMPDIR="$scratch" ctest "$@" || status=$?
 if [ "$status" -eq 0 ]; then
