@@ -69,7 +69,8 @@ int main() {
     d[6] = 1.0 / speed;
     return d;
   };
-  std::printf("elevation  rtol   | variable t: rhs  range error m | variable s: rhs  range error m\n");
+  std::printf(
+      "elevation  rtol   | variable t: rhs  range error m | variable s: rhs  range error m\n");
   for (const double elev_deg : {2.0, 10.0, 30.0}) {
     const double e = elev_deg * std::numbers::pi / 180.0, v0 = 750.0;
     V6 y0;
