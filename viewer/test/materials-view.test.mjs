@@ -44,11 +44,14 @@ function near(got, want, what) {
 }
 
 // [{name, color: [r, g, b]}] of the material legend in `legend`.
+// Query and read in one synchronous evaluation: the job page renders its legend again when the
+// site-plan boundary arrives (job_view.js), and a legend replaced between a query and the read
+// leaves detached swatches whose computed colour is empty (seen once under load).
 async function materialLegend(legend) {
-  return page.$$eval(`${legend} .key-item.material`, (items) => items.map((it) => ({
+  return page.evaluate((sel) => [...document.querySelectorAll(`${sel} .key-item.material`)].map((it) => ({
     name: it.dataset.material,
     color: getComputedStyle(it.querySelector('.swatch')).backgroundColor.match(/\d+/g).map(Number),
-  })));
+  })), legend);
 }
 
 // The canvas pixels at the two zones' points, in the settled top view.
