@@ -8,6 +8,7 @@
 #include "api/h5_writer.h"
 #include "api/units.h"
 #include "core/common/error.h"
+#include "core/run/paired.h"
 
 namespace fragsim::api {
 
@@ -179,6 +180,16 @@ std::string format(const char* fmt, double a, double b = 0.0) {
 }  // namespace
 
 std::vector<std::string> check_variant(const nlohmann::json& base, const nlohmann::json& variant) {
+  // The HFD difference's jackknife takes Sobol nets whole, in kJackknifeGroups groups.
+  const nlohmann::json sl =
+      base.value("settings", nlohmann::json::object()).value("stratified_launch", nlohmann::json());
+  if (sl.is_object() && sl.value("method", "strata") == "sobol" &&
+      sl.value("replicates", std::int64_t{16}) < run::kJackknifeGroups)
+    throw InputError("settings.stratified_launch.replicates",
+                     "must be >= " + std::to_string(run::kJackknifeGroups) +
+                         " in a comparison with method \"sobol\" (the jackknife of the HFD "
+                         "difference takes whole nets, in " +
+                         std::to_string(run::kJackknifeGroups) + " groups)");
   const std::string groups =
       first_difference(base.value("fragment_groups", nlohmann::json()),
                        variant.value("fragment_groups", nlohmann::json()), "fragment_groups");

@@ -134,6 +134,15 @@ void check_precision(const run::Scenario& sc, std::int64_t total_samples) {
 // settings.stratified_launch: every group has at least 2 histories (per batch), so that a stratum
 // holds two; `speed` stratifies equal cells, so it cannot go with learnt ones.
 void check_stratified_launch(const run::Scenario& sc) {
+  const run::StratifiedLaunchSettings& sl = *sc.settings.stratified_launch;
+  if (sl.method == run::LaunchStratification::kSobol) {
+    for (std::size_t g = 0; g < sc.groups.size(); ++g)
+      if (sc.groups[g].samples < sl.replicates)
+        fail(index_path("fragment_groups", g) + ".samples",
+             "must be >= settings.stratified_launch.replicates (" + std::to_string(sl.replicates) +
+                 ") with method \"sobol\" (one net per replicate)");
+    return;
+  }
   for (std::size_t g = 0; g < sc.groups.size(); ++g)
     if (sc.groups[g].samples < 2)
       fail(index_path("fragment_groups", g) + ".samples",
@@ -144,6 +153,29 @@ void check_stratified_launch(const run::Scenario& sc) {
     fail("settings.stratified_launch.speed",
          "cannot be true with settings.precision.direction_importance (the strata follow its "
          "cells; give it speed_cells instead)");
+}
+
+// settings.stratified_launch: "strata" of u_cell (histories_per_stratum, speed) or "sobol" nets
+// (replicates); a key of the other method is refused rather than ignored.
+run::StratifiedLaunchSettings parse_stratified_launch(const ObjectReader& r) {
+  run::StratifiedLaunchSettings sl;
+  const std::string method = r.string_or("method", "strata");
+  if (method == "sobol") {
+    sl.method = run::LaunchStratification::kSobol;
+    for (const char* k : {"histories_per_stratum", "speed"})
+      if (r.find(k) != nullptr)
+        fail(r.at(k), "applies to method \"strata\" only (method is \"sobol\")");
+    sl.replicates = r.integer_or("replicates", sl.replicates, 2, kMaxSobolReplicates);
+    return sl;
+  }
+  if (method != "strata")
+    fail(r.at("method"), "must be \"strata\" or \"sobol\" (got \"" + method + "\")");
+  if (r.find("replicates") != nullptr)
+    fail(r.at("replicates"), "applies to method \"sobol\" only (method is \"strata\")");
+  sl.histories_per_stratum =
+      r.integer_or("histories_per_stratum", sl.histories_per_stratum, 2, kMaxSamplesPerGroup);
+  sl.speed = r.bool_or("speed", sl.speed);
+  return sl;
 }
 
 run::Settings parse_settings(const Json& j, const std::string& path) {
@@ -187,11 +219,7 @@ run::Settings parse_settings(const Json& j, const std::string& path) {
   if (const Json* p = o.find("precision")) s.precision = parse_precision(*p, o.at("precision"));
   if (const Json* l = o.find("stratified_launch")) {
     const ObjectReader r(*l, o.at("stratified_launch"), "stratified_launch");
-    run::StratifiedLaunchSettings sl;
-    sl.histories_per_stratum =
-        r.integer_or("histories_per_stratum", sl.histories_per_stratum, 2, kMaxSamplesPerGroup);
-    sl.speed = r.bool_or("speed", sl.speed);
-    s.stratified_launch = sl;
+    s.stratified_launch = parse_stratified_launch(r);
   }
   if (const Json* b = o.find("ground_bracket")) {
     const ObjectReader r(*b, o.at("ground_bracket"), "ground_bracket");
@@ -493,9 +521,14 @@ Json scenario_json(const run::Scenario& sc, const std::string& description,
   };
   if (s.hfd_origin_m) settings["hfd_origin_m"] = vec3_json(*s.hfd_origin_m);
   if (s.precision) settings["precision"] = precision_json(*s.precision);
-  if (const auto& l = s.stratified_launch)
-    settings["stratified_launch"] = {{"histories_per_stratum", l->histories_per_stratum},
-                                     {"speed", l->speed}};
+  if (const auto& l = s.stratified_launch) {
+    if (l->method == run::LaunchStratification::kSobol)
+      settings["stratified_launch"] = {{"method", "sobol"}, {"replicates", l->replicates}};
+    else
+      settings["stratified_launch"] = {{"method", "strata"},
+                                       {"histories_per_stratum", l->histories_per_stratum},
+                                       {"speed", l->speed}};
+  }
   if (const auto& b = s.ground_bracket)
     settings["ground_bracket"] = {{"samples_scale", b->samples_scale}};
   out["settings"] = std::move(settings);

@@ -26,6 +26,8 @@ inline constexpr const char* kScenarioSchema = "fragsim.scenario/1";
 
 // Limits on values that are legal in principle but would exhaust a machine (or a daemon).
 inline constexpr std::int64_t kMaxSamplesPerGroup = 1'000'000'000;
+// settings.stratified_launch.replicates: nets per group and batch (each one chunk of work).
+inline constexpr std::int64_t kMaxSobolReplicates = 4096;
 inline constexpr std::int64_t kMaxRecordedFragments = 10'000'000;  // with record_fragments
 inline constexpr std::int64_t kMaxPrecisionBatches = 1'000'000;    // settings.precision
 // direction_importance: cells per group (the default 24 x 72 x 1 x 4 is 6,912), and the learning

@@ -59,7 +59,7 @@ const std::map<std::string, std::vector<std::string>, std::less<>>& scenario_obj
         "record_fragments", "record_trajectories", "max_recorded_trajectories", "profile",
         "precision", "stratified_launch", "ground_bracket"}},
       {"ground_bracket", {"samples_scale"}},
-      {"stratified_launch", {"histories_per_stratum", "speed"}},
+      {"stratified_launch", {"method", "histories_per_stratum", "speed", "replicates"}},
       {"precision",
        {"hfd_half_band_m", "hfd_half_band_rel", "building_rel_error", "building_abs_error",
         "buildings", "ptn_rel_error_at_hfd", "min_batches", "max_batches", "max_wall_s",

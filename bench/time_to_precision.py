@@ -6,7 +6,9 @@ does exactly --batches batches of the groups' samples, once per method:
   plain        independent histories;
   stratified   settings.stratified_launch (2 histories per stratum of launch cells);
   importance   settings.precision.direction_importance (its pilot batch included in its time);
-  both         importance sampling with stratified launch cells.
+  both         importance sampling with stratified launch cells;
+  sobol        scrambled Sobol nets (settings.stratified_launch.method "sobol");
+  importance_sobol  importance sampling with Sobol nets.
 For every figure with a nonzero mean it prints the time each run would need for a 5 %
 relative standard error, extrapolated as T5 = T * (se / (0.05 * mean))^2 (se ~ 1/sqrt(n)), T the
 run's CPU time (--clock wall: its wall time, which other jobs on the machine inflate), and
@@ -26,7 +28,7 @@ docs/benchmarks.md, "Time to precision".
                                [--batches 10] [--threads 2] [--seed N] [--cells 24x72[x1[x4]]]
                                [--defensive 0.3] [--methods plain,stratified,importance,both]
                                [--distances 50,100,150,200] [--focus all|buildings|hfd]
-                               [--clock cpu|wall]
+                               [--clock cpu|wall] [--replicates R]
 """
 import argparse
 import json
@@ -178,7 +180,14 @@ METHODS = {
     "importance": lambda a, di: {"precision": precision(a, direction_importance=di)},
     "both": lambda a, di: {"precision": precision(a, direction_importance=di),
                            "stratified_launch": {"histories_per_stratum": 2}},
+    "sobol": lambda a, di: {"precision": precision(a), "stratified_launch": SOBOL(a)},
+    "importance_sobol": lambda a, di: {"precision": precision(a, direction_importance=di),
+                                       "stratified_launch": SOBOL(a)},
 }
+
+
+def SOBOL(a):
+    return dict({"method": "sobol"}, **({"replicates": a.replicates} if a.replicates else {}))
 
 
 def main():
@@ -193,6 +202,8 @@ def main():
                     help="elevation x azimuth [x speed [x mass]] cells, e.g. 24x72x1x4")
     ap.add_argument("--defensive", type=float, default=None)
     ap.add_argument("--methods", default="plain,stratified,importance,both")
+    ap.add_argument("--replicates", type=int, default=0,
+                    help="sobol methods: nets per group and batch (default: the scenario's)")
     ap.add_argument("--distances", default="50,100,150,200", help="PTN rings, m")
     ap.add_argument("--focus", default="all", choices=list(FOCUS),
                     help="the figures importance sampling aims at (targets never met)")

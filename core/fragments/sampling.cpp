@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/fragments/sobol.h"
+
 namespace fragsim::fragments {
 
 Mat3 frame_rotation(const FrameSpec& frame) {
@@ -66,6 +68,30 @@ Quat body_to_site(const FragmentGroupSpec& group, const Mat3& frame, const Rando
   return (Quat(frame) * q_local).normalized();
 }
 
+// The launch uniforms of a Sobol point: coordinate d of point i of net k, Owen-scrambled by a
+// key drawn per (seed, group, net, d), plus 32 bits of the history's own stream below the
+// point's 32 (so that each coordinate is exactly uniform on (0, 1), not on a 2^-32 grid).
+struct SobolLaunch {
+  double elevation, azimuth, speed, mass, cell;
+};
+SobolLaunch sobol_launch(const LaunchStratum& s, std::uint64_t seed, std::uint32_t group,
+                         const RandomStream& rng) {
+  constexpr std::uint64_t kNetStreams = 1ull << 62;  // beyond any history number
+  const RandomStream net(seed, group, kNetStreams | static_cast<std::uint64_t>(s.sobol_net));
+  const auto key0 = net.block(0), key1 = net.block(1);
+  const auto low0 = rng.block(kSlotSobolJitter), low1 = rng.block(kSlotSobolJitter2);
+  const SobolPoints& sp = sobol_points();
+  const auto coordinate = [&](int d, std::uint32_t key, std::uint32_t low) {
+    const std::uint32_t x = SobolPoints::scramble(sp.raw(s.sobol_point, d), key);
+    const double u =
+        (static_cast<double>(x) + (static_cast<double>(low) + 0.5) * 0x1.0p-32) * 0x1.0p-32;
+    return std::min(u, 0x1.fffffffffffffp-1);  // x + low rounds up to 2^32 at the top
+  };
+  return {coordinate(0, key0[0], low0[0]), coordinate(1, key0[1], low0[1]),
+          coordinate(2, key0[2], low0[2]), coordinate(3, key0[3], low0[3]),
+          coordinate(4, key1[0], low1[0])};
+}
+
 }  // namespace
 
 FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
@@ -85,7 +111,27 @@ FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group
   double u_mass = rng.uniform(kSlotMass);
   double u_speed = rng.uniform(kSlotSpeed);
   double u_elevation = rng.uniform(kSlotDirection, 0), u_azimuth = rng.uniform(kSlotDirection, 1);
-  if (cells != nullptr) {
+  if (stratum != nullptr && stratum->sobol_net >= 0) {
+    const SobolLaunch u = sobol_launch(*stratum, seed, group_index, rng);
+    f.weight *= stratum->weight_factor;
+    if (cells != nullptr && !cells->uniform()) {
+      const DirectionCells::Draw d = cells->draw(u.elevation, u.azimuth, u.speed, u.cell, u.mass);
+      u_elevation = d.u_elevation;
+      u_azimuth = d.u_azimuth;
+      u_speed = d.u_speed;
+      u_mass = d.u_mass;
+      f.direction_cell = d.cell;
+      f.likelihood_ratio = d.likelihood_ratio;
+      f.weight *= d.likelihood_ratio;
+    } else {
+      u_elevation = u.elevation;
+      u_azimuth = u.azimuth;
+      u_speed = u.speed;
+      u_mass = u.mass;
+      if (cells != nullptr)
+        f.direction_cell = cells->cell_of(u_elevation, u_azimuth, u_speed, u_mass);
+    }
+  } else if (cells != nullptr) {
     double u_cell = cells->uniform() ? 0.5 : rng.uniform(kSlotDirectionCell);
     if (stratum != nullptr) {
       u_cell = std::min(

@@ -21,7 +21,9 @@ enum Slot : std::uint32_t {
   kSlotSpin = 5,           // k=0 magnitude
   kSlotSpinAxis = 6,       // k=0,1 axis on the sphere (body frame)
   kSlotDirectionCell = 7,  // k=0: the cell of an importance-sampled direction (DirectionCells)
-  kSlotFirstFree = 16,     // later issues (bounce) use slots from here
+  kSlotSobolJitter = 8,    // its four 32-bit words: the bits below a Sobol coordinate's 32
+  kSlotSobolJitter2 = 9,
+  kSlotFirstFree = 16,  // later issues (bounce) use slots from here
 };
 
 // Physical ranges sample_fragment passes to Distribution::sample (validate the group's
@@ -92,15 +94,22 @@ struct FragmentInit {
 // Stratum `index` of `count` equal strata of u_cell (settings.stratified_launch); `weight_factor`
 // corrects the weight of a stratum holding more or fewer histories than the batch's share
 // (samples / count): 1 for all but a last stratum that takes a remainder.
+//
+// Or (settings.stratified_launch.method "sobol") point `sobol_point` of the scrambled Sobol net
+// `sobol_net` (a number unique per group, batch and block; -1: not this method): the launch
+// uniforms are that point's coordinates (core/fragments/sobol.h).
 struct LaunchStratum {
   std::int64_t index = 0;
   std::int64_t count = 1;
   double weight_factor = 1.0;
+  std::int64_t sobol_net = -1;
+  std::uint32_t sobol_point = 0;
 };
 
 // `cells`: draw the direction from its importance density (direction_cells.h); null or uniform:
 // the plain draw (bit for bit), with the cell reported when given. `stratum` (needs non-uniform
-// cells, e.g. DirectionCells::equal): u_cell is drawn within the stratum.
+// cells, e.g. DirectionCells::equal): u_cell is drawn within the stratum; a Sobol point gives
+// u_elevation, u_azimuth, u_speed, u_mass (and u_cell with non-uniform cells).
 FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
                              std::uint64_t history, std::uint64_t seed,
                              const DirectionCells* cells = nullptr,

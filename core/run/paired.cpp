@@ -95,21 +95,22 @@ HistoryView view(const Chunk& c, std::size_t h, std::uint32_t begin) {
           c.exit_sector[h]};
 }
 
-// Per-triangle sums of one site's PTN contributions in kJackknifeGroups interleaved groups of
-// histories (history h is in group h mod kJackknifeGroups), for the HFD's jackknife. Kept only for
+// Per-triangle sums of one site's PTN contributions in kJackknifeGroups groups of histories
+// (jackknife_group: history h is in group h mod kJackknifeGroups; with Sobol launch, whole
+// blocks), for the HFD's jackknife. Kept only for
 // the triangles a history touched (a slot index per triangle, 4 bytes): a dense table would be
 // 128 bytes per triangle, 1 GB per site on an 8-million-triangle terrain.
 class JackknifeFields {
  public:
   explicit JackknifeFields(std::size_t triangles) : slot_(triangles, kNone) {}
-  void add(std::int64_t history, std::uint32_t triangle, double value) {
+  void add(std::size_t group, std::uint32_t triangle, double value) {
     std::uint32_t& slot = slot_[triangle];
     if (slot == kNone) {
       slot = static_cast<std::uint32_t>(sums_.size());
       sums_.emplace_back();
       touched_.push_back(triangle);
     }
-    sums_[slot][static_cast<std::size_t>(history % kJackknifeGroups)] += value;
+    sums_[slot][group] += value;
   }
   // The field without group j, scaled up to the whole run's histories.
   std::vector<double> without(int j) const {
@@ -145,7 +146,7 @@ class PairedFold {
     buildings_ = triangles_;
     outcomes_ = buildings_ + 2 * difference_.buildings.size();
     left_site_ = outcomes_ + kOutcomeCount;
-    tally_ = tally::StratifiedTally(left_site_ + 1, strata_.on() ? 2 : 1);
+    tally_ = tally::StratifiedTally(left_site_ + 1, strata_.partitions());
     difference_.same_terrain = triangles_ > 0;
   }
 
@@ -168,7 +169,8 @@ class PairedFold {
   void map_buildings(const scene::Site& base, const scene::Site& variant);
   void fold(const KeptChunk& b, const ChunkOutput& v);
   void start_strata(std::uint32_t g, std::int64_t i, bool chunk_start);
-  void add_history(const HistoryView& h, std::int64_t history, double sign,
+  std::size_t jackknife_group(std::uint32_t g, std::int64_t history) const;
+  void add_history(const HistoryView& h, std::size_t jackknife, double sign,
                    const std::vector<std::int32_t>& building_bin, JackknifeFields& fields);
   void history_done();
   void fill_hfd(const Scenario& sc, const scene::Site& base, const scene::Site& variant,
@@ -218,9 +220,10 @@ void PairedFold::fold(const KeptChunk& b, const ChunkOutput& v) {
     const auto h = static_cast<std::size_t>(i);
     const std::int64_t history = b.first_history + i;
     start_strata(b.group, history, i == 0);
-    add_history(view(b, h, b_begin), history, -1.0, base_bin_, base_fields_);
-    add_history(view(v, h, v_begin), history, +1.0, variant_bin_, variant_fields_);
-    history_done();
+    const std::size_t jk = jackknife_group(b.group, history);
+    add_history(view(b, h, b_begin), jk, -1.0, base_bin_, base_fields_);
+    add_history(view(v, h, v_begin), jk, +1.0, variant_bin_, variant_fields_);
+    if (strata_.unit_ends(b.group, history)) history_done();
     b_begin = b.ptn_end[h];
     v_begin = v.ptn_end[h];
   }
@@ -238,13 +241,21 @@ void PairedFold::start_strata(std::uint32_t g, std::int64_t i, bool chunk_start)
 }
 
 // Queues one site's contributions of a history: `sign` -1 for the base, +1 for the variant.
-void PairedFold::add_history(const HistoryView& h, std::int64_t history, double sign,
+// The jackknife's groups must be independent: with Sobol launch a block's histories are not, so
+// group j takes whole blocks (replicates >= kJackknifeGroups, api/compare_json.cpp).
+std::size_t PairedFold::jackknife_group(std::uint32_t g, std::int64_t history) const {
+  if (!strata_.sobol()) return static_cast<std::size_t>(history % kJackknifeGroups);
+  return static_cast<std::size_t>(strata_.block_of(g, history) * kJackknifeGroups /
+                                  strata_.replicates());
+}
+
+void PairedFold::add_history(const HistoryView& h, std::size_t jackknife, double sign,
                              const std::vector<std::int32_t>& building_bin,
                              JackknifeFields& fields) {
   for (std::uint32_t k = 0; k < h.ptn_count; ++k) {
     const PtnContribution& c = h.ptn[k];
     if (triangles_ > 0) pending_.push_back({c.triangle, sign * c.value});
-    fields.add(history, c.triangle, c.value);
+    fields.add(jackknife, c.triangle, c.value);
   }
   if (h.building >= 0) {
     const std::size_t bin =
@@ -257,8 +268,8 @@ void PairedFold::add_history(const HistoryView& h, std::int64_t history, double 
   if (h.exit_sector >= 0) pending_.push_back({left_site_, sign * h.weight});
 }
 
-// Tallies the history's differences: a bin both sites touched gets y - x once (the tally's sums
-// of squares take one value per bin and history).
+// Tallies the unit's differences (a history's, or a Sobol block's): a bin both sites touched gets
+// y - x once (the tally's sums of squares take one value per bin and unit).
 void PairedFold::history_done() {
   std::sort(pending_.begin(), pending_.end(),
             [](const Pending& a, const Pending& b) { return a.bin < b.bin; });

@@ -76,7 +76,8 @@ class Reducer {
  public:
   Reducer(const Scenario& sc, const scene::Site& site, const LaunchStrata& strata, PartialRun& out)
       : out_(out), bins_(tally_bins(sc, site)), strata_(strata) {
-    out_.tally = tally::StratifiedTally(bins_.total, strata.on() ? 2 : 1);
+    out_.tally = tally::StratifiedTally(bins_.total, strata.partitions());
+    if (strata.sobol()) unit_ = tally::ExactBins(bins_.total);
     for (const auto& g : sc.groups) samples_.push_back(g.samples);
   }
 
@@ -96,11 +97,12 @@ class Reducer {
       if (c.building_index[h] >= 0)
         add_building(c.buildings[static_cast<std::size_t>(c.building_index[h])], w);
       const auto o = static_cast<std::size_t>(c.outcomes[h]);
-      t.add(bins_.outcomes + o, w);
+      add(bins_.outcomes + o, w);
       ++out_.outcome_histories[o];
       if (c.exit_sector[h] >= 0) add_left_hazardous(c.exit_sector[h], w);
-      t.history_done();
+      if (strata_.unit_ends(c.group, first + i)) unit_done();
     }
+    if (!unit_.bins().empty()) throw std::logic_error("Reducer: a chunk ends inside a Sobol block");
     for (std::size_t k = 0; k < t.partitions(); ++k) t.flush(k);
     out_.histories_done += c.count;
     add_records_and_stats(c);
@@ -119,29 +121,43 @@ class Reducer {
     }
   }
 
+  // A contribution of the current unit of the variance estimate: the history, or with Sobol
+  // launch the block, whose exact sum per bin enters the tally as one value at its end.
+  void add(std::size_t bin, double x) {
+    if (strata_.sobol()) {
+      unit_.add(bin, x);
+    } else {
+      out_.tally.add(bin, x);
+    }
+  }
+  void unit_done() {
+    for (std::size_t k = 0; k < unit_.bins().size(); ++k)
+      out_.tally.add(unit_.bins()[k], unit_.sums()[k].value());
+    unit_.clear();
+    out_.tally.history_done();
+  }
+
   // A contribution to the whole field, to its mechanism's and to its group's (when kept).
   void add_ptn(const PtnContribution& c, std::uint32_t group) {
-    tally::StratifiedTally& t = out_.tally;
-    t.add(bins_.terrain + c.triangle, c.value);
-    t.add(bins_.mechanism(c.mechanism) + c.triangle, c.value);
-    if (bins_.group_fields > 0) t.add(bins_.group(group) + c.triangle, c.value);
+    add(bins_.terrain + c.triangle, c.value);
+    add(bins_.mechanism(c.mechanism) + c.triangle, c.value);
+    if (bins_.group_fields > 0) add(bins_.group(group) + c.triangle, c.value);
   }
 
   void add_building(const BuildingContribution& b, double w) {
-    tally::StratifiedTally& t = out_.tally;
     const std::size_t base =
         bins_.buildings + static_cast<std::size_t>(b.building) * kBuildingFigures;
-    t.add(base + kImpacts, w);
-    t.add(base + kImpactsBySurface + b.surface, w);
+    add(base + kImpacts, w);
+    add(base + kImpactsBySurface + b.surface, w);
     if (!b.penetrated) return;
-    t.add(base + kPenetrations, w);
-    t.add(base + kPenetrationsBySurface + b.surface, w);
-    t.add(base + kResidualKe, w * b.residual_ke_j);
+    add(base + kPenetrations, w);
+    add(base + kPenetrationsBySurface + b.surface, w);
+    add(base + kResidualKe, w * b.residual_ke_j);
   }
 
   void add_left_hazardous(std::int8_t sector, double w) {
-    out_.tally.add(bins_.left_site, w);
-    out_.tally.add(bins_.left_site + 1 + static_cast<std::size_t>(sector), w);
+    add(bins_.left_site, w);
+    add(bins_.left_site + 1 + static_cast<std::size_t>(sector), w);
     ++out_.left_hazardous_histories;
   }
 
@@ -158,6 +174,7 @@ class Reducer {
   const TallyBins bins_;
   const LaunchStrata& strata_;
   std::vector<std::int64_t> samples_;
+  tally::ExactBins unit_;  // Sobol launch: the current block's sums
 };
 
 }  // namespace
@@ -176,11 +193,24 @@ struct BatchPlan {
   }
 };
 
+// With Sobol launch a chunk is one block and a shard takes whole blocks (a block is one unit of
+// the variance estimate: its sums must be complete before they are squared).
 BatchPlan plan_batches(const Scenario& sc, const Shard& shard) {
   BatchPlan plan;
   const std::int64_t chunk = std::max<std::int64_t>(1, sc.settings.chunk_histories);
+  const LaunchStrata strata(sc);
   for (std::uint32_t g = 0; g < sc.groups.size(); ++g) {
     const std::int64_t n = sc.groups[g].samples;
+    if (strata.sobol()) {
+      const std::int64_t r0 = shard_begin(strata.replicates(), shard),
+                         r1 = shard_begin(strata.replicates(), {shard.index + 1, shard.count});
+      for (std::int64_t r = r0; r < r1; ++r) {
+        const std::int64_t first = strata.block_first(g, r);
+        plan.chunks.push_back({g, first, strata.block_first(g, r + 1) - first, false});
+        plan.histories += plan.chunks.back().count;
+      }
+      continue;
+    }
     const std::int64_t begin = shard_begin(n, shard),
                        end = shard_begin(n, {shard.index + 1, shard.count});
     plan.histories += end - begin;
@@ -357,7 +387,7 @@ class SamplingPlans {
 // Cells a stratified draw can use: uniform ones (the importance-sampling pilot, groups with
 // nothing learnt) become equal cells of the same grid, drawn through their cumulative q.
 SamplingPlans::Cells drawable(SamplingPlans::Cells cells, const LaunchStrata& strata) {
-  if (!strata.on()) return cells;
+  if (!strata.on() || strata.sobol()) return cells;  // a Sobol point draws from uniform cells too
   for (auto& c : cells)
     if (c.uniform())
       c = fragments::DirectionCells::equal(c.n_elevation(), c.n_azimuth(), c.n_speed(), c.n_mass());
@@ -641,7 +671,7 @@ ShardRunner::ShardRunner(const Scenario& sc, std::shared_ptr<const scene::Site> 
     learner_ = std::make_unique<DirectionLearner>(sc, *site_, precision_.distances());
     plans_.publish(0, drawable(learner_->pilot(), strata_));
   }
-  if (strata_.on() && !learner_)  // about one equal cell per stratum
+  if (strata_.on() && !strata_.sobol() && !learner_)  // about one equal cell per stratum
     for (std::uint32_t g = 0; g < sc.groups.size(); ++g)
       strata_cells_.push_back(fragments::DirectionCells::for_strata(
           strata_.strata(g), sc.groups[g].direction, st.stratified_launch->speed));
@@ -718,7 +748,7 @@ bool ShardRunner::simulate_chunk(std::int64_t k, const SamplingPlans::Cells* cel
     const bool record = st.record_trajectories && batch == (learner_ ? 1 : 0) &&
                         group_offset_[cs.group] + h < st.max_recorded_trajectories;
     const fragments::LaunchStratum ls =
-        strata_.on() ? strata_.of(cs.group, h - batch_first) : fragments::LaunchStratum{};
+        strata_.on() ? strata_.of(cs.group, h - batch_first, batch) : fragments::LaunchStratum{};
     simulate_history(ctx_, cs.group, h, record, scratch, out, cells ? &(*cells)[cs.group] : nullptr,
                      strata_.on() ? &ls : nullptr);
   }

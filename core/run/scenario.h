@@ -53,9 +53,16 @@ struct PrecisionSettings {
 // the remainder); each stratum is closed as a stratum of the estimators, so the standard errors
 // are those of stratified sampling. Without importance sampling the cells are equal, about one
 // per stratum (DirectionCells::for_strata); with it, the learnt cells.
+// method "sobol" instead: randomized quasi-Monte Carlo. Group g's histories of a batch form
+// `replicates` blocks of consecutive histories, each an independently Owen-scrambled Sobol net
+// over the launch variables (core/fragments/sobol.h); the blocks are the units of the variance
+// estimate (docs/precision.md, "Scrambled Sobol launch").
+enum class LaunchStratification { kStrata, kSobol };
 struct StratifiedLaunchSettings {
+  LaunchStratification method = LaunchStratification::kStrata;
   std::int64_t histories_per_stratum = 2;  // >= 2: the within-stratum variance needs two
-  bool speed = false;  // equal cells across speed too (only without importance sampling)
+  bool speed = false;            // equal cells across speed too (only without importance sampling)
+  std::int64_t replicates = 16;  // sobol: independent nets per group and batch (>= 2)
 };
 
 // settings.ground_bracket (docs/physics.md, "The bracket"): after the study, the terrain

@@ -71,6 +71,23 @@ TEST(Shards, StratifiedLaunchStrataCutByShardsAreClosedWhole) {
   }
 }
 
+// Sobol launch: a shard takes whole nets (blocks), 16 per group; 2, 3 and 13 shards cut the
+// groups' nets unevenly, and 20 shards leave some shards without a net of a group.
+TEST(Shards, SobolNetsSplitByShardsGiveTheBitsOfOneRun) {
+  Scenario sc = shard_scenario();
+  sc.settings.record_trajectories = false;
+  StratifiedLaunchSettings sobol;
+  sobol.method = LaunchStratification::kSobol;
+  sc.settings.stratified_launch = sobol;
+  const RunResult whole = run(sc);
+  ASSERT_GT(whole.buildings[0].impacts.std_error, 0.0);
+  std::mt19937 gen(7);
+  for (const std::int64_t n : {2, 3, 13, 20}) {
+    SCOPED_TRACE(n);
+    expect_same_figures(whole, sharded(sc, n, gen));
+  }
+}
+
 TEST(Shards, APartialLeavesTheStrataItCutsOpen) {
   Scenario sc = shard_scenario();
   const auto site = scene::Site::build(sc.site);
