@@ -515,15 +515,12 @@ void resolve_precision(const BackendConfig& c, ResolvedBackend& r) {
                        ", beside fragsimd or on PATH (it is built only where CMake finds an MPI)";
     return;
   }
-  const std::vector<std::string> command = {"-np",         std::to_string(r.shards),
-                                            program,       "run",
-                                            "{scenario}",  "--out",
-                                            "{shard_dir}", "--shard",
-                                            "0/1",         "--threads",
-                                            "{threads}",   "--progress-file",
-                                            "{progress}",  "--quiet"};
   r.precision_run = c.mpirun;
-  r.precision_run.insert(r.precision_run.end(), command.begin(), command.end());
+  for (const std::string& a : {std::string("-np"), std::to_string(r.shards), program})
+    r.precision_run.push_back(a);
+  for (const char* a : {"run", "{scenario}", "--out", "{shard_dir}", "--shard", "0/1", "--threads",
+                        "{threads}", "--progress-file", "{progress}", "--quiet"})
+    r.precision_run.emplace_back(a);
 }
 
 }  // namespace
