@@ -173,9 +173,6 @@ int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result
   return kExitOk;
 }
 
-namespace {
-
-// --shard I/N: DIR/partial.fsp.
 int write_partial(const Options& o, const PreparedRun& p, const run::PartialRun& part,
                   api::OutputDir& out) {
   out.stage("partial.fsp", [&](const std::filesystem::path& tmp) {
@@ -188,8 +185,6 @@ int write_partial(const Options& o, const PreparedRun& p, const run::PartialRun&
               << (out.path() / "partial.fsp").string() << "\n";
   return kExitOk;
 }
-
-}  // namespace
 
 int run_command(const Options& o, const std::atomic<bool>& cancel) {
   // Everything that can be wrong with the input is found before anything is created.

@@ -45,6 +45,10 @@ std::unique_ptr<api::OutputDir> open_out(const Options& options);
 // summary.json, results.h5, ... into --out, all at once; the report on stdout unless --quiet.
 int write_outputs(const Options& options, const PreparedRun& prepared, run::RunResult& result,
                   const std::atomic<bool>& cancel, api::OutputDir& out);
+// --shard I/N: `part` as DIR/partial.fsp, staged and committed (temporary and rename: a killed
+// process leaves no partial.fsp); "Shard I of N: ..." on stdout unless --quiet.
+int write_partial(const Options& options, const PreparedRun& prepared, const run::PartialRun& part,
+                  api::OutputDir& out);
 // `fragsim site import`: GIS files to a site document (gis/site_import.h).
 int site_import_command(const Options& options);
 // `fragsim site export-gis`: a site document to GIS files (gis/site_to_gis.h).

@@ -1,6 +1,7 @@
 // fragsim-mpi: `fragsim run` with the histories divided among MPI ranks (docs/cluster.md):
 //   mpirun -np 4 fragsim-mpi run SCENARIO.json --out DIR [--threads N] [--samples-scale X]
-// Rank 0 writes DIR/summary.json, DIR/results.h5, ... bit-identical to `fragsim run`.
+// Rank 0 writes DIR/summary.json, DIR/results.h5, ... bit-identical to `fragsim run`; with
+// --shard 0/1, the whole run's DIR/partial.fsp instead (fragsimd's mpi backend).
 #include <string>
 #include <vector>
 

@@ -300,6 +300,15 @@ run::PartialRun run_shard(const cli::Options& o, const cli::PreparedRun& p, int 
   return std::move(*part);
 }
 
+// The merge of every rank's shard r/P is the whole run: every stratum the ranks cut is closed
+// again, so it is the partial of shard 0 of 1, as `fragsim run --shard 0/1` writes it (its
+// figures to the bit; timings and thread counts are the ranks').
+run::PartialRun as_one_shard(run::PartialRun whole) {
+  whole.shard_count = 1;
+  whole.shards = {0};
+  return whole;
+}
+
 int run_ranks(const cli::Options& o, const cli::PreparedRun& p, int rank, int size, MPI_Comm comm,
               const std::atomic<bool>& cancel, api::OutputDir* out) {
   cli::ProgressFile progress(rank == 0 ? o.progress_file : std::string());
@@ -312,6 +321,11 @@ int run_ranks(const cli::Options& o, const cli::PreparedRun& p, int rank, int si
   }
   std::optional<run::PartialRun> whole = reduce_partials(std::move(part), o, p, rank, size, comm);
   if (!whole) return cli::kExitOk;
+  if (o.shard) {  // --shard 0/1: the whole run's partial, for fragsimd or `fragsim merge`
+    const int code = cli::write_partial(o, p, as_one_shard(std::move(*whole)), *out);
+    progress.finish(code == cli::kExitOk ? "done" : "cancelled");
+    return code;
+  }
   run::RunResult result = run::finish(p.doc.scenario, *p.site, std::move(*whole));
   const int code = cli::write_outputs(o, p, result, cancel, *out);
   progress.finish(code == cli::kExitOk ? "done" : "cancelled");
@@ -368,8 +382,10 @@ int run_mpi(const std::vector<std::string>& args, MPI_Comm comm, const std::atom
     o = cli::parse_args(args);
     if (o.command != cli::Command::kRun)
       throw cli::UsageError("fragsim-mpi runs one command: run SCENARIO.json --out DIR ...");
-    if (o.shard)
-      throw cli::UsageError("--shard: fragsim-mpi divides the histories among its ranks itself");
+    if (o.shard && o.shard->count != 1)
+      throw cli::UsageError(
+          "--shard: fragsim-mpi divides the histories among its ranks itself (only --shard 0/1 "
+          "is taken: the whole run's DIR/partial.fsp instead of the outputs)");
   } catch (const cli::UsageError& e) {
     if (rank == 0) std::cerr << "error: " << e.what() << "\n";
     return cli::kExitInvalidInput;

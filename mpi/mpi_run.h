@@ -12,7 +12,9 @@
 
 namespace fragsim::mpi {
 
-// `args` without argv[0]: "run SCENARIO.json --out DIR [options of fragsim run but --shard]".
+// `args` without argv[0]: "run SCENARIO.json --out DIR [options of fragsim run]"; --shard only
+// as 0/1: rank 0 then writes the whole run's DIR/partial.fsp (what `fragsim run --shard 0/1`
+// writes, which fragsimd's mpi backend collects) instead of the outputs.
 // Returns the process exit code (0, 1 internal, 2 invalid input, 130 cancelled), the same on
 // every rank but for errors of one rank (which abort the job: MPI_Abort).
 int run_mpi(const std::vector<std::string>& args, MPI_Comm comm, const std::atomic<bool>& cancel);

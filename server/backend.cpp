@@ -399,6 +399,29 @@ std::string default_fragsim_program() {
   return found.empty() ? "fragsim" : found;
 }
 
+std::string find_fragsim_mpi(const fs::path& fragsim, const fs::path& self) {
+  std::vector<fs::path> candidates;
+  for (const fs::path& program : {fragsim, self}) {
+    if (!program.has_parent_path()) continue;  // a bare name, found on PATH
+    candidates.push_back(program.parent_path() / "fragsim-mpi");
+    candidates.push_back(program.parent_path().parent_path() / "mpi" / "fragsim-mpi");
+  }
+  for (const auto& c : candidates)
+    if (::access(c.c_str(), X_OK) == 0) return c.string();
+  return find_program("fragsim-mpi");
+}
+
+ResolvedBackend precision_backend(const ResolvedBackend& b) {
+  ResolvedBackend p = b;
+  p.shards = 1;
+  if (b.precision_run.empty()) return p;
+  p.run = b.precision_run;
+  p.submit = {"{shard_script}", "0"};
+  p.submit_per_shard = false;
+  p.track = BackendTrack::kProcess;
+  return p;
+}
+
 namespace {
 
 // The mpi, slurm and command presets: shard count, default submit/status/cancel templates and
@@ -471,6 +494,35 @@ void check_templates(ResolvedBackend& r) {
   check_placeholders(r.cancel, "backend.cancel", follow_names);
 }
 
+// mpi: how a settings.precision job runs (ResolvedBackend::precision_run), once `run`, `submit`
+// and `fragsim` are resolved.
+void resolve_precision(const BackendConfig& c, ResolvedBackend& r) {
+  if (c.kind != "mpi") return;
+  if (!c.divide_precision) {
+    r.precision_note = "backend.divide_precision is false";
+    return;
+  }
+  if (!c.run.empty() || !c.submit.empty()) {
+    r.precision_note = "backend.run or backend.submit is set (the preset's own commands divide)";
+    return;
+  }
+  std::error_code ec;
+  const std::string program =
+      !c.fragsim_mpi.empty() ? c.fragsim_mpi
+                             : find_fragsim_mpi(r.fragsim, fs::read_symlink("/proc/self/exe", ec));
+  if (program.empty()) {
+    r.precision_note = "no fragsim-mpi beside " + r.fragsim +
+                       ", beside fragsimd or on PATH (it is built only where CMake finds an MPI)";
+    return;
+  }
+  r.precision_run = c.mpirun;
+  for (const std::string& a : {std::string("-np"), std::to_string(r.shards), program})
+    r.precision_run.push_back(a);
+  for (const char* a : {"run", "{scenario}", "--out", "{shard_dir}", "--shard", "0/1", "--threads",
+                        "{threads}", "--progress-file", "{progress}", "--quiet"})
+    r.precision_run.emplace_back(a);
+}
+
 }  // namespace
 
 ResolvedBackend resolve_backend(const BackendConfig& c) {
@@ -499,6 +551,7 @@ ResolvedBackend resolve_backend(const BackendConfig& c) {
         "{fragsim}",        "run",       "{scenario}", "--out",           "{shard_dir}", "--shard",
         "{shard}/{shards}", "--threads", "{threads}",  "--progress-file", "{progress}",  "--quiet"};
   check_templates(r);
+  resolve_precision(c, r);
   return r;
 }
 

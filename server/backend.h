@@ -18,6 +18,10 @@
 //     shard-I.exit           its exit status, written by shard.sh when the shard ends
 //     shard-I.log            its output
 //
+// A settings.precision job is one shard (precision_backend()); on the mpi preset its shard.sh,
+// started once, runs `mpirun -np N fragsim-mpi ... --shard 0/1`, whose ranks exchange every batch
+// and whose rank 0 writes shard-0/partial.fsp and shard-0.progress.json.
+//
 // A job is done when every shard-I.exit holds 0 and every partial.fsp is there; it has failed
 // when a shard exited non-zero, or when its processes are gone (process group, or the queue's
 // status) without a shard-I.exit.
@@ -60,14 +64,31 @@ struct ResolvedBackend {
   double lost_after_s = 600.0;
   double submit_timeout_s = 120.0;
   bool keep_workdir = false;
+  // mpi: the command of a settings.precision job's one shard: fragsim-mpi on `shards` ranks
+  // under the preset's mpirun, writing the whole run's partial (`--shard 0/1`). Empty: such a job
+  // runs as one process (`run` as shard 0/1); `precision_note` then says why.
+  std::vector<std::string> precision_run;
+  std::string precision_note;
 };
 
 // Throws InputError naming the config key ("backend.submit[2]: unknown placeholder {shrad}").
 ResolvedBackend resolve_backend(const BackendConfig& config);
 
+// The backend a settings.precision job is submitted to: one shard (its stop rule needs every
+// history of a batch; independent shards cannot exchange them). With `precision_run` (mpi),
+// that shard is shard.sh started once (`{shard_script} 0`, its process group followed as any
+// other), running mpirun -np N fragsim-mpi, whose ranks exchange every batch and whose rank 0
+// writes shard-0/partial.fsp.
+ResolvedBackend precision_backend(const ResolvedBackend& backend);
+
 // The fragsim program beside the running fragsimd (the install layout), or in the build tree
 // (build/server/fragsimd -> build/cli/fragsim); else "fragsim" from PATH.
 std::string default_fragsim_program();
+// fragsim-mpi where this machine can see it: beside `fragsim` or `self` (fragsimd), in their
+// build tree (build/cli/fragsim, build/server/fragsimd -> build/mpi/fragsim-mpi), else on PATH;
+// "" when none (it is built only where CMake finds an MPI).
+std::string find_fragsim_mpi(const std::filesystem::path& fragsim,
+                             const std::filesystem::path& self);
 
 // Runs `argv` and waits at most `timeout_s`; stdout and stderr go to the files given ("" :
 // /dev/null). Returns the exit status, 128 + signal when killed, or -1 (could not start, or timed
@@ -97,8 +118,7 @@ class BackendJob {
   // Writes scenario.json, shard.sh and the manifest, then runs the submit command(s). Throws
   // std::runtime_error (naming the command and its log) when a submission fails; whatever was
   // started is cancelled first.
-  // `shards`: 0 for the backend's own count (1 for a settings.precision run, which cannot be
-  // split).
+  // `shards`: 0 for the backend's own count (a settings.precision job: precision_backend()).
   static BackendJob submit(const ResolvedBackend& backend, const std::string& job_id, int attempt,
                            const std::filesystem::path& workdir, const std::string& scenario_text,
                            int shards = 0);

@@ -125,10 +125,10 @@ void apply_backend(const Json& j, BackendConfig& b) {
   }
   if (!j.is_object()) throw InputError("backend", "expected a backend name or an object");
   static const std::vector<std::string> kKeys = {
-      "kind",         "shards",           "max_jobs",    "threads",         "fragsim",
-      "run",          "submit",           "track",       "status",          "cancel",
-      "mpirun",       "sbatch",           "env",         "poll_interval_s", "status_interval_s",
-      "lost_after_s", "submit_timeout_s", "keep_workdir"};
+      "kind",         "shards",           "max_jobs",     "threads",         "fragsim",
+      "run",          "submit",           "track",        "status",          "cancel",
+      "mpirun",       "sbatch",           "env",          "poll_interval_s", "status_interval_s",
+      "lost_after_s", "submit_timeout_s", "keep_workdir", "fragsim_mpi",     "divide_precision"};
   for (const auto& item : j.items()) {
     const std::string& k = item.key();
     const std::string at = "backend." + k;
@@ -178,6 +178,10 @@ void apply_backend(const Json& j, BackendConfig& b) {
       b.submit_timeout_s = read_seconds(v, at);
     } else if (k == "keep_workdir") {
       b.keep_workdir = api::read_bool(v, at);
+    } else if (k == "fragsim_mpi") {
+      b.fragsim_mpi = api::read_string(v, at);
+    } else if (k == "divide_precision") {
+      b.divide_precision = api::read_bool(v, at);
     } else {
       const std::string guess = api::suggest_key(k, kKeys);
       throw InputError(

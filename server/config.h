@@ -32,6 +32,12 @@ struct BackendConfig {
   double lost_after_s = 600.0;      // queue: status unknown this long -> treated as gone
   double submit_timeout_s = 120.0;  // queue: the submit command must return within this
   bool keep_workdir = false;        // keep jobs/<id>/backend-<n>/ after the job is done
+  // mpi: settings.precision jobs run as `mpirun -np {shards} fragsim-mpi ... --shard 0/1` (ranks
+  // exchanging every batch, one partial): fragsim_mpi is that program (default: beside fragsim
+  // or fragsimd, else on PATH; none found: such jobs run as one process, as with
+  // divide_precision false).
+  std::string fragsim_mpi;
+  bool divide_precision = true;
 };
 
 struct Config {

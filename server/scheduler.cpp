@@ -53,6 +53,12 @@ void lower_thread_priority(int nice) {
     log(LogLevel::kWarn, "job priority not lowered", {{"error", std::strerror(errno)}});
 }
 
+std::string join_words(const std::vector<std::string>& words) {
+  std::string out;
+  for (const auto& w : words) out += (out.empty() ? "" : " ") + w;
+  return out;
+}
+
 // The shards' partial tallies merged and finished: the result run::run gives for the whole run,
 // bit for bit, whatever the split (core/run/partial.h). Every partial must carry the identity of
 // the scenario file the daemon wrote (api/partial_file.h).
@@ -122,6 +128,13 @@ void Scheduler::start() {
       loop();
     });
   }
+  if (backend_.kind == "mpi" && !backend_.precision_run.empty())
+    log(LogLevel::kInfo, "mpi backend: settings.precision jobs divided among fragsim-mpi ranks",
+        {{"ranks", std::to_string(backend_.shards)},
+         {"command", join_words(backend_.precision_run)}});
+  else if (backend_.kind == "mpi")
+    log(LogLevel::kWarn, "mpi backend: settings.precision jobs run as one process",
+        {{"reason", backend_.precision_note}});
   // Backend jobs: submitted (backend mode) and followed (also those adopted in local mode).
   monitor_ = std::thread([this] {
     lower_thread_priority(job_nice_);  // and by the processes it starts (a local mpirun)
@@ -472,17 +485,27 @@ void Scheduler::submit_queued() {
       const std::string scenario = stand_alone_scenario(row);
       const auto doc = api::parse_scenario_document_text(scenario);
       // A settings.precision run decides at each batch boundary from all the batch's histories:
-      // it cannot be split, and runs as one shard.
-      const int shards = doc.scenario.settings.precision ? 1 : backend_.shards;
-      auto submitted = BackendJob::submit(backend_, id, row.attempts, dir, scenario, shards);
+      // it runs as one shard (on the mpi preset, fragsim-mpi's ranks exchanging every batch).
+      const bool precision = doc.scenario.settings.precision.has_value();
+      const ResolvedBackend b = precision ? precision_backend(backend_) : backend_;
+      auto submitted = BackendJob::submit(b, id, row.attempts, dir, scenario);
       auto t = std::make_shared<Tracked>(Tracked{row, std::move(submitted), {}, Clock::now(), {}});
       t->live = LiveProgress{id, 0, row.histories_total, 0.0, 0.0, nullptr};
-      log(LogLevel::kInfo, "job submitted to backend",
-          {{"job_id", id},
-           {"backend", backend_.kind},
-           {"shards", std::to_string(shards)},
-           {"submitted", t->job.describe()},
-           {"histories", std::to_string(row.histories_total)}});
+      if (precision && !backend_.precision_run.empty())
+        log(LogLevel::kInfo, "job submitted to backend",
+            {{"job_id", id},
+             {"backend", backend_.kind},
+             {"shards", "1"},
+             {"ranks", std::to_string(backend_.shards)},
+             {"submitted", t->job.describe()},
+             {"histories", std::to_string(row.histories_total)}});
+      else
+        log(LogLevel::kInfo, "job submitted to backend",
+            {{"job_id", id},
+             {"backend", backend_.kind},
+             {"shards", std::to_string(b.shards)},
+             {"submitted", t->job.describe()},
+             {"histories", std::to_string(row.histories_total)}});
       bool cancelled = false;
       {
         const std::lock_guard<std::mutex> lock(mutex_);

@@ -259,6 +259,56 @@ TEST_F(MpiRun, ImportanceSamplingDividedAmongRanksLearnsAsOneProcess) {
                                     "max_batches");
 }
 
+// --shard 0/1 (what fragsimd's mpi backend runs for a precision job): the ranks divide the run
+// as without it, and rank 0 writes the whole run's partial.fsp, committed (temporary and
+// rename), instead of the outputs; `fragsim merge` of that one file gives `fragsim run`'s
+// figures and stop batch to the bit. Other --shard values stay refused.
+TEST_F(MpiRun, ShardZeroOfOneWritesTheWholeRunsPartial) {
+  const fs::path scenario = precision_scenario(dir_, scenario_, false, false);
+  const std::vector<std::string> common = {"--samples-scale", "0.05", "--threads", "1", "--quiet"};
+  auto one_args = std::vector<std::string>{FRAGSIM_CLI, "run", scenario.string(), "--out",
+                                           (dir_ / "one").string()};
+  one_args.insert(one_args.end(), common.begin(), common.end());
+  const Result one = run(dir_, one_args);
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+
+  const fs::path out = dir_ / "part", progress_file = dir_ / "progress.json";
+  auto args = mpirun(2);
+  for (const std::string& a : {std::string("run"), scenario.string(), std::string("--out"),
+                               out.string(), std::string("--shard"), std::string("0/1"),
+                               std::string("--progress-file"), progress_file.string()})
+    args.push_back(a);
+  args.insert(args.end(), common.begin(), common.end());
+  const Result r = run(dir_, args);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(out)) files.push_back(e.path().filename().string());
+  EXPECT_EQ(files, std::vector<std::string>{"partial.fsp"}) << "no outputs, no temporaries";
+  const auto progress = nlohmann::json::parse(read_text(progress_file));
+  EXPECT_EQ(progress["state"], "done");
+
+  const fs::path merged = dir_ / "merged";
+  const Result m =
+      run(dir_, {FRAGSIM_CLI, "merge", scenario.string(), (out / "partial.fsp").string(), "--out",
+                 merged.string(), "--samples-scale", "0.05", "--quiet"});
+  ASSERT_EQ(m.exit_code, 0) << m.err;
+  const nlohmann::json expected = precision_figures(dir_ / "one" / "summary.json");
+  const nlohmann::json got = precision_figures(merged / "summary.json");
+  EXPECT_EQ(got["batches"], expected["batches"]);
+  EXPECT_EQ(got["stop_reason"], expected["stop_reason"]);
+  EXPECT_EQ(got, expected);
+  EXPECT_EQ(progress["histories_done"], expected["histories_done"]);
+
+  auto refused = mpirun(2);
+  const fs::path no = dir_ / "no";
+  for (const char* a : {"run", scenario.c_str(), "--out", no.c_str(), "--shard", "1/2"})
+    refused.emplace_back(a);
+  const Result s = run(dir_, refused);
+  EXPECT_EQ(s.exit_code, 2);
+  EXPECT_NE(s.err.find("only --shard 0/1"), std::string::npos) << s.err;
+  EXPECT_FALSE(fs::exists(no));
+}
+
 // SIGINT during a divided precision run stops every rank (at one batch boundary): no output.
 TEST_F(MpiRun, AnInterruptStopsADividedPrecisionRun) {
   nlohmann::json sc = nlohmann::json::parse(read_text(scenario_));

@@ -95,14 +95,21 @@ void expect_served(httplib::Client& c, const std::string& id) {
   }
 }
 
+// A summary's figures; the precision report's ETA divides by a wall-clock rate.
+Json precision_figures(const std::string& text) {
+  Json s = comparable_summary(text);
+  if (s.contains("precision") && s["precision"].is_object()) s["precision"].erase("eta_s");
+  return s;
+}
+
 // The job through the daemon's backend equals `fragsim run` on the same scenario.
 void expect_same_as_cli(httplib::Client& c, const fs::path& dir, const std::string& id,
                         const Json& scenario) {
   const fs::path served = download(c, dir, id);
   const fs::path cli = cli_run(dir, id, scenario);
   expect_same_datasets(served / "results.h5", cli / "results.h5");
-  EXPECT_EQ(comparable_summary(read_text(served / "summary.json")),
-            comparable_summary(read_text(cli / "summary.json")));
+  EXPECT_EQ(precision_figures(read_text(served / "summary.json")),
+            precision_figures(read_text(cli / "summary.json")));
 }
 
 bool mpirun_works() {
@@ -157,11 +164,11 @@ TEST(BackendDaemon, APrecisionJobRunsWholeAsOneShard) {
 
 // kill -9 of the daemon while the shards run: they go on; the restarted daemon re-attaches (the
 // job stays running, attempts 1: not rerun) and finishes it with the same figures.
-void restart_recovery(const fs::path& dir, const Json& backend) {
+void restart_recovery(const fs::path& dir, const Json& backend,
+                      const Json& scenario = scaled_samples(demo_scenario(), 8.0)) {
   auto d = backend_daemon(dir, backend);
   ASSERT_NO_THROW(d->start()) << d->log();
   auto c = d->client();
-  const Json scenario = scaled_samples(demo_scenario(), 8.0);
   const std::string id = submit(*c, scenario);
   const Json running = wait_progress(*c, id);
   ASSERT_EQ(running.value("state", ""), "running") << running.dump() << "\n" << d->log();
@@ -210,6 +217,136 @@ TEST(BackendDaemon, MpiBackendJobIsBitIdenticalToTheCli) {
   const Json s = wait_final(*c, id);
   ASSERT_EQ(s.value("state", ""), "done") << s.dump() << "\n" << d->log();
   expect_same_as_cli(*c, dir, id, scenario);
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+// ---- settings.precision jobs on the mpi preset: fragsim-mpi's ranks, one partial ----
+
+#ifdef FRAGSIM_MPI
+constexpr const char* kFragsimMpi = FRAGSIM_MPI;
+#else
+constexpr const char* kFragsimMpi = nullptr;
+#endif
+
+Json mpi_precision_backend() {
+  Json b = mpi_backend();
+  b["fragsim_mpi"] = kFragsimMpi;
+  return b;
+}
+
+// The demo x 0.05 (4,000 histories a batch) to a precision its HFD meets after 18 batches
+// (measured), before max_batches: the stop batch is the targets' decision.
+Json precision_demo() {
+  Json sc = scaled_samples(demo_scenario(), 0.05);
+  sc["settings"]["precision"] = {{"min_batches", 2}, {"max_batches", 30}, {"hfd_half_band_m", 8}};
+  return sc;
+}
+
+// A precision job through the mpi backend on 2 ranks: one shard (shard.sh started once, running
+// mpirun -np 2 fragsim-mpi ... --shard 0/1), the ranks exchanging every batch, and the job's
+// results those of `fragsim run` to the bit, stopped at the same batch for the same reason.
+TEST(BackendDaemon, MpiBackendDividesAPrecisionJobAmongFragsimMpiRanks) {
+  if (!kFragsimMpi) GTEST_SKIP() << "fragsim-mpi not built (no MPI found by CMake)";
+  if (!mpirun_works()) GTEST_SKIP() << "mpirun cannot start 2 processes here";
+  const fs::path dir = fresh_dir("fragsimd_backend_mpi_precision_");
+  Json backend = mpi_precision_backend();
+  backend["keep_workdir"] = true;
+  auto d = backend_daemon(dir, backend);
+  ASSERT_NO_THROW(d->start()) << d->log();
+  EXPECT_NE(d->log().find("settings.precision jobs divided among fragsim-mpi ranks"),
+            std::string::npos)
+      << d->log();
+  auto c = d->client();
+  const Json scenario = precision_demo();
+  const std::string id = submit(*c, scenario);
+  const Json s = wait_final(*c, id);
+  ASSERT_EQ(s.value("state", ""), "done") << s.dump() << "\n" << d->log();
+  EXPECT_NE(d->log().find("backend=mpi shards=1 ranks=2 "), std::string::npos) << d->log();
+  const fs::path w = d->data() / "jobs" / id / "backend-1";
+  const std::string script = read_text(w / "shard.sh");
+  EXPECT_NE(script.find("'-np' '2' '" + std::string(kFragsimMpi) + "'"), std::string::npos)
+      << script;
+  EXPECT_NE(script.find("'--shard' '0/1'"), std::string::npos) << script;
+  EXPECT_FALSE(fs::exists(w / "shard-1.exit")) << "one shard";
+  EXPECT_EQ(manifest(*d, id)["shards"], 1);
+
+  const fs::path served = download(*c, dir, id);
+  const fs::path cli = cli_run(dir, id, scenario);
+  expect_same_datasets(served / "results.h5", cli / "results.h5");
+  const Json got = precision_figures(read_text(served / "summary.json"));
+  const Json expected = precision_figures(read_text(cli / "summary.json"));
+  EXPECT_EQ(expected["stop_reason"], "targets_met") << expected.dump();
+  EXPECT_GT(expected["batches"].get<int>(), 2) << "stopped past min_batches, by the targets";
+  EXPECT_EQ(got["batches"], expected["batches"]);
+  EXPECT_EQ(got["stop_reason"], expected["stop_reason"]);
+  EXPECT_EQ(got, expected);
+  // The two ranks' threads (1 each) are the job's.
+  EXPECT_EQ(Json::parse(read_text(served / "summary.json"))["timing"]["threads"], 2);
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+// kill -9 of the daemon while fragsim-mpi's ranks run a precision job: they go on, and the
+// restarted daemon re-attaches to the one shard and collects its partial, as for other mpi jobs.
+TEST(BackendDaemon, MpiBackendPrecisionJobSurvivesKillNineOfTheDaemon) {
+  if (!kFragsimMpi) GTEST_SKIP() << "fragsim-mpi not built (no MPI found by CMake)";
+  if (!mpirun_works()) GTEST_SKIP() << "mpirun cannot start 2 processes here";
+  // 6 batches of 40,000 histories, no target met: long enough to kill the daemon in the middle.
+  Json scenario = scaled_samples(demo_scenario(), 0.5);
+  scenario["settings"]["precision"] = {{"max_batches", 6}, {"building_rel_error", 1e-9}};
+  restart_recovery(fresh_dir("fragsimd_backend_mpi_precision_restart_"), mpi_precision_backend(),
+                   scenario);
+}
+
+// Cancel stops mpirun and its ranks (SIGTERM to shard.sh's process group, which mpirun forwards);
+// the work directory goes once nothing writes to it.
+TEST(BackendDaemon, CancelStopsAnMpiPrecisionJob) {
+  if (!kFragsimMpi) GTEST_SKIP() << "fragsim-mpi not built (no MPI found by CMake)";
+  if (!mpirun_works()) GTEST_SKIP() << "mpirun cannot start 2 processes here";
+  const fs::path dir = fresh_dir("fragsimd_backend_mpi_precision_cancel_");
+  auto d = backend_daemon(dir, mpi_precision_backend());
+  ASSERT_NO_THROW(d->start()) << d->log();
+  auto c = d->client();
+  Json scenario = scaled_samples(demo_scenario(), 0.5);
+  scenario["settings"]["record_fragments"] = false;
+  scenario["settings"]["precision"] = {{"max_batches", 100}, {"building_rel_error", 1e-9}};
+  const std::string id = submit(*c, scenario);
+  const Json running = wait_progress(*c, id);
+  ASSERT_EQ(running.value("state", ""), "running") << running.dump() << "\n" << d->log();
+  const pid_t pgid = manifest(*d, id)["groups"][0]["pgid"].get<pid_t>();
+  ASSERT_TRUE(group_alive(pgid));
+  auto r = c->Delete("/v1/jobs/" + id);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  EXPECT_TRUE(wait_for([&] { return !group_alive(pgid); }, 30)) << "mpirun and its ranks stopped";
+  EXPECT_TRUE(wait_for([&] { return !fs::exists(d->data() / "jobs" / id / "backend-1"); }, 30))
+      << "the work directory goes once nothing writes to it";
+  EXPECT_EQ(job_status(*c, id)["state"], "cancelled");
+  EXPECT_EQ(d->kill(SIGTERM), 0);
+}
+
+// Without fragsim-mpi (divide_precision false behaves as a build without it), the mpi preset runs
+// a precision job as one process, `fragsim run --shard 0/1` under mpirun -np 1, as before.
+TEST(BackendDaemon, MpiBackendWithoutFragsimMpiRunsAPrecisionJobAsOneProcess) {
+  if (!mpirun_works()) GTEST_SKIP() << "mpirun cannot start 2 processes here";
+  const fs::path dir = fresh_dir("fragsimd_backend_mpi_precision_whole_");
+  Json backend = mpi_backend();
+  backend["divide_precision"] = false;
+  auto d = backend_daemon(dir, backend);
+  ASSERT_NO_THROW(d->start()) << d->log();
+  EXPECT_NE(d->log().find("settings.precision jobs run as one process"), std::string::npos)
+      << d->log();
+  auto c = d->client();
+  Json scenario = precision_demo();
+  scenario["settings"]["precision"] = {{"max_batches", 2}, {"building_rel_error", 1e-9}};
+  const std::string id = submit(*c, scenario);
+  const Json s = wait_final(*c, id);
+  ASSERT_EQ(s.value("state", ""), "done") << s.dump() << "\n" << d->log();
+  EXPECT_NE(d->log().find("backend=mpi shards=1 submitted"), std::string::npos) << d->log();
+  const fs::path served = download(*c, dir, id);
+  const fs::path cli = cli_run(dir, id, scenario);
+  expect_same_datasets(served / "results.h5", cli / "results.h5");
+  EXPECT_EQ(precision_figures(read_text(served / "summary.json")),
+            precision_figures(read_text(cli / "summary.json")));
   EXPECT_EQ(d->kill(SIGTERM), 0);
 }
 

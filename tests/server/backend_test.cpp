@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <thread>
 
 #include "api/test_support.h"
@@ -50,6 +52,76 @@ TEST(BackendConfig, MpiPresetStartsTheShardScriptUnderMpirun) {
   EXPECT_TRUE(contains(r.run, "--shard"));
   EXPECT_TRUE(contains(r.run, "{shard}/{shards}"));
   EXPECT_TRUE(contains(r.run, "--progress-file"));
+}
+
+// A settings.precision job on the mpi preset: one shard, shard.sh started once, running
+// fragsim-mpi on `shards` ranks under the preset's mpirun, its rank 0 writing the whole run's
+// partial as shard 0/1 (docs/http-api.md, "fragsimd backends").
+TEST(BackendConfig, MpiPresetDividesPrecisionJobsAmongFragsimMpiRanks) {
+  BackendConfig c;
+  c.kind = "mpi";
+  c.shards = 3;
+  c.mpirun = {"mpirun", "--oversubscribe"};
+  c.fragsim = "/opt/fragsim/bin/fragsim";
+  c.fragsim_mpi = "/opt/fragsim/bin/fragsim-mpi";
+  const ResolvedBackend r = resolve_backend(c);
+  EXPECT_EQ(r.precision_run,
+            (std::vector<std::string>{"mpirun", "--oversubscribe", "-np", "3",
+                                      "/opt/fragsim/bin/fragsim-mpi", "run", "{scenario}", "--out",
+                                      "{shard_dir}", "--shard", "0/1", "--threads", "{threads}",
+                                      "--progress-file", "{progress}", "--quiet"}));
+  const ResolvedBackend p = precision_backend(r);
+  EXPECT_EQ(p.shards, 1);
+  EXPECT_EQ(p.run, r.precision_run);
+  EXPECT_EQ(p.submit, (std::vector<std::string>{"{shard_script}", "0"}));
+  EXPECT_FALSE(p.submit_per_shard);
+  EXPECT_EQ(p.track, BackendTrack::kProcess);
+  EXPECT_EQ(precision_backend(r).shards, 1);
+  EXPECT_EQ(r.shards, 3) << "other jobs keep their shards";
+
+  // Not divided: one process (`run` as shard 0/1 under `mpirun -np 1`), and the note says why.
+  for (const auto& [change, why] :
+       std::vector<std::pair<std::function<void(BackendConfig&)>, std::string>>{
+           {[](BackendConfig& x) { x.divide_precision = false; }, "divide_precision is false"},
+           {[](BackendConfig& x) {
+              x.run = {"{fragsim}", "run", "{scenario}"};
+            },
+            "backend.run or backend.submit is set"}}) {
+    BackendConfig d = c;
+    change(d);
+    const ResolvedBackend u = resolve_backend(d);
+    EXPECT_TRUE(u.precision_run.empty());
+    EXPECT_NE(u.precision_note.find(why), std::string::npos) << u.precision_note;
+    const ResolvedBackend q = precision_backend(u);
+    EXPECT_EQ(q.shards, 1);
+    EXPECT_EQ(q.run, u.run);
+    EXPECT_EQ(q.submit, u.submit);
+  }
+  c.kind = "slurm";
+  EXPECT_TRUE(resolve_backend(c).precision_run.empty()) << "only the mpi preset divides";
+}
+
+// fragsim-mpi is looked for beside fragsim and fragsimd, in their build tree, then on PATH; none:
+// "" (the mpi preset then runs precision jobs as one process).
+TEST(BackendConfig, FragsimMpiIsFoundBesideFragsimOrNotAtAll) {
+  const fs::path dir = api::testing::fresh_test_dir("fragsim_backend_find_mpi_");
+  const char* old_path = std::getenv("PATH");
+  const std::string saved = old_path ? old_path : "";
+  ::setenv("PATH", (dir / "empty").c_str(), 1);
+  const fs::path fragsim = dir / "bin" / "fragsim", self = dir / "sbin" / "fragsimd";
+  EXPECT_EQ(find_fragsim_mpi(fragsim, self), "");
+  EXPECT_EQ(find_fragsim_mpi("fragsim", self), "");
+  fs::create_directories(dir / "mpi");
+  std::ofstream(dir / "mpi" / "fragsim-mpi") << "#!/bin/sh\n";
+  fs::permissions(dir / "mpi" / "fragsim-mpi", fs::perms::owner_all);
+  EXPECT_EQ(find_fragsim_mpi(fragsim, self), (dir / "mpi" / "fragsim-mpi").string())
+      << "the build tree: build/cli/fragsim -> build/mpi/fragsim-mpi";
+  fs::create_directories(dir / "bin");
+  std::ofstream(dir / "bin" / "fragsim-mpi") << "#!/bin/sh\n";
+  fs::permissions(dir / "bin" / "fragsim-mpi", fs::perms::owner_all);
+  EXPECT_EQ(find_fragsim_mpi(fragsim, self), (dir / "bin" / "fragsim-mpi").string());
+  ::setenv("PATH", saved.c_str(), 1);
+  fs::remove_all(dir);
 }
 
 TEST(BackendConfig, SlurmPresetIsAnArrayFollowedThroughTheQueue) {

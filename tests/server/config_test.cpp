@@ -400,7 +400,8 @@ TEST_F(ConfigFile, BackendKey) {
       "track": "queue", "status": ["qstat", "{ids}"], "cancel": ["qdel", "{ids}"],
       "mpirun": ["mpirun", "--oversubscribe"], "sbatch": ["sbatch", "-p", "x"],
       "env": {"OMP_NUM_THREADS": "1"}, "poll_interval_s": 0.25, "status_interval_s": 5,
-      "lost_after_s": 60, "submit_timeout_s": 30, "keep_workdir": true}})"),
+      "lost_after_s": 60, "submit_timeout_s": 30, "keep_workdir": true,
+      "fragsim_mpi": "/opt/fragsim/bin/fragsim-mpi", "divide_precision": false}})"),
                     c);
   const BackendConfig& b = c.backend;
   EXPECT_EQ(b.kind, "command");
@@ -421,6 +422,9 @@ TEST_F(ConfigFile, BackendKey) {
   EXPECT_EQ(b.lost_after_s, 60.0);
   EXPECT_EQ(b.submit_timeout_s, 30.0);
   EXPECT_TRUE(b.keep_workdir);
+  EXPECT_EQ(b.fragsim_mpi, "/opt/fragsim/bin/fragsim-mpi");
+  EXPECT_FALSE(b.divide_precision);
+  EXPECT_TRUE(BackendConfig{}.divide_precision);
 
   Config preset;
   apply_config_file(write("p.json", R"({"backend": "slurm"})"), preset);
