@@ -349,7 +349,7 @@ TEST(ScenarioJson, StratifiedLaunch) {
   EXPECT_FALSE(doc.scenario.settings.stratified_launch->speed);
   const Json echoed = scenario_to_json(doc);
   EXPECT_EQ(echoed["settings"]["stratified_launch"],
-            Json({{"histories_per_stratum", 2}, {"speed", false}}));
+            Json({{"method", "strata"}, {"histories_per_stratum", 2}, {"speed", false}}));
   EXPECT_EQ(scenario_to_json(parse_scenario_document(echoed)), echoed);
 
   j["settings"]["stratified_launch"] = {{"histories_per_stratum", 1}};
@@ -363,6 +363,36 @@ TEST(ScenarioJson, StratifiedLaunch) {
   Json one = with(minimal_example(), "/fragment_groups/0/samples", 1);
   one["settings"]["stratified_launch"] = Json::object();
   EXPECT_EQ(parse_error(one).first, "fragment_groups[0].samples");
+}
+
+TEST(ScenarioJson, SobolLaunch) {
+  Json j = minimal_example();
+  j["settings"]["stratified_launch"] = {{"method", "sobol"}};
+  const auto doc = parse_scenario_document(j);
+  ASSERT_TRUE(doc.scenario.settings.stratified_launch);
+  EXPECT_EQ(doc.scenario.settings.stratified_launch->method, run::LaunchStratification::kSobol);
+  EXPECT_EQ(doc.scenario.settings.stratified_launch->replicates, 16);
+  const Json echoed = scenario_to_json(doc);
+  EXPECT_EQ(echoed["settings"]["stratified_launch"],
+            Json({{"method", "sobol"}, {"replicates", 16}}));
+  EXPECT_EQ(scenario_to_json(parse_scenario_document(echoed)), echoed);
+
+  j["settings"]["stratified_launch"] = {{"method", "halton"}};
+  EXPECT_EQ(parse_error(j), (FieldMessage{"settings.stratified_launch.method",
+                                          "must be \"strata\" or \"sobol\" (got \"halton\")"}));
+  j["settings"]["stratified_launch"] = {{"method", "sobol"}, {"replicates", 1}};
+  EXPECT_EQ(parse_error(j),
+            (FieldMessage{"settings.stratified_launch.replicates", "must be >= 2 (got 1)"}));
+  // A key of the other method is refused, not ignored.
+  j["settings"]["stratified_launch"] = {{"method", "sobol"}, {"histories_per_stratum", 4}};
+  EXPECT_EQ(parse_error(j).first, "settings.stratified_launch.histories_per_stratum");
+  j["settings"]["stratified_launch"] = {{"replicates", 4}};
+  EXPECT_EQ(parse_error(j).first, "settings.stratified_launch.replicates");
+  // Every group needs a point in every net.
+  Json few = minimal_example();
+  few["settings"]["stratified_launch"] = {{"method", "sobol"}, {"replicates", 64}};
+  few["fragment_groups"][0]["samples"] = 63;
+  EXPECT_EQ(parse_error(few).first, "fragment_groups[0].samples");
 }
 
 // A terrain that names "hard" or "soft" without defining it gets the built-in ground material,
