@@ -108,7 +108,7 @@ class TrajectoryIntegrator {
 
   // Private Methods
   bool arc_step(double t_end);
-  void start_time_phase(double t0, const Vec3& p, const Vec3& v);
+  void start_time_phase(double t0, const Vec3& p, const Vec3& v, double h0 = 0.0);
   bool drag_dominates(const Vec3& a) const;
   double arc_first_step(const Vec3& a, double speed) const;
   double arc_theta(double t) const;
