@@ -41,7 +41,10 @@ class TrajectoryIntegrator {
   Vec3 position(double t) const;
   Vec3 velocity(double t) const;
   void state(double t, Vec3& position, Vec3& velocity) const;  // both from one evaluation
-  Vec3 position() const;                                       // at t()
+  // The last step's dense output at the fraction theta in [0, 1] of its independent variable
+  // (s or t): its time, position and velocity from one evaluation, without the time inversion.
+  void state_at_fraction(double theta, double& t, Vec3& position, Vec3& velocity) const;
+  Vec3 position() const;  // at t()
   Vec3 velocity() const;
   Vec3 acceleration() const;  // at t()
   long rhs_evaluations() const;

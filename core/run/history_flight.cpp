@@ -88,9 +88,9 @@ bool History::examine_step(const flight::TrajectoryIntegrator& integ, const Flig
   const double top_z = ctx_.top_z + radius_m_;
   if (ctx_.step_min_at_ends && std::min(s.p0.z(), s.p1.z()) > top_z) return false;
   // Curvature at both ends and in the middle (an apex inside the step is where it peaks).
-  const double tm = 0.5 * (s.t0 + s.t1);
+  double tm;
   Vec3 pm, vm;
-  integ.state(tm, pm, vm);
+  integ.state_at_fraction(0.5, tm, pm, vm);
   const double kappa =
       std::max({impact::path_curvature(s.v0, s.a0), impact::path_curvature(s.v1, s.a1),
                 impact::path_curvature(vm, model_.acceleration(pm, vm))});
@@ -98,10 +98,11 @@ bool History::examine_step(const flight::TrajectoryIntegrator& integ, const Flig
   out_.stats.chords += n;
   Vec3 pa = s.p0, va = s.v0;
   double ta = s.t0;
+  // Chord ends evenly spaced in the step's variable: in path length in the s-phase.
   for (int k = 1; k <= n; ++k) {
-    const double tb = (k == n) ? s.t1 : s.t0 + (s.t1 - s.t0) * k / n;
+    double tb = s.t1;
     Vec3 pb = s.p1, vb = s.v1;
-    if (k < n) integ.state(tb, pb, vb);
+    if (k < n) integ.state_at_fraction(static_cast<double>(k) / n, tb, pb, vb);
     if (std::min(pa.z(), pb.z()) > top_z) {
       ++out_.stats.chords_skipped;
     } else if (examine_chord(integ, s, ta, tb, pa, pb, chord_energy_bound(s, k, pa, va),

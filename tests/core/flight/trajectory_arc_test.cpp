@@ -260,7 +260,8 @@ TEST(TrajectoryArc, EveryFlightEndsFinite) {
 
 TEST(TrajectoryArc, DenseOutputByTimeIsContinuousAndCheap) {
   // Across s-steps and the handover the interpolant starts where the last step ended (1e-12 m),
-  // position(t) is the model's solution in t, and the time inversion takes <= 4 Newton iterations
+  // position(t) is the model's solution in t, state_at_fraction agrees with position(t) at its
+  // time (1e-12 relative), and the time inversion takes <= 4 Newton iterations
   // on average (measured 3.4: the last one confirms convergence).
   const Plate p(Vec3(3.0, 0.0, 0.0));
   TrajectoryIntegrator ti(p.model, 1e-6);
@@ -280,6 +281,15 @@ TEST(TrajectoryArc, DenseOutputByTimeIsContinuousAndCheap) {
       const Vec3 dp = (ti.position(t + h) - ti.position(t - h)) / (2.0 * h);
       EXPECT_LT((dp - ti.velocity(t)).norm(), 1e-4 * ti.velocity(t).norm());
       calls += ti.in_path_length() ? 3 : 0;
+      // The same dense output by fraction of the step's variable, without the inversion.
+      double tf;
+      Vec3 pf, vf;
+      ti.state_at_fraction(i / 10.0, tf, pf, vf);
+      EXPECT_GE(tf, ti.t_prev());
+      EXPECT_LE(tf, ti.t());
+      EXPECT_LT((ti.position(tf) - pf).norm(), 1e-12 * (1.0 + pf.norm()));
+      EXPECT_LT((ti.velocity(tf) - vf).norm(), 1e-12 * (1.0 + vf.norm()));
+      calls += ti.in_path_length() ? 2 : 0;
     }
     p_end = ti.position();
     v_end = ti.velocity();
