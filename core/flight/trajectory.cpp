@@ -103,7 +103,7 @@ bool TrajectoryIntegrator::drag_dominates(const Vec3& a) const {
 // theta in [0, 1] of the last step in s with t(theta) = t, t(theta) the time component of the
 // dense output (increasing: t' = 1/|v_rel| > 0). Start: the cubic Hermite interpolant of the
 // inverse, theta(t), from the ends' dt/ds; then safeguarded Newton on the quartic t(theta), to
-// ~1e-16 in theta (about two iterations).
+// ~1e-16 in theta (3.4 iterations on average on the demo, the last one confirming).
 double TrajectoryIntegrator::arc_theta(double t) const {
   const auto c = arc_.dense_coefficients();
   const double span = arc_.y()[6] - c.y0[6], dt = t - c.y0[6];
@@ -112,7 +112,8 @@ double TrajectoryIntegrator::arc_theta(double t) const {
   // t(theta) - t0 = theta (a + (1-theta) (b + theta (d + (1-theta) e))).
   const double a = c.r2[6], b = c.r3[6], d = c.r4[6], e = c.r5[6];
   const double u = dt / span, m0 = span / (a + b), m1 = span / (a - b - d);
-  double th = u * u * (3.0 - 2.0 * u) + u * (1.0 - u) * ((1.0 - u) * m0 - u * m1);
+  double th =
+      std::clamp(u * u * (3.0 - 2.0 * u) + u * (1.0 - u) * ((1.0 - u) * m0 - u * m1), 0.0, 1.0);
   double lo = 0.0, hi = 1.0;
   for (int it = 0; it < 60; ++it) {
     ++inversion_iterations_;
