@@ -64,8 +64,11 @@ class TrajectoryIntegrator {
   // the end of the flight (one way: falling, k |v_rel|^2 tends to g from below, so the ratio does
   // not come back above 1 in steady air). R = 1 is |v_rel| >= v_term = sqrt(g/k): t' = 1/|v_rel|
   // is bounded by 1/v_term and the drag-dominated start, where s pays off, is all in s.
-  // Measured on the demo (docs/benchmarks.md §1): right-hand sides per fragment 138.6 in t only,
-  // 115.5 / 112.2 / 109.7 / 108.1 / 104.1 at R = 8 / 4 / 2 / 1 / 0.5.
+  // Measured on the demo (--samples-scale 0.25, before the handover's first step was set): right-
+  // hand sides per fragment 138.6 in t only, 115.5 / 112.2 / 109.7 / 108.1 / 104.1 at R = 8 / 4 /
+  // 2 / 1 / 0.5; callgrind 470.0 M instructions at R = 4, 465.7 M at R = 1. Below 1 the saving in
+  // evaluations did not show in instructions (an earlier version: R = 0.5 took 1.5 % more than
+  // R = 4), and the s-phase would reach slow flight near the apex.
   static constexpr double kArcDragRatio = 1.0;
 
   // A step is cut at the apex only when the horizontal relative speed is below this fraction of
