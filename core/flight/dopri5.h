@@ -163,7 +163,11 @@ class Dopri5 {
   // It matches y0, y1, f0 and f1 at the ends (C1 across steps) and is 4th order inside.
   Vec dense(double t) const {
     if (h_ == 0.0) return y_;
-    const double th = (t - t_prev_) / h_, th1 = 1.0 - th;
+    return dense_at_theta((t - t_prev_) / h_);
+  }
+  // The same at theta in [0, 1] (for callers that locate theta by another component).
+  Vec dense_at_theta(double th) const {
+    const double th1 = 1.0 - th;
     return y_prev_ + th * (r2_ + th1 * (r3_ + th * (r4_ + th1 * r5_)));
   }
   // Time derivative of dense(t).

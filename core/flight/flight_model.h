@@ -57,11 +57,26 @@ struct FlightModel {
   // Acceleration at local position p with velocity v (time-independent: wind is uniform and
   // steady). Inline: it is every right-hand side of flight and of the ground phase.
   Vec3 acceleration(const Vec3& p, const Vec3& v) const {
+    double unused;
+    return acceleration_impl<false>(p, v, unused);
+  }
+  // The same, and the relative speed |v - wind| it used (|v| in vacuum).
+  Vec3 acceleration(const Vec3& p, const Vec3& v, double& rel_speed) const {
+    return acceleration_impl<true>(p, v, rel_speed);
+  }
+
+ private:
+  template <bool kWantSpeed>
+  Vec3 acceleration_impl(const Vec3& p, const Vec3& v, double& rel_speed) const {
     // paper eqs. 3-5: a = -g e_z - (rho Cd A / 2m) |v_rel| v_rel, v_rel = v - wind.
     Vec3 a(0.0, 0.0, -gravity_mps2);
-    if (atmosphere == nullptr || cd == nullptr || area_m2 == 0.0) return a;  // vacuum
+    if (atmosphere == nullptr || cd == nullptr || area_m2 == 0.0) {  // vacuum
+      if constexpr (kWantSpeed) rel_speed = v.norm();
+      return a;
+    }
     const Vec3 v_rel = v - atmosphere->wind();
     const double speed = v_rel.norm();
+    rel_speed = speed;
     const double altitude = p.z() + altitude_offset_m;
     // Only a Mach table needs the speed of sound (saves a table lookup per evaluation otherwise).
     const double cd_value = cd->is_constant()

@@ -88,37 +88,51 @@ bool History::examine_step(const flight::TrajectoryIntegrator& integ, const Flig
   const double top_z = ctx_.top_z + radius_m_;
   if (ctx_.step_min_at_ends && std::min(s.p0.z(), s.p1.z()) > top_z) return false;
   // Curvature at both ends and in the middle (an apex inside the step is where it peaks).
-  const double tm = 0.5 * (s.t0 + s.t1);
-  const Vec3 vm = integ.velocity(tm);
+  double tm;
+  Vec3 pm, vm;
+  integ.state_at_fraction(0.5, tm, pm, vm);
   const double kappa =
       std::max({impact::path_curvature(s.v0, s.a0), impact::path_curvature(s.v1, s.a1),
-                impact::path_curvature(vm, model_.acceleration(integ.position(tm), vm))});
+                impact::path_curvature(vm, model_.acceleration(pm, vm))});
   const int n = impact::chord_count((s.p1 - s.p0).norm(), kappa, st_.sagitta_m);
-  // In still air drag only removes mechanical energy, and a chord's lowest point is one of its
-  // ends, so no point of a chord has more kinetic energy than E(t0) - m g z_min: a chord below
-  // the hazardous energy by that bound needs no PTN walk.
-  const double e_step = 0.5 * mass_ * s.v0.squaredNorm() + mass_ * g_ * s.p0.z();
   out_.stats.chords += n;
-  Vec3 pa = s.p0;
+  Vec3 pa = s.p0, va = s.v0;
   double ta = s.t0;
+  // Chord ends evenly spaced in the step's variable: in path length in the s-phase.
   for (int k = 1; k <= n; ++k) {
-    const double tb = (k == n) ? s.t1 : s.t0 + (s.t1 - s.t0) * k / n;
-    const Vec3 pb = (k == n) ? s.p1 : integ.position(tb);
+    double tb = s.t1;
+    Vec3 pb = s.p1, vb = s.v1;
+    if (k < n) integ.state_at_fraction(static_cast<double>(k) / n, tb, pb, vb);
     if (std::min(pa.z(), pb.z()) > top_z) {
       ++out_.stats.chords_skipped;
-    } else if (examine_chord(integ, s, ta, tb, pa, pb, e_step, near_buildings, ev)) {
+    } else if (examine_chord(integ, s, ta, tb, pa, pb, chord_energy_bound(s, k, pa, va),
+                             near_buildings, ev)) {
       return true;
     }
     pa = pb;
+    va = vb;
     ta = tb;
   }
   return false;
 }
 
+// In still air drag only removes mechanical energy, and a chord's lowest point is one of its
+// ends, so no point of a chord has more kinetic energy than E(ta) - m g z_min: a chord below the
+// hazardous energy by that bound needs no PTN walk. E(ta) is the step's start energy for its
+// first chord (exact) and the interpolant's energy at the chord's start for the others, with a
+// slack of 1e-3 + 10 rtol (relative) for the interpolant's error (~rtol).
+double History::chord_energy_bound(const FlightStep& s, int k, const Vec3& pa,
+                                   const Vec3& va) const {
+  const double e_step = 0.5 * mass_ * s.v0.squaredNorm() + mass_ * g_ * s.p0.z();
+  if (k == 1) return e_step;
+  const double e_chord = 0.5 * mass_ * va.squaredNorm() + mass_ * g_ * pa.z();
+  return std::min(e_step, e_chord + std::abs(e_chord) * (1e-3 + 10.0 * st_.rtol));
+}
+
 // One chord [ta, tb]: the scene query for the centre's path, the body's contact with the
 // terrain, whichever comes first ends the flight; the PTN tally up to there.
 bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const FlightStep& s,
-                            double ta, double tb, const Vec3& pa, const Vec3& pb, double e_step,
+                            double ta, double tb, const Vec3& pa, const Vec3& pb, double e_bound,
                             scene::BuildingProximity& near_buildings, FlightEvent& ev) {
   const double zlo = std::min(pa.z(), pb.z());
   const double clear = terrain_clearance(pa, pb);
@@ -137,8 +151,7 @@ bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const Fli
     s_end = tb > ta ? std::clamp((touch->t - ta) / (tb - ta), 0.0, 1.0) : 0.0;
   } else if (hit) {
     ev.t = t_hit;
-    ev.p = integ.position(t_hit);
-    ev.v = integ.velocity(t_hit);
+    integ.state(t_hit, ev.p, ev.v);
     ev.normal = hit->normal;
     ev.triangle = hit->triangle;
     ev.material = hit->material;
@@ -148,7 +161,7 @@ bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const Fli
     s_end = std::min(hit->t, 1.0);
   }
   const bool may_be_hazardous =
-      !ctx_.still_air || !ctx_.step_min_at_ends || e_step - mass_ * g_ * zlo >= st_.hazardous_ke_j;
+      !ctx_.still_air || !ctx_.step_min_at_ends || e_bound - mass_ * g_ * zlo >= st_.hazardous_ke_j;
   if (may_be_hazardous) {
     add_ptn_segment(
         pa, pa + s_end * (pb - pa),
@@ -223,8 +236,7 @@ bool History::catch_slip_through(const flight::TrajectoryIntegrator& integ, cons
   }
   ev.end = FlightEnd::kTerrain;
   ev.t = hi;
-  ev.p = integ.position(hi);
-  ev.v = integ.velocity(hi);
+  integ.state(hi, ev.p, ev.v);
   const std::int64_t tri = site_.terrain_triangle_at(ev.p.x(), ev.p.y());
   ev.triangle = tri < 0 ? 0u : static_cast<std::uint32_t>(tri);
   ev.normal = tri < 0 ? Vec3::UnitZ() : site_.terrain_triangle_normal(ev.triangle);
@@ -314,8 +326,7 @@ std::optional<FlightEvent> History::body_terrain_contact(const flight::Trajector
   FlightEvent ev;
   ev.end = FlightEnd::kTerrain;
   ev.t = tc;
-  ev.p = integ.position(tc);
-  ev.v = integ.velocity(tc);
+  integ.state(tc, ev.p, ev.v);
   ev.triangle = static_cast<std::uint32_t>(tri);
   ev.normal = site_.terrain_triangle_normal(ev.triangle);
   ev.material = site_.terrain_triangle_material(ev.triangle);

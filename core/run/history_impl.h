@@ -139,8 +139,9 @@ class History {
   bool examine_step(const flight::TrajectoryIntegrator& integ, const FlightStep& s,
                     scene::BuildingProximity& near_buildings, FlightEvent& ev);
   bool examine_chord(const flight::TrajectoryIntegrator& integ, const FlightStep& s, double ta,
-                     double tb, const Vec3& pa, const Vec3& pb, double e_step,
+                     double tb, const Vec3& pa, const Vec3& pb, double e_bound,
                      scene::BuildingProximity& near_buildings, FlightEvent& ev);
+  double chord_energy_bound(const FlightStep& s, int k, const Vec3& pa, const Vec3& va) const;
   // A chord whose clearance over the terrain (TerrainIndex2D::clearance) is more than this
   // cannot meet the terrain: the scene query leaves the terrain out. The slack covers the scene's
   // float hit tests (Embree rounds to ~1e-7 of the coordinates, 0.1 mm at 1 km): a chord that

@@ -54,6 +54,10 @@ TEST(TrajectoryIntegrator, DenseOutputIsContinuousAcrossSteps) {
   EXPECT_GT(steps, 3);
   EXPECT_FALSE(ti.step(8.0));
   EXPECT_EQ(ti.model().area_m2, s.model.area_m2);
+  // Six per step attempt and per apex cut, one at each start. This flight (drag 1.9 g at
+  // launch) starts in s and hands over to t below drag = g, with the first step in t taken from
+  // the s-controller's proposal (no evaluation for an automatic first step).
+  EXPECT_GT(ti.arc_steps(), 0);
   EXPECT_EQ(ti.rhs_evaluations(),
             2 + 6 * (ti.steps_accepted() + ti.steps_rejected()) + 6 * ti.apex_cuts());
 }
