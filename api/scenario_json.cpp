@@ -157,7 +157,10 @@ void check_stratified_launch(const run::Scenario& sc) {
 
 // settings.stratified_launch: "strata" of u_cell (histories_per_stratum, speed) or "sobol" nets
 // (replicates); a key of the other method is refused rather than ignored.
-run::StratifiedLaunchSettings parse_stratified_launch(const ObjectReader& r) {
+// `replicates` defaults to 16 in a one-batch run (15 degrees of freedom for its errors) and to 4
+// with settings.precision, whose batches pool theirs (3 per batch) and whose larger nets gain
+// more (docs/precision.md, "Choosing R").
+run::StratifiedLaunchSettings parse_stratified_launch(const ObjectReader& r, bool precision) {
   run::StratifiedLaunchSettings sl;
   const std::string method = r.string_or("method", "strata");
   if (method == "sobol") {
@@ -165,7 +168,7 @@ run::StratifiedLaunchSettings parse_stratified_launch(const ObjectReader& r) {
     for (const char* k : {"histories_per_stratum", "speed"})
       if (r.find(k) != nullptr)
         fail(r.at(k), "applies to method \"strata\" only (method is \"sobol\")");
-    sl.replicates = r.integer_or("replicates", sl.replicates, 2, kMaxSobolReplicates);
+    sl.replicates = r.integer_or("replicates", precision ? 4 : 16, 2, kMaxSobolReplicates);
     return sl;
   }
   if (method != "strata")
@@ -219,7 +222,7 @@ run::Settings parse_settings(const Json& j, const std::string& path) {
   if (const Json* p = o.find("precision")) s.precision = parse_precision(*p, o.at("precision"));
   if (const Json* l = o.find("stratified_launch")) {
     const ObjectReader r(*l, o.at("stratified_launch"), "stratified_launch");
-    s.stratified_launch = parse_stratified_launch(r);
+    s.stratified_launch = parse_stratified_launch(r, s.precision.has_value());
   }
   if (const Json* b = o.find("ground_bracket")) {
     const ObjectReader r(*b, o.at("ground_bracket"), "ground_bracket");

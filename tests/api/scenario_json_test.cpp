@@ -377,6 +377,12 @@ TEST(ScenarioJson, SobolLaunch) {
             Json({{"method", "sobol"}, {"replicates", 16}}));
   EXPECT_EQ(scenario_to_json(parse_scenario_document(echoed)), echoed);
 
+  // With settings.precision the batches pool their degrees of freedom: 4 nets per batch.
+  Json prec = minimal_example();
+  prec["settings"]["precision"] = {{"max_batches", 10}};
+  prec["settings"]["stratified_launch"] = {{"method", "sobol"}};
+  EXPECT_EQ(parse_scenario_document(prec).scenario.settings.stratified_launch->replicates, 4);
+
   j["settings"]["stratified_launch"] = {{"method", "halton"}};
   EXPECT_EQ(parse_error(j), (FieldMessage{"settings.stratified_launch.method",
                                           "must be \"strata\" or \"sobol\" (got \"halton\")"}));
