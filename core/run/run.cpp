@@ -77,7 +77,10 @@ class Reducer {
   Reducer(const Scenario& sc, const scene::Site& site, const LaunchStrata& strata, PartialRun& out)
       : out_(out), bins_(tally_bins(sc, site)), strata_(strata) {
     out_.tally = tally::StratifiedTally(bins_.total, strata.partitions());
-    if (strata.sobol()) unit_ = tally::ExactBins(bins_.total);
+    if (strata.sobol()) {
+      unit_ = tally::ExactBins(bins_.total);
+      unit_max_.assign(bins_.total, 0.0);
+    }
     for (const auto& g : sc.groups) samples_.push_back(g.samples);
   }
 
@@ -124,15 +127,25 @@ class Reducer {
   // A contribution of the current unit of the variance estimate: the history, or with Sobol
   // launch the block, whose exact sum per bin enters the tally as one value at its end.
   void add(std::size_t bin, double x) {
-    if (strata_.sobol()) {
-      unit_.add(bin, x);
-    } else {
+    if (!strata_.sobol()) {
       out_.tally.add(bin, x);
+      return;
     }
+    unit_.add(bin, x);
+    unit_max_[bin] = std::max(unit_max_[bin], std::abs(x));
   }
+  // A block's sums, and its discreteness floor: where a net puts nearly its exact share of
+  // points in a region, its count still moves by one history, and 16 nets can by chance all
+  // agree (docs/precision.md, "Scrambled Sobol launch"); a two-point spread of one history's
+  // largest contribution m has variance at most m^2/4, added to the block's square.
   void unit_done() {
-    for (std::size_t k = 0; k < unit_.bins().size(); ++k)
-      out_.tally.add(unit_.bins()[k], unit_.sums()[k].value());
+    for (std::size_t k = 0; k < unit_.bins().size(); ++k) {
+      const std::size_t bin = unit_.bins()[k];
+      const double sum = unit_.sums()[k].value();
+      out_.tally.add(bin, sum);
+      if (sum != 0.0) out_.tally.add_square(bin, 0.25 * unit_max_[bin] * unit_max_[bin]);
+      unit_max_[bin] = 0.0;
+    }
     unit_.clear();
     out_.tally.history_done();
   }
@@ -174,7 +187,8 @@ class Reducer {
   const TallyBins bins_;
   const LaunchStrata& strata_;
   std::vector<std::int64_t> samples_;
-  tally::ExactBins unit_;  // Sobol launch: the current block's sums
+  tally::ExactBins unit_;         // Sobol launch: the current block's sums
+  std::vector<double> unit_max_;  // and per bin its largest single contribution
 };
 
 }  // namespace

@@ -106,6 +106,11 @@ class StratifiedTally {
     if (x == 0.0) return;  // changes neither sum
     for (Scratch& p : parts_) p.add(bin, x);
   }
+  // Adds v to the bin's sum of squares alone, raising its variance term by about v: a floor
+  // for a unit whose add() to the bin came just before (so the bin is touched in both sums).
+  void add_square(std::size_t bin, double v) {
+    for (Scratch& p : parts_) p.q.add(bin, v);
+  }
   void history_done() {
     for (Scratch& p : parts_) ++p.n;
   }

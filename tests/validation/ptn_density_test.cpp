@@ -94,14 +94,17 @@ run::Scenario horizontal_fan(std::int64_t samples) {
   return sc;
 }
 
-void expect_inverse_radius_density(const run::Scenario& sc) {
+// `nets`: the standard errors come from few independent units (Sobol nets: 15 degrees of
+// freedom here), so a triangle's z-score has heavier tails than a normal one's; the check is then
+// on the z-scores as a whole: mean ~0 (unbiased), rms ~1 (honest), >= 97 % within 3 se.
+void expect_inverse_radius_density(const run::Scenario& sc, bool nets = false) {
   const double n = kFanCount, dphi_deg = kFanDeg, h = kFanH;
   const run::RunResult r = run::run(sc);
   auto site = scene::Site::build(sc.site);
   const Vec3 o = site->to_local(Vec3(0.0, 0.0, 0.9));
   const double dphi = dphi_deg * kDegToRad;
   int tested = 0, within = 0;
-  double worst_z = 0.0, sum_z = 0.0, worst_textbook = 0.0;
+  double worst_z = 0.0, sum_z = 0.0, sum_z2 = 0.0, worst_textbook = 0.0;
   for (std::uint32_t t = 0; t < r.ptn_density_per_m2.size(); ++t) {
     std::array<Vec2, 3> v;
     for (int k = 0; k < 3; ++k) {
@@ -138,17 +141,27 @@ void expect_inverse_radius_density(const run::Scenario& sc) {
     const double z = (r.ptn_density_per_m2[t] - expected) / se;
     worst_z = std::max(worst_z, std::abs(z));
     sum_z += z;
+    sum_z2 += z * z;
     ++tested;
     if (std::abs(z) <= 3.0) ++within;
   }
   ASSERT_GT(tested, 500);
   // The exact expectation is the textbook N / (r dphi H) to within a few percent here.
   EXPECT_LT(worst_textbook, 0.05);
-  // ~99.7% of triangles should lie within 3 se; allow 1% outside (chance), no triangle beyond 5 se
-  // and no bias in the mean z-score (a systematic error would shift many the same way).
+  ::testing::Test::RecordProperty("worst_z", std::to_string(worst_z));
+  ::testing::Test::RecordProperty("rms_z", std::to_string(std::sqrt(sum_z2 / tested)));
+  ::testing::Test::RecordProperty("outside_3se", std::to_string(tested - within));
+  // No bias in the mean z-score (a systematic error would shift many the same way).
+  EXPECT_LT(std::abs(sum_z / tested), 0.2) << "mean z-score";
+  if (nets) {
+    EXPECT_GE(within, static_cast<int>(0.97 * tested)) << "tested " << tested;
+    EXPECT_GT(std::sqrt(sum_z2 / tested), 0.6);
+    EXPECT_LT(std::sqrt(sum_z2 / tested), 1.5);
+    return;
+  }
+  // ~99.7% of triangles should lie within 3 se; allow 1% outside (chance), no triangle beyond 5 se.
   EXPECT_GE(within, static_cast<int>(0.99 * tested)) << "tested " << tested;
   EXPECT_LT(worst_z, 5.0);
-  EXPECT_LT(std::abs(sum_z / tested), 0.2) << "mean z-score";
 }
 
 TEST(PtnDensity, HorizontalFanGivesInverseRadiusDensity) {
@@ -175,6 +188,30 @@ TEST(PtnDensity, HorizontalFanThroughStratifiedAndImportanceSampling) {
   p.direction_importance.emplace();
   both.settings.precision = p;
   expect_inverse_radius_density(both);
+}
+
+// And through scrambled Sobol nets (docs/precision.md, "Scrambled Sobol launch"): 16 nets of
+// 12,500 in one batch, then importance sampling with 4 nets in each of 4 tallied batches. The
+// errors have 15 and 12 degrees of freedom, so single triangles can sit many se out where the
+// nets' spread happened to be small (measured with importance sampling: 22 of 1,854 beyond 3 se,
+// the worst 7.8 se with an se 0.4 x its value over other seeds; rms z 1.11); the whole is checked.
+TEST(PtnDensity, HorizontalFanThroughSobolNets) {
+  run::StratifiedLaunchSettings sobol;
+  sobol.method = run::LaunchStratification::kSobol;
+  run::Scenario one_batch = horizontal_fan(200000);
+  one_batch.settings.stratified_launch = sobol;
+  expect_inverse_radius_density(one_batch, true);
+
+  run::Scenario both = horizontal_fan(50000);
+  sobol.replicates = 4;
+  both.settings.stratified_launch = sobol;
+  run::PrecisionSettings p;
+  p.max_batches = 5;
+  p.min_batches = 5;
+  p.ptn_rel_error_at_hfd = 1e-9;
+  p.direction_importance.emplace();
+  both.settings.precision = p;
+  expect_inverse_radius_density(both, true);
 }
 
 }  // namespace
