@@ -71,11 +71,11 @@ Quat body_to_site(const FragmentGroupSpec& group, const Mat3& frame, const Rando
 // The launch uniforms of a Sobol point: coordinate d of point i of net k, Owen-scrambled by a
 // key drawn per (seed, group, net, d), plus 32 bits of the history's own stream below the
 // point's 32 (so that each coordinate is exactly uniform on (0, 1), not on a 2^-32 grid).
-struct SobolLaunch {
+struct LaunchUniforms {
   double elevation, azimuth, speed, mass, cell;
 };
-SobolLaunch sobol_launch(const LaunchStratum& s, std::uint64_t seed, std::uint32_t group,
-                         const RandomStream& rng) {
+LaunchUniforms sobol_launch(const LaunchStratum& s, std::uint64_t seed, std::uint32_t group,
+                            const RandomStream& rng) {
   constexpr std::uint64_t kNetStreams = 1ull << 62;  // beyond any history number
   const RandomStream net(seed, group, kNetStreams | static_cast<std::uint64_t>(s.sobol_net));
   const auto key0 = net.block(0), key1 = net.block(1);
@@ -90,6 +90,38 @@ SobolLaunch sobol_launch(const LaunchStratum& s, std::uint64_t seed, std::uint32
   return {coordinate(0, key0[0], low0[0]), coordinate(1, key0[1], low0[1]),
           coordinate(2, key0[2], low0[2]), coordinate(3, key0[3], low0[3]),
           coordinate(4, key1[0], low1[0])};
+}
+
+// The uniforms of the launch variables: the history's own slots; or a Sobol point; then, with
+// importance cells, placed in the cell that u_cell picks (in a stratum of u_cell with strata),
+// with the weight's factors and the cell recorded in `f`.
+LaunchUniforms launch_uniforms(const RandomStream& rng, std::uint64_t seed,
+                               const DirectionCells* cells, const LaunchStratum* stratum,
+                               FragmentInit& f) {
+  LaunchUniforms u{rng.uniform(kSlotDirection, 0), rng.uniform(kSlotDirection, 1),
+                   rng.uniform(kSlotSpeed), rng.uniform(kSlotMass), 0.5};
+  bool filling = false;
+  if (stratum != nullptr && stratum->sobol_net >= 0) {
+    u = sobol_launch(*stratum, seed, f.group, rng);
+    f.weight *= stratum->weight_factor;
+  } else if (cells != nullptr && !cells->uniform()) {
+    u.cell = rng.uniform(kSlotDirectionCell);
+    if (stratum != nullptr) {
+      u.cell = std::min(
+          (static_cast<double>(stratum->index) + u.cell) / static_cast<double>(stratum->count),
+          std::nextafter(1.0, 0.0));
+      f.weight *= stratum->weight_factor;
+      filling = true;
+    }
+  }
+  if (cells == nullptr) return u;
+  const DirectionCells::Draw d = filling
+                                     ? cells->draw_filling(u.elevation, u.speed, u.cell, u.mass)
+                                     : cells->draw(u.elevation, u.azimuth, u.speed, u.cell, u.mass);
+  f.direction_cell = d.cell;
+  f.likelihood_ratio = d.likelihood_ratio;
+  f.weight *= d.likelihood_ratio;
+  return {d.u_elevation, d.u_azimuth, d.u_speed, d.u_mass, u.cell};
 }
 
 }  // namespace
@@ -108,48 +140,8 @@ FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group
   f.weight = group.count / static_cast<double>(group.samples);
   f.shape = group.shape.type;
 
-  double u_mass = rng.uniform(kSlotMass);
-  double u_speed = rng.uniform(kSlotSpeed);
-  double u_elevation = rng.uniform(kSlotDirection, 0), u_azimuth = rng.uniform(kSlotDirection, 1);
-  if (stratum != nullptr && stratum->sobol_net >= 0) {
-    const SobolLaunch u = sobol_launch(*stratum, seed, group_index, rng);
-    f.weight *= stratum->weight_factor;
-    if (cells != nullptr && !cells->uniform()) {
-      const DirectionCells::Draw d = cells->draw(u.elevation, u.azimuth, u.speed, u.cell, u.mass);
-      u_elevation = d.u_elevation;
-      u_azimuth = d.u_azimuth;
-      u_speed = d.u_speed;
-      u_mass = d.u_mass;
-      f.direction_cell = d.cell;
-      f.likelihood_ratio = d.likelihood_ratio;
-      f.weight *= d.likelihood_ratio;
-    } else {
-      u_elevation = u.elevation;
-      u_azimuth = u.azimuth;
-      u_speed = u.speed;
-      u_mass = u.mass;
-      if (cells != nullptr)
-        f.direction_cell = cells->cell_of(u_elevation, u_azimuth, u_speed, u_mass);
-    }
-  } else if (cells != nullptr) {
-    double u_cell = cells->uniform() ? 0.5 : rng.uniform(kSlotDirectionCell);
-    if (stratum != nullptr) {
-      u_cell = std::min(
-          (static_cast<double>(stratum->index) + u_cell) / static_cast<double>(stratum->count),
-          std::nextafter(1.0, 0.0));
-      f.weight *= stratum->weight_factor;
-    }
-    const DirectionCells::Draw d =
-        stratum != nullptr ? cells->draw_filling(u_elevation, u_speed, u_cell, u_mass)
-                           : cells->draw(u_elevation, u_azimuth, u_speed, u_cell, u_mass);
-    u_elevation = d.u_elevation;
-    u_azimuth = d.u_azimuth;
-    u_speed = d.u_speed;
-    u_mass = d.u_mass;
-    f.direction_cell = d.cell;
-    f.likelihood_ratio = d.likelihood_ratio;
-    f.weight *= d.likelihood_ratio;
-  }
+  const LaunchUniforms u = launch_uniforms(rng, seed, cells, stratum, f);
+  const double u_mass = u.mass, u_speed = u.speed, u_elevation = u.elevation, u_azimuth = u.azimuth;
   const double mass = group.mass_kg.sample(u_mass, kMassRange.lo, kMassRange.hi);
   f.body = mass_properties(group.shape, mass, group.area_m2);
   const double speed = group.speed_mps.sample(u_speed, kSpeedRange.lo, kSpeedRange.hi);

@@ -132,9 +132,10 @@ TEST(StratifiedLaunch, EveryMethodIsUnbiasedAndHonestAgainstTheClosedForm) {
   EXPECT_GT(std::pow(se(Method::kPlain) / se(Method::kStratified), 2), 2.0);
   EXPECT_GT(std::pow(se(Method::kPlain) / se(Method::kImportance), 2), 2.5);
   EXPECT_GT(std::pow(se(Method::kImportance) / se(Method::kBoth), 2), 2.5);
-  // Scrambled Sobol nets of 18-19 points (measured: 2.75 x less than plain, 2.30 x less than
-  // importance sampling alone; these errors are honest, not conservative).
-  EXPECT_GT(std::pow(se(Method::kPlain) / se(Method::kSobol), 2), 2.0);
+  // Scrambled Sobol nets of 18-19 points (reported variance, measured: 1.99 x less than plain,
+  // 1.90 x less than importance sampling alone; 2.75 and 2.30 x without the nets' discreteness
+  // floor, which weighs on nets this small: docs/precision.md).
+  EXPECT_GT(std::pow(se(Method::kPlain) / se(Method::kSobol), 2), 1.7);
   EXPECT_GT(std::pow(se(Method::kImportance) / se(Method::kSobolImportance), 2), 1.5);
 }
 
