@@ -8,6 +8,7 @@
 // slots, so adding one never changes the values of the existing ones.
 #include <Random123/philox.h>
 
+#include <array>
 #include <cstdint>
 
 namespace fragsim {
@@ -23,9 +24,12 @@ class RandomStream {
   // `k` (0..1) its index within the slot's block of two variates.
   double uniform(std::uint32_t slot, std::uint32_t k = 0) const {
     const auto r = block(slot);
-    const std::uint64_t hi = r[2 * (k & 1)], lo = r[2 * (k & 1) + 1];
-    const std::uint64_t bits = ((hi << 32) | lo) >> 11;  // 53 bits
-    return (static_cast<double>(bits) + 0.5) * 0x1.0p-53;
+    return to_unit(r[2 * (k & 1)], r[2 * (k & 1) + 1]);
+  }
+  // Both variates of `slot` from one block: {uniform(slot, 0), uniform(slot, 1)}.
+  std::array<double, 2> uniform_pair(std::uint32_t slot) const {
+    const auto r = block(slot);
+    return {to_unit(r[0], r[1]), to_unit(r[2], r[3])};
   }
 
   // Raw 128-bit block for `slot` (four 32-bit words).
@@ -36,6 +40,10 @@ class RandomStream {
   }
 
  private:
+  static double to_unit(std::uint64_t hi, std::uint64_t lo) {
+    const std::uint64_t bits = ((hi << 32) | lo) >> 11;  // 53 bits
+    return (static_cast<double>(bits) + 0.5) * 0x1.0p-53;
+  }
   std::uint32_t group_;
   std::uint64_t history_;
   r123::Philox4x32::key_type key_;

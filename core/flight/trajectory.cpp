@@ -47,6 +47,7 @@ void TrajectoryIntegrator::reset(double t0, const Vec3& position, const Vec3& ve
   Vec7 y0;
   y0 << position, velocity, t0;
   arc_.reset(0.0, y0, arc_first_step(a, speed));
+  arc_accel_ = arc_acceleration();
 }
 
 // First step in s: drag alone is v' = -k_eff v in s (k_eff = |a_drag| / |v_rel|^2), whose local
@@ -71,7 +72,8 @@ bool TrajectoryIntegrator::arc_step(double t_end) {
   const double inf = std::numeric_limits<double>::infinity();
   const bool ok = !leave_arc_ && arc_.step(inf);
   if (ok && arc_.y()[6] <= t_end) {
-    leave_arc_ = !drag_dominates(acceleration());
+    arc_accel_ = arc_acceleration();
+    leave_arc_ = !drag_dominates(arc_accel_);
     return true;
   }
   const Vec7 y = ok ? arc_.y_prev() : arc_.y();
@@ -221,15 +223,26 @@ void TrajectoryIntegrator::state_at_fraction(double theta, double& t, Vec3& posi
   t = ode_.t_prev() + (ode_.t() - ode_.t_prev()) * theta;
   state(t, position, velocity);
 }
+TrajectoryIntegrator::StepEnd TrajectoryIntegrator::step_end() const {
+  if (in_arc_) {
+    const Vec7& y = arc_.y();
+    return {arc_.y_prev()[6], y[6], y.head<3>(), y.segment<3>(3), arc_accel_};
+  }
+  const Vec6& y = ode_.y();
+  return {ode_.t_prev(), ode_.t(), y.head<3>(), y.tail<3>(), ode_.dy().tail<3>()};
+}
 Vec3 TrajectoryIntegrator::position() const {
   return in_arc_ ? Vec3(arc_.y().head<3>()) : Vec3(ode_.y().head<3>());
 }
 Vec3 TrajectoryIntegrator::velocity() const {
   return in_arc_ ? Vec3(arc_.y().segment<3>(3)) : Vec3(ode_.y().tail<3>());
 }
-// In s: dv/ds = a/|v_rel| and dt/ds = 1/|v_rel|.
 Vec3 TrajectoryIntegrator::acceleration() const {
-  return in_arc_ ? Vec3(arc_.dy().segment<3>(3) / arc_.dy()[6]) : Vec3(ode_.dy().tail<3>());
+  return in_arc_ ? arc_accel_ : Vec3(ode_.dy().tail<3>());
+}
+// In s: dv/ds = a/|v_rel| and dt/ds = 1/|v_rel|.
+Vec3 TrajectoryIntegrator::arc_acceleration() const {
+  return arc_.dy().segment<3>(3) / arc_.dy()[6];
 }
 long TrajectoryIntegrator::rhs_evaluations() const {
   return ode_.rhs_evaluations() + arc_.rhs_evaluations();

@@ -44,6 +44,12 @@ class TrajectoryIntegrator {
   // The last step's dense output at the fraction theta in [0, 1] of its independent variable
   // (s or t): its time, position and velocity from one evaluation, without the time inversion.
   void state_at_fraction(double theta, double& t, Vec3& position, Vec3& velocity) const;
+  // The last step's interval and its end state, what a caller reads after every step.
+  struct StepEnd {
+    double t0, t1;  // t_prev(), t()
+    Vec3 p, v, a;   // position(), velocity(), acceleration()
+  };
+  StepEnd step_end() const;
   Vec3 position() const;  // at t()
   Vec3 velocity() const;
   Vec3 acceleration() const;  // at t()
@@ -118,6 +124,7 @@ class TrajectoryIntegrator {
   bool drag_dominates(const Vec3& a) const;
   double arc_first_step(const Vec3& a, double speed) const;
   double arc_theta(double t) const;
+  Vec3 arc_acceleration() const;  // at the end of the last step in s, from its derivative
   Vec7 arc_dense(double t) const { return arc_.dense_at_theta(arc_theta(t)); }
   void cut_at_apex_if_needed();
 
@@ -126,7 +133,8 @@ class TrajectoryIntegrator {
   Dopri5<7, ArcRhs> arc_;
   double arc_drag_ratio_;
   bool in_arc_ = false;
-  bool leave_arc_ = false;  // the last step in s ended below the drag ratio: next one in t
+  bool leave_arc_ = false;   // the last step in s ended below the drag ratio: next one in t
+  Vec3 arc_accel_{0, 0, 0};  // arc_acceleration() of the last step in s (read twice a step)
   Vec3 wind_{0, 0, 0};
   double last_cut_t_ = -std::numeric_limits<double>::infinity();
   long apex_cuts_ = 0;

@@ -36,26 +36,31 @@ double std_normal_mass(double a, double b) {
   return (1.0 - normal_cdf(a)) - normal_upper(b);
 }
 
+// The tail probabilities truncated_std_normal inverts between, for [a, b]: Q(a), Q(b) when
+// a >= 0; Phi(a), Phi(b) when b <= 0; else Phi(a), Q(b) and the mass between.
+StdNormalCut std_normal_cut(double a, double b) {
+  if (a >= 0.0) return {a, b, normal_upper(a), normal_upper(b), 0.0};
+  if (b <= 0.0) return {a, b, normal_cdf(a), normal_cdf(b), 0.0};
+  const double pa = normal_cdf(a), qb = normal_upper(b);
+  return {a, b, pa, qb, (1.0 - pa) - qb};
+}
+
 // Standard normal truncated to [a, b], by inversion of u. The uniform is mapped into the CDF range
 // of [a, b] on the side of the median where the probabilities are small: near Phi = 1 the values
 // 1 - Phi carry all their digits while Phi itself has only ~1e-16 resolution, so an upper-tail
 // truncation (say [5, 6], mass 2.9e-7) must be inverted through Q = 1 - Phi.
-double truncated_std_normal(double u, double a, double b) {
+double truncated_std_normal(const StdNormalCut& c, double u) {
   double z;
-  if (a >= 0.0) {
-    const double qa = normal_upper(a), qb = normal_upper(b);
-    z = -normal_quantile(qa + u * (qb - qa));
-  } else if (b <= 0.0) {
-    const double pa = normal_cdf(a), pb = normal_cdf(b);
-    z = normal_quantile(pa + u * (pb - pa));
+  if (c.a >= 0.0) {
+    z = -normal_quantile(c.p_a + u * (c.p_b - c.p_a));  // p_a = Q(a), p_b = Q(b)
+  } else if (c.b <= 0.0) {
+    z = normal_quantile(c.p_a + u * (c.p_b - c.p_a));  // p_a = Phi(a), p_b = Phi(b)
   } else {
-    const double pa = normal_cdf(a), qb = normal_upper(b);
-    const double mass = (1.0 - pa) - qb;
-    const double p = pa + u * mass;
+    const double p = c.p_a + u * c.mass;  // p_a = Phi(a), p_b = Q(b)
     // Same point written as an upper-tail probability when it lies above the median.
-    z = p <= 0.5 ? normal_quantile(p) : -normal_quantile(qb + (1.0 - u) * mass);
+    z = p <= 0.5 ? normal_quantile(p) : -normal_quantile(c.p_b + (1.0 - u) * c.mass);
   }
-  return std::clamp(z, a, b);
+  return std::clamp(z, c.a, c.b);
 }
 
 // Shortest round-trip text of a double, for messages.
@@ -242,36 +247,39 @@ double normal_quantile(double p) {
 // Distribution
 
 double Distribution::sample(double u, double phys_lo, double phys_hi) const {
-  switch (kind) {
-    case Kind::kFixed: return value;
-    case Kind::kUniform: return min + u * (max - min);
-    case Kind::kNormal: {
-      const Interval r = truncation(*this, phys_lo, phys_hi);
-      const Interval z = standard_bounds(*this, r);
-      const double x = mean + sigma * truncated_std_normal(u, z.lo, z.hi);
-      // Rounding in mean + sigma z may step just outside the range; the bounds are hard.
-      return std::clamp(x, std::max(r.lo, -std::numeric_limits<double>::max()),
-                        std::min(r.hi, std::numeric_limits<double>::max()));
-    }
-    case Kind::kLognormal: {
-      const Interval r = truncation(*this, phys_lo, phys_hi);
-      const Interval z = standard_bounds(*this, r);
-      const double x = median * std::exp(sigma_ln * truncated_std_normal(u, z.lo, z.hi));
-      return std::clamp(x, std::max(r.lo, -std::numeric_limits<double>::max()),
-                        std::min(r.hi, std::numeric_limits<double>::max()));
-    }
-    case Kind::kTable: {
-      const Interval r = truncation(*this, phys_lo, phys_hi);
-      const double f_lo = table_cdf_at(*this, r.lo), f_hi = table_cdf_at(*this, r.hi);
-      const double x = table_quantile(*this, f_lo + u * (f_hi - f_lo));
-      return std::clamp(x, r.lo, r.hi);
-    }
-    case Kind::kMott: {
-      const Interval r = truncation(*this, phys_lo, phys_hi);
-      return mott_quantile(u, mu, std::max(r.lo, 0.0), r.hi);
-    }
+  return TruncatedDistribution(*this, phys_lo, phys_hi).sample(u);
+}
+
+TruncatedDistribution::TruncatedDistribution(const Distribution& d, double phys_lo, double phys_hi)
+    : d_(&d) {
+  const Interval r = truncation(d, phys_lo, phys_hi);
+  lo_ = r.lo;
+  hi_ = r.hi;
+  if (d.kind == Distribution::Kind::kNormal || d.kind == Distribution::Kind::kLognormal) {
+    const Interval z = standard_bounds(d, r);
+    cut_ = std_normal_cut(z.lo, z.hi);
+  } else if (d.kind == Distribution::Kind::kTable) {
+    f_lo_ = table_cdf_at(d, r.lo);
+    f_hi_ = table_cdf_at(d, r.hi);
   }
-  return value;
+}
+
+double TruncatedDistribution::sample(double u) const {
+  using Kind = Distribution::Kind;
+  const Distribution& d = *d_;
+  // Rounding in mean + sigma z may step just outside the range; the bounds are hard.
+  const double lo = std::max(lo_, -std::numeric_limits<double>::max());
+  const double hi = std::min(hi_, std::numeric_limits<double>::max());
+  switch (d.kind) {
+    case Kind::kFixed: return d.value;
+    case Kind::kUniform: return d.min + u * (d.max - d.min);
+    case Kind::kNormal: return std::clamp(d.mean + d.sigma * truncated_std_normal(cut_, u), lo, hi);
+    case Kind::kLognormal:
+      return std::clamp(d.median * std::exp(d.sigma_ln * truncated_std_normal(cut_, u)), lo, hi);
+    case Kind::kTable: return std::clamp(table_quantile(d, f_lo_ + u * (f_hi_ - f_lo_)), lo_, hi_);
+    case Kind::kMott: return mott_quantile(u, d.mu, std::max(lo_, 0.0), hi_);
+  }
+  return d.value;
 }
 
 std::string Distribution::validate(double phys_lo, double phys_hi) const {

@@ -51,6 +51,31 @@ struct Distribution {
   std::string validate(double phys_lo, double phys_hi) const;
 };
 
+// A standard normal cut to [a, b], with the two tail probabilities its inversion maps u between
+// (distribution.cpp, std_normal_cut) and, for a < 0 < b, the mass between them.
+struct StdNormalCut {
+  double a = 0.0, b = 0.0;
+  double p_a = 0.0, p_b = 0.0, mass = 0.0;
+};
+
+// A distribution truncated to a fixed physical range [phys_lo, phys_hi], with everything that does
+// not depend on u (the bounds, their standardised values, the tail probabilities or table CDF
+// values at them) worked out once: sample(u) is Distribution::sample(u, phys_lo, phys_hi) bit
+// for bit (which is computed through it), without the per-call logs and erfc's. For the many
+// histories of one group. Keeps a pointer to `d`, which must outlive it.
+class TruncatedDistribution {
+ public:
+  TruncatedDistribution(const Distribution& d, double phys_lo, double phys_hi);
+  double sample(double u) const;
+
+ private:
+  const Distribution* d_;
+  double lo_, hi_;     // the truncation: explicit bounds within the physical range
+  StdNormalCut cut_;   // normal, lognormal: in standardised units
+  double f_lo_ = 0.0;  // table: CDF at lo_ and hi_
+  double f_hi_ = 0.0;
+};
+
 // Mott's distribution with scale mu (> 0): the survival function S(x) = exp(-sqrt(x / mu)) (x >= 0,
 // 1 for x <= 0), and the variate for uniform u in [0, 1) restricted to [lo, hi] (0 <= lo < hi <=
 // inf) by inversion, x = mu (sqrt(lo / mu) - ln(1 - u (1 - S(hi) / S(lo))))^2: exact, no

@@ -31,11 +31,15 @@ Mat3 attitude_rotation(const AttitudeSpec& attitude) {
 }
 
 Vec3 sample_direction(const DirectionSpec& d, double u_elevation, double u_azimuth) {
+  return sample_direction(d, std::sin(d.elevation_min_deg * kDegToRad),
+                          std::sin(d.elevation_max_deg * kDegToRad), u_elevation, u_azimuth);
+}
+
+Vec3 sample_direction(const DirectionSpec& d, double s_lo, double s_hi, double u_elevation,
+                      double u_azimuth) {
   // Archimedes' hat-box theorem: the area of a spherical zone is proportional to the difference
   // of sin(elevation) at its edges, so sin(elevation) uniform and azimuth uniform give a uniform
   // density on the part of the sphere within the ranges.
-  const double s_lo = std::sin(d.elevation_min_deg * kDegToRad);
-  const double s_hi = std::sin(d.elevation_max_deg * kDegToRad);
   const double s = std::clamp(s_lo + u_elevation * (s_hi - s_lo), -1.0, 1.0);
   const double c = std::sqrt(std::max(0.0, (1.0 - s) * (1.0 + s)));
   const double az =
@@ -62,9 +66,8 @@ namespace {
 // random from the orientation slots, which a fixed attitude leaves unread.
 Quat body_to_site(const FragmentGroupSpec& group, const Mat3& frame, const RandomStream& rng) {
   if (group.attitude) return Quat(Mat3(frame * attitude_rotation(*group.attitude))).normalized();
-  const Quat q_local =
-      uniform_rotation(rng.uniform(kSlotOrientation, 0), rng.uniform(kSlotOrientation, 1),
-                       rng.uniform(kSlotOrientation2, 0));
+  const auto u = rng.uniform_pair(kSlotOrientation);
+  const Quat q_local = uniform_rotation(u[0], u[1], rng.uniform(kSlotOrientation2, 0));
   return (Quat(frame) * q_local).normalized();
 }
 
@@ -98,8 +101,9 @@ LaunchUniforms sobol_launch(const LaunchStratum& s, std::uint64_t seed, std::uin
 LaunchUniforms launch_uniforms(const RandomStream& rng, std::uint64_t seed,
                                const DirectionCells* cells, const LaunchStratum* stratum,
                                FragmentInit& f) {
-  LaunchUniforms u{rng.uniform(kSlotDirection, 0), rng.uniform(kSlotDirection, 1),
-                   rng.uniform(kSlotSpeed), rng.uniform(kSlotMass), 0.5};
+  const auto u_direction = rng.uniform_pair(kSlotDirection);
+  LaunchUniforms u{u_direction[0], u_direction[1], rng.uniform(kSlotSpeed), rng.uniform(kSlotMass),
+                   0.5};
   bool filling = false;
   if (stratum != nullptr && stratum->sobol_net >= 0) {
     u = sobol_launch(*stratum, seed, f.group, rng);
@@ -126,9 +130,25 @@ LaunchUniforms launch_uniforms(const RandomStream& rng, std::uint64_t seed,
 
 }  // namespace
 
+GroupLaunch::GroupLaunch(const FragmentGroupSpec& g)
+    : group(&g),
+      mass(g.mass_kg, kMassRange.lo, kMassRange.hi),
+      speed(g.speed_mps, kSpeedRange.lo, kSpeedRange.hi),
+      spin(g.spin_radps, kSpinRange.lo, kSpinRange.hi),
+      frame(frame_rotation(g.frame)),
+      sin_elevation_min(std::sin(g.direction.elevation_min_deg * kDegToRad)),
+      sin_elevation_max(std::sin(g.direction.elevation_max_deg * kDegToRad)) {}
+
 FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
                              std::uint64_t history, std::uint64_t seed, const DirectionCells* cells,
                              const LaunchStratum* stratum) {
+  return sample_fragment(GroupLaunch(group), group_index, history, seed, cells, stratum);
+}
+
+FragmentInit sample_fragment(const GroupLaunch& launch, std::uint32_t group_index,
+                             std::uint64_t history, std::uint64_t seed, const DirectionCells* cells,
+                             const LaunchStratum* stratum) {
+  const FragmentGroupSpec& group = *launch.group;
   // One Philox stream per (seed, group, history); each variable reads its own fixed slot, so
   // the value of one never depends on whether another is fixed or random (docs/architecture.md,
   // "Reproducibility"). No heap allocation: this runs once per history.
@@ -142,11 +162,12 @@ FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group
 
   const LaunchUniforms u = launch_uniforms(rng, seed, cells, stratum, f);
   const double u_mass = u.mass, u_speed = u.speed, u_elevation = u.elevation, u_azimuth = u.azimuth;
-  const double mass = group.mass_kg.sample(u_mass, kMassRange.lo, kMassRange.hi);
+  const double mass = launch.mass.sample(u_mass);
   f.body = mass_properties(group.shape, mass, group.area_m2);
-  const double speed = group.speed_mps.sample(u_speed, kSpeedRange.lo, kSpeedRange.hi);
-  const Vec3 dir_local = sample_direction(group.direction, u_elevation, u_azimuth);
-  const Mat3 rot = frame_rotation(group.frame);
+  const double speed = launch.speed.sample(u_speed);
+  const Vec3 dir_local = sample_direction(group.direction, launch.sin_elevation_min,
+                                          launch.sin_elevation_max, u_elevation, u_azimuth);
+  const Mat3& rot = launch.frame;
 
   f.position_m = group.frame.origin_m;
   f.launch_speed_mps = speed;
@@ -157,11 +178,11 @@ FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group
 
   // Spin: magnitude from its distribution, axis uniform on the sphere in the body frame
   // (z = cos(polar angle) uniform on [-1, 1], longitude uniform).
-  const double spin =
-      group.spin_radps.sample(rng.uniform(kSlotSpin, 0), kSpinRange.lo, kSpinRange.hi);
-  const double z = 2.0 * rng.uniform(kSlotSpinAxis, 0) - 1.0;
+  const double spin = launch.spin.sample(rng.uniform(kSlotSpin, 0));
+  const auto u_axis = rng.uniform_pair(kSlotSpinAxis);
+  const double z = 2.0 * u_axis[0] - 1.0;
   const double rho = std::sqrt(std::max(0.0, (1.0 - z) * (1.0 + z)));
-  const double phi = 2.0 * kPi * rng.uniform(kSlotSpinAxis, 1);
+  const double phi = 2.0 * kPi * u_axis[1];
   f.omega_body_radps = spin * Vec3(rho * std::cos(phi), rho * std::sin(phi), z);
   return f;
 }

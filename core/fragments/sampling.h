@@ -70,6 +70,9 @@ Mat3 attitude_rotation(const AttitudeSpec& attitude);
 
 // Unit direction in the local frame, uniform on the sphere within the ranges, from u1, u2.
 Vec3 sample_direction(const DirectionSpec& d, double u_elevation, double u_azimuth);
+// The same with sin of the elevation range's ends given (s_lo, s_hi: computed once per group).
+Vec3 sample_direction(const DirectionSpec& d, double s_lo, double s_hi, double u_elevation,
+                      double u_azimuth);
 
 // Uniformly distributed random rotation (Shoemake 1992) from three uniforms.
 Quat uniform_rotation(double u1, double u2, double u3);
@@ -106,11 +109,27 @@ struct LaunchStratum {
   std::uint32_t sobol_point = 0;
 };
 
+// What sample_fragment needs of a group that is the same for all its histories: the truncated
+// mass, speed and spin distributions and the frame's rotation, worked out once (bit for bit the
+// values it would compute per history). Keeps pointers into `group`, which must outlive it.
+struct GroupLaunch {
+  explicit GroupLaunch(const FragmentGroupSpec& group);
+  const FragmentGroupSpec* group;
+  TruncatedDistribution mass, speed, spin;
+  Mat3 frame;                                   // frame_rotation(group.frame)
+  double sin_elevation_min, sin_elevation_max;  // of group.direction's elevation range
+};
+
 // `cells`: draw the direction from its importance density (direction_cells.h); null or uniform:
 // the plain draw (bit for bit), with the cell reported when given. `stratum` (needs non-uniform
 // cells, e.g. DirectionCells::equal): u_cell is drawn within the stratum; a Sobol point gives
 // u_elevation, u_azimuth, u_speed, u_mass (and u_cell with non-uniform cells).
 FragmentInit sample_fragment(const FragmentGroupSpec& group, std::uint32_t group_index,
+                             std::uint64_t history, std::uint64_t seed,
+                             const DirectionCells* cells = nullptr,
+                             const LaunchStratum* stratum = nullptr);
+// The same from the group's precomputed launch constants (the run's per-history path).
+FragmentInit sample_fragment(const GroupLaunch& launch, std::uint32_t group_index,
                              std::uint64_t history, std::uint64_t seed,
                              const DirectionCells* cells = nullptr,
                              const LaunchStratum* stratum = nullptr);

@@ -43,7 +43,7 @@ History::History(const RunContext& ctx, std::uint32_t group, std::int64_t histor
       out_(out),
       prof_(st_.profile),
       init_(fragments::sample_fragment(
-          sc_.groups[group], group, static_cast<std::uint64_t>(history), st_.seed, cells, stratum)),
+          ctx.launch[group], group, static_cast<std::uint64_t>(history), st_.seed, cells, stratum)),
       mass_(init_.body.mass_kg),
       weight_(init_.weight),
       g_(sc_.gravity_mps2),
@@ -408,7 +408,11 @@ FragmentRecord History::fragment_record() const {
 RunContext::RunContext(const Scenario& sc, const scene::Site& s)
     : scenario(&sc), site(&s), atmosphere(sc.atmosphere), prisms(s, sc.settings.person_height_m) {
   cd.reserve(sc.groups.size());
-  for (const auto& g : sc.groups) cd.emplace_back(g.cd);
+  launch.reserve(sc.groups.size());
+  for (const auto& g : sc.groups) {
+    cd.emplace_back(g.cd);
+    launch.emplace_back(g);
+  }
   terrain_min_z = detail::lowest_terrain_z(s);
   terrain_max_z = detail::highest_terrain_z(s);
   for (std::uint32_t t = 0; t < s.terrain_triangle_count(); ++t)

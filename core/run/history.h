@@ -56,7 +56,8 @@ struct RunContext {
   const Scenario* scenario = nullptr;
   const scene::Site* site = nullptr;
   flight::Atmosphere atmosphere;
-  std::vector<flight::DragCoefficient> cd;  // per group
+  std::vector<flight::DragCoefficient> cd;     // per group
+  std::vector<fragments::GroupLaunch> launch;  // per group: its launch constants
   tally::PtnPrisms prisms;
   double terrain_min_z = 0.0;    // local
   double terrain_max_z = 0.0;    // local

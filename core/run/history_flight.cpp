@@ -65,14 +65,15 @@ bool History::flight_step(flight::TrajectoryIntegrator& integ, FlightStep& s, Fl
     return false;
   }
   ++out_.stats.integrator_steps;
-  s.t0 = integ.t_prev();
+  const flight::TrajectoryIntegrator::StepEnd e = integ.step_end();
+  s.t0 = e.t0;
   s.p0 = s.p1;
   s.v0 = s.v1;
   s.a0 = s.a1;
-  s.t1 = integ.t();
-  s.p1 = integ.position();
-  s.v1 = integ.velocity();
-  s.a1 = integ.acceleration();
+  s.t1 = e.t1;
+  s.p1 = e.p;
+  s.v1 = e.v;
+  s.a1 = e.a;
   return true;
 }
 

@@ -108,13 +108,22 @@ class ExactSum {
     return (rem > half || (rem == half && (kept & 1) != 0)) ? kept + 1 : kept;
   }
 
+  // Adds (or subtracts) m 2^p in place: the two limbs the term covers, then the carry (borrow)
+  // up only as far as it goes. The same bits and range check as adding the term's 320-bit two's
+  // complement (whose sign is `subtract`: m > 0), without building and negating it.
   void add_shifted(std::uint64_t m, int p, bool subtract) {
-    Limbs t{};
     const int limb = p / 64, off = p % 64;
-    t[static_cast<std::size_t>(limb)] = m << off;
-    if (off != 0 && limb + 1 < kLimbs) t[static_cast<std::size_t>(limb) + 1] = m >> (64 - off);
-    if (subtract) negate(t);
-    add(from_limbs(t));
+    const std::uint64_t lo = m << off, hi = off != 0 ? m >> (64 - off) : 0;
+    Limbs r = limbs_;
+    bool carry = false;
+    for (int i = limb; i < kLimbs; ++i) {
+      const std::uint64_t term = i == limb ? lo : (i == limb + 1 ? hi : 0);
+      auto& x = r[static_cast<std::size_t>(i)];
+      carry = subtract ? sub_borrow(x, term, carry) : add_carry(x, term, carry);
+      if (!carry && i > limb) break;  // the rest of the term is zero
+    }
+    check_range(negative(), subtract, r);
+    limbs_ = r;
   }
 
   // a += b + carry; returns the carry out.
@@ -122,6 +131,12 @@ class ExactSum {
     const bool c1 = __builtin_add_overflow(a, b, &a);
     const bool c2 = __builtin_add_overflow(a, std::uint64_t{carry}, &a);
     return c1 || c2;
+  }
+  // a -= b + borrow; returns the borrow out.
+  static bool sub_borrow(std::uint64_t& a, std::uint64_t b, bool borrow) {
+    const bool b1 = __builtin_sub_overflow(a, b, &a);
+    const bool b2 = __builtin_sub_overflow(a, std::uint64_t{borrow}, &a);
+    return b1 || b2;
   }
   static void negate(Limbs& l) {
     bool carry = true;

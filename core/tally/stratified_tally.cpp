@@ -45,9 +45,9 @@ void StratifiedTally::flush(std::size_t partition) {
   OpenStratum piece;
   piece.size = p.size;
   piece.n = p.n;
-  piece.entries.resize(p.s.bins().size());
-  for (std::size_t k = 0; k < piece.entries.size(); ++k)
-    piece.entries[k] = {p.s.bins()[k], p.s.sums()[k], p.q.sums()[k]};
+  piece.entries.reserve(p.s.bins().size());
+  for (std::size_t k = 0; k < p.s.bins().size(); ++k)
+    piece.entries.push_back({p.s.bins()[k], p.s.sums()[k], p.q.sums()[k]});
   p.s.clear();
   p.q.clear();
   p.n = 0;

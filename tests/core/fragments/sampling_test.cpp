@@ -284,6 +284,30 @@ TEST(SampleFragment, DeterministicBitIdentical) {
   }
 }
 
+TEST(SampleFragment, GroupLaunchConstantsGiveThePerHistoryDraw) {
+  // The run's path: the group's launch constants (truncated mass and speed distributions, frame,
+  // elevation bounds) computed once, reused for many histories, against the slot contract's
+  // per-history values; and a slot's two variates read from one block as a pair.
+  const auto g = test_group();
+  const GroupLaunch launch(g);
+  for (std::uint64_t h : {0ull, 17ull, 123456ull}) {
+    const auto f = sample_fragment(launch, 2, h, kSeed);
+    const RandomStream rng(kSeed, 2, h);
+    EXPECT_EQ(f.body.mass_kg,
+              g.mass_kg.sample(rng.uniform(kSlotMass), kMassRange.lo, kMassRange.hi));
+    EXPECT_EQ(f.launch_speed_mps,
+              g.speed_mps.sample(rng.uniform(kSlotSpeed), kSpeedRange.lo, kSpeedRange.hi));
+    const Vec3 dir = sample_direction(g.direction, rng.uniform(kSlotDirection, 0),
+                                      rng.uniform(kSlotDirection, 1));
+    EXPECT_EQ(f.launch_direction, Vec3(frame_rotation(g.frame) * dir));
+    for (std::uint32_t slot : {kSlotDirection, kSlotOrientation, kSlotSpinAxis}) {
+      const auto u = rng.uniform_pair(slot);
+      EXPECT_EQ(u[0], rng.uniform(slot, 0));
+      EXPECT_EQ(u[1], rng.uniform(slot, 1));
+    }
+  }
+}
+
 TEST(SampleFragment, HistoriesGroupsAndSeedsDiffer) {
   const auto g = test_group();
   const auto a = sample_fragment(g, 2, 7, kSeed);
