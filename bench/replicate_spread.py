@@ -20,12 +20,13 @@ batches: ~11 s of CPU per run.
 import argparse
 import json
 import os
-import re
 import resource
 import subprocess
 import tempfile
 
 import numpy as np
+
+import time_to_precision  # bench/: the same results.h5 reader (h5dump)
 
 # Settings per method: `precision` with the HFD ring as the never-met target, so that
 # importance sampling aims at it and every run does exactly --batches batches.
@@ -47,10 +48,7 @@ def methods(batches):
 
 
 def h5(path, dataset):
-    text = subprocess.run(["h5dump", "-y", "-w", "0", "-m", "%.17g", "-d", dataset, path],
-                          check=True, capture_output=True, text=True).stdout
-    body = text[text.index("DATA {") + 6:text.rindex("}", 0, text.rindex("}"))]
-    return np.array([float(v) for v in re.split(r"[,\s]+", body.strip().rstrip("}").strip()) if v])
+    return np.array(time_to_precision.h5(path, dataset))
 
 
 def run(a, scenario, settings, seed, out):
