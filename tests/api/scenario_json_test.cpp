@@ -382,6 +382,25 @@ TEST(ScenarioJson, SobolLaunch) {
   prec["settings"]["precision"] = {{"max_batches", 10}};
   prec["settings"]["stratified_launch"] = {{"method", "sobol"}};
   EXPECT_EQ(parse_scenario_document(prec).scenario.settings.stratified_launch->replicates, 4);
+  // ... and the first stop on targets waits for 12 degrees of freedom: 4 batches of 3 (R = 4),
+  // 12 of 1 (R = 2), the plain default 2 at R = 16; never past max_batches; as given if given.
+  auto min_batches = [&prec](const Json& launch) {
+    Json k = prec;
+    k["settings"]["stratified_launch"] = launch;
+    return parse_scenario_document(k).scenario.settings.precision->min_batches;
+  };
+  EXPECT_EQ(min_batches({{"method", "sobol"}}), 4);
+  EXPECT_EQ(min_batches({{"method", "sobol"}, {"replicates", 2}}), 10);  // max_batches 10
+  EXPECT_EQ(min_batches({{"method", "sobol"}, {"replicates", 16}}), 2);
+  EXPECT_EQ(min_batches({{"method", "strata"}}), 2);
+  prec["settings"]["precision"]["min_batches"] = 3;
+  EXPECT_EQ(min_batches({{"method", "sobol"}}), 3);
+  prec["settings"]["precision"].erase("min_batches");
+  Json four = prec;
+  four["settings"]["stratified_launch"] = {{"method", "sobol"}};
+  const Json four_echoed = scenario_to_json(parse_scenario_document(four));
+  EXPECT_EQ(four_echoed["settings"]["precision"]["min_batches"], 4);
+  EXPECT_EQ(scenario_to_json(parse_scenario_document(four_echoed)), four_echoed);
 
   j["settings"]["stratified_launch"] = {{"method", "halton"}};
   EXPECT_EQ(parse_error(j), (FieldMessage{"settings.stratified_launch.method",
