@@ -223,14 +223,6 @@ void TrajectoryIntegrator::state_at_fraction(double theta, double& t, Vec3& posi
   t = ode_.t_prev() + (ode_.t() - ode_.t_prev()) * theta;
   state(t, position, velocity);
 }
-TrajectoryIntegrator::StepEnd TrajectoryIntegrator::step_end() const {
-  if (in_arc_) {
-    const Vec7& y = arc_.y();
-    return {arc_.y_prev()[6], y[6], y.head<3>(), y.segment<3>(3), arc_accel_};
-  }
-  const Vec6& y = ode_.y();
-  return {ode_.t_prev(), ode_.t(), y.head<3>(), y.tail<3>(), ode_.dy().tail<3>()};
-}
 Vec3 TrajectoryIntegrator::position() const {
   return in_arc_ ? Vec3(arc_.y().head<3>()) : Vec3(ode_.y().head<3>());
 }

@@ -49,7 +49,15 @@ class TrajectoryIntegrator {
     double t0, t1;  // t_prev(), t()
     Vec3 p, v, a;   // position(), velocity(), acceleration()
   };
-  StepEnd step_end() const;
+  // Inline: read after every step, and the caller's copy of it then folds into its own fields.
+  StepEnd step_end() const {
+    if (in_arc_) {
+      const Vec7& y = arc_.y();
+      return {arc_.y_prev()[6], y[6], y.head<3>(), y.segment<3>(3), arc_accel_};
+    }
+    const Vec6& y = ode_.y();
+    return {ode_.t_prev(), ode_.t(), y.head<3>(), y.tail<3>(), ode_.dy().tail<3>()};
+  }
   Vec3 position() const;  // at t()
   Vec3 velocity() const;
   Vec3 acceleration() const;  // at t()
