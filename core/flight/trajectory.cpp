@@ -211,18 +211,6 @@ void TrajectoryIntegrator::state(double t, Vec3& position, Vec3& velocity) const
     velocity = y.tail<3>();
   }
 }
-void TrajectoryIntegrator::state_at_fraction(double theta, double& t, Vec3& position,
-                                             Vec3& velocity) const {
-  if (in_arc_) {
-    const Vec7 y = arc_.dense_at_theta(theta);
-    t = y[6];
-    position = y.head<3>();
-    velocity = y.segment<3>(3);
-    return;
-  }
-  t = ode_.t_prev() + (ode_.t() - ode_.t_prev()) * theta;
-  state(t, position, velocity);
-}
 Vec3 TrajectoryIntegrator::position() const {
   return in_arc_ ? Vec3(arc_.y().head<3>()) : Vec3(ode_.y().head<3>());
 }
