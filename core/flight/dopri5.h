@@ -64,6 +64,10 @@ class Dopri5 {
   using Vec = Eigen::Matrix<double, N, 1>;
 
   Dopri5(Rhs rhs, Dopri5Options opt) : rhs_(std::move(rhs)), opt_(opt) {}
+  // Not copyable: the stage sets are left uninitialised until the first step (below), and a
+  // copy would read indeterminate values.
+  Dopri5(const Dopri5&) = delete;
+  Dopri5& operator=(const Dopri5&) = delete;
 
   // Start at (t0, y0). h0 <= 0: initial step chosen automatically (Hairer's algorithm).
   void reset(double t0, const Vec& y0, double h0 = 0.0) {
