@@ -10,6 +10,10 @@
 // `Rhs` is a callable `Vec rhs(double t, const Vec& y)` (any expression convertible to Vec).
 // Error norm: RMS over components of err_i / (atol + rtol * max(|y0_i|, |y1_i|)).
 // No heap allocation: every vector is a fixed-size Eigen vector held by value.
+// The stages live in two sets, the accepted step's and a scratch set for attempts, so that an
+// accepted step costs no copies of stages, and the continuous extension's coefficients are built
+// on first use (about half the flight steps of a typical run never ask for them: steps above
+// everything). Not thread-safe even through const methods (the first dense call builds them).
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
@@ -60,12 +64,17 @@ class Dopri5 {
   using Vec = Eigen::Matrix<double, N, 1>;
 
   Dopri5(Rhs rhs, Dopri5Options opt) : rhs_(std::move(rhs)), opt_(opt) {}
+  // Not copyable: the stage sets are left uninitialised until the first step (below), and a
+  // copy would read indeterminate values.
+  Dopri5(const Dopri5&) = delete;
+  Dopri5& operator=(const Dopri5&) = delete;
 
   // Start at (t0, y0). h0 <= 0: initial step chosen automatically (Hairer's algorithm).
   void reset(double t0, const Vec& y0, double h0 = 0.0) {
     t_ = t_prev_ = t0;
-    y_ = y_prev_ = y0;
-    dy_ = f_prev_ = rhs_(t0, y0);
+    Stages& acc = stages_[acc_];
+    acc.y1 = y_prev_ = y0;
+    acc.k7 = rhs_(t0, y0);
     ++rhs_evals_;
     h_ = 0.0;
     log_facold_ = kLogErrFloor;
@@ -74,6 +83,7 @@ class Dopri5 {
     r3_.setZero();
     r4_.setZero();
     r5_.setZero();
+    dense_ready_ = true;
     h_next_ = h0 > 0.0 ? std::min(h0, opt_.h_max) : initial_step();
   }
 
@@ -97,9 +107,9 @@ class Dopri5 {
         h = t_end - t_;
         last = true;
       }
-      // FSAL: dy_ = f(t_, y_) is the first stage.
-      Vec y1, k7;
-      const double err = attempt(t_, y_, dy_, h, y1, k7, true);
+      // FSAL: dy() = f(t_, y()) is the first stage.
+      Stages& next = stages_[1 - acc_];
+      const double err = attempt(t_, y(), dy(), h, next, true);
       if (err <= 1.0) {
         // err^expo1 / err_old^beta as one exp of logs (pow twice per step showed in profiles);
         // err = 0 (e.g. a polynomial solution) gives log = -inf, fac = 0, clamped below.
@@ -111,15 +121,13 @@ class Dopri5 {
         log_facold_ = std::max(log_err, kLogErrFloor);   // err_old >= 1e-4 as in Hairer's code
         rejected_last_ = false;
         t_prev_ = t_;
-        y_prev_ = y_;
-        f_prev_ = dy_;
+        y_prev_ = y();
         t_ = last ? t_end : t_ + h;
         h_ = t_ - t_prev_;
-        y_ = y1;
-        dy_ = k7;
+        acc_ = 1 - acc_;  // the attempt's stages (with y1 and k7 = f(t, y1)) are the step's
+        dense_ready_ = false;
         h_next_ = h_new;
         ++accepted_;
-        build_dense();
         return true;
       }
       ++rejected_;
@@ -142,37 +150,38 @@ class Dopri5 {
                                   " outside (" + std::to_string(t_prev_) + ", " +
                                   std::to_string(t_) + "]");
     if (t_stop == t_) return;
-    Vec y1, k7;
-    attempt(t_prev_, y_prev_, f_prev_, t_stop - t_prev_, y1, k7, false);
+    // The accepted step's first stage is f(t_prev, y_prev).
+    attempt(t_prev_, y_prev_, stages_[acc_].k1, t_stop - t_prev_, stages_[1 - acc_], false);
+    acc_ = 1 - acc_;
     t_ = t_stop;
     h_ = t_ - t_prev_;
-    y_ = y1;
-    dy_ = k7;
-    build_dense();
+    dense_ready_ = false;
   }
 
   double t() const { return t_; }
   double t_prev() const { return t_prev_; }
-  const Vec& y() const { return y_; }
+  const Vec& y() const { return stages_[acc_].y1; }
   const Vec& y_prev() const { return y_prev_; }
-  const Vec& dy() const { return dy_; }  // f(t, y) at t()
+  const Vec& dy() const { return stages_[acc_].k7; }  // f(t, y) at t()
 
   // Hairer's continuous extension on [t_prev(), t()], theta = (t - t_prev)/h:
   //   y(theta) = y0 + theta (r2 + (1-theta) (r3 + theta (r4 + (1-theta) r5)))
   // with r2 = y1 - y0, r3 = h k1 - r2, r4 = r2 - h k7 - r3, r5 = h sum d_i k_i (HNW II.6).
   // It matches y0, y1, f0 and f1 at the ends (C1 across steps) and is 4th order inside.
   Vec dense(double t) const {
-    if (h_ == 0.0) return y_;
+    if (h_ == 0.0) return y();
     return dense_at_theta((t - t_prev_) / h_);
   }
   // The same at theta in [0, 1] (for callers that locate theta by another component).
   Vec dense_at_theta(double th) const {
+    ensure_dense();
     const double th1 = 1.0 - th;
     return y_prev_ + th * (r2_ + th1 * (r3_ + th * (r4_ + th1 * r5_)));
   }
   // Time derivative of dense(t).
   Vec dense_derivative(double t) const {
-    if (h_ == 0.0) return dy_;
+    if (h_ == 0.0) return dy();
+    ensure_dense();
     const double th = (t - t_prev_) / h_, th1 = 1.0 - th;
     return (r2_ + (1.0 - 2.0 * th) * r3_ + th * (2.0 - 3.0 * th) * r4_ +
             (2.0 * th * th1 * (1.0 - 2.0 * th)) * r5_) /
@@ -187,6 +196,7 @@ class Dopri5 {
     double t0, h;
   };
   DenseCoefficients dense_coefficients() const {
+    ensure_dense();
     return {y_prev_, r2_, r3_, r4_, r5_, t_prev_, h_};
   }
 
@@ -199,40 +209,52 @@ class Dopri5 {
   const Dopri5Options& options() const { return opt_; }
 
  private:
+  // One attempt's stages k1..k7 and its 5th-order result y1 (k7 = f(t0 + h, y1)).
+  // Left uninitialised (zeroing both sets showed in profiles: one integrator per history):
+  // reset() sets y1 and k7 of the accepted set, and nothing reads the rest before a step.
+  struct Stages {
+    Vec k1, k2, k3, k4, k5, k6, k7, y1;
+  };
+
   // RMS of v_i / (atol + rtol * max(|a_i|, |b_i|)).
   double scaled_rms(const Vec& v, const Vec& a, const Vec& b) const {
     const Vec sc = (opt_.atol + opt_.rtol * a.cwiseAbs().cwiseMax(b.cwiseAbs()).array()).matrix();
     return std::sqrt(v.cwiseQuotient(sc).squaredNorm() / static_cast<double>(N));
   }
 
-  // One DOPRI5 step of size h from (t0, y0) with f0 = f(t0, y0): the 5th-order result y1,
-  // k7 = f(t0 + h, y1), and the stages k2..k6 in members for the dense output. Returns the
-  // scaled error norm when `estimate` is set (else 0).
-  double attempt(double t0, const Vec& y0, const Vec& f0, double h, Vec& y1, Vec& k7,
-                 bool estimate) {
+  // One DOPRI5 step of size h from (t0, y0) with f0 = f(t0, y0) into `k`: the stages, the
+  // 5th-order result k.y1 and k.k7 = f(t0 + h, y1). Returns the scaled error norm when `estimate`
+  // is set (else 0). f0 and y0 must not be in `k`.
+  double attempt(double t0, const Vec& y0, const Vec& f0, double h, Stages& k, bool estimate) {
     using namespace dopri5_tableau;
-    k1_ = f0;
-    k2_ = rhs_(t0 + c2 * h, y0 + h * (a21 * k1_));
-    k3_ = rhs_(t0 + c3 * h, y0 + h * (a31 * k1_ + a32 * k2_));
-    k4_ = rhs_(t0 + c4 * h, y0 + h * (a41 * k1_ + a42 * k2_ + a43 * k3_));
-    k5_ = rhs_(t0 + c5 * h, y0 + h * (a51 * k1_ + a52 * k2_ + a53 * k3_ + a54 * k4_));
-    k6_ = rhs_(t0 + h, y0 + h * (a61 * k1_ + a62 * k2_ + a63 * k3_ + a64 * k4_ + a65 * k5_));
-    y1 = y0 + h * (b1 * k1_ + b3 * k3_ + b4 * k4_ + b5 * k5_ + b6 * k6_);
-    k7 = rhs_(t0 + h, y1);
+    k.k1 = f0;
+    k.k2 = rhs_(t0 + c2 * h, y0 + h * (a21 * k.k1));
+    k.k3 = rhs_(t0 + c3 * h, y0 + h * (a31 * k.k1 + a32 * k.k2));
+    k.k4 = rhs_(t0 + c4 * h, y0 + h * (a41 * k.k1 + a42 * k.k2 + a43 * k.k3));
+    k.k5 = rhs_(t0 + c5 * h, y0 + h * (a51 * k.k1 + a52 * k.k2 + a53 * k.k3 + a54 * k.k4));
+    k.k6 = rhs_(t0 + h, y0 + h * (a61 * k.k1 + a62 * k.k2 + a63 * k.k3 + a64 * k.k4 + a65 * k.k5));
+    k.y1 = y0 + h * (b1 * k.k1 + b3 * k.k3 + b4 * k.k4 + b5 * k.k5 + b6 * k.k6);
+    k.k7 = rhs_(t0 + h, k.y1);
     rhs_evals_ += 6;
-    k7_ = k7;
     if (!estimate) return 0.0;
-    const Vec err = h * (e1 * k1_ + e3 * k3_ + e4 * k4_ + e5 * k5_ + e6 * k6_ + e7 * k7);
-    return scaled_rms(err, y0, y1);
+    const Vec err = h * (e1 * k.k1 + e3 * k.k3 + e4 * k.k4 + e5 * k.k5 + e6 * k.k6 + e7 * k.k7);
+    return scaled_rms(err, y0, k.y1);
   }
 
-  // Coefficients of the continuous extension for the accepted step [t_prev_, t_].
-  void build_dense() {
+  // Coefficients of the continuous extension for the accepted step [t_prev_, t_], built on the
+  // first call after the step (the stages stay until the next accepted step). The test inline,
+  // the build out of line (a call for every dense evaluation showed in profiles).
+  void ensure_dense() const {
+    if (!dense_ready_) build_dense();
+  }
+  [[gnu::noinline]] void build_dense() const {
     using namespace dopri5_tableau;
-    r2_ = y_ - y_prev_;
-    r3_ = h_ * k1_ - r2_;
-    r4_ = r2_ - h_ * k7_ - r3_;
-    r5_ = h_ * (d1 * k1_ + d3 * k3_ + d4 * k4_ + d5 * k5_ + d6 * k6_ + d7 * k7_);
+    const Stages& k = stages_[acc_];
+    r2_ = k.y1 - y_prev_;
+    r3_ = h_ * k.k1 - r2_;
+    r4_ = r2_ - h_ * k.k7 - r3_;
+    r5_ = h_ * (d1 * k.k1 + d3 * k.k3 + d4 * k.k4 + d5 * k.k5 + d6 * k.k6 + d7 * k.k7);
+    dense_ready_ = true;
   }
 
   // Starting step size (HNW 1993, II.4, "Starting step size"): h0 = 0.01 ||y0|| / ||f0||, one
@@ -240,15 +262,16 @@ class Dopri5 {
   // ||f''||))^(1/5); h = min(100 h0, h1). Norms are the error norm's, so the result is in the
   // same tolerance units as the step control. Costs one evaluation of f.
   double initial_step() {
-    const Vec& f0 = dy_;
-    const double d0 = scaled_rms(y_, y_, y_);
-    const double d1 = scaled_rms(f0, y_, y_);
+    const Vec& y0 = y();
+    const Vec& f0 = dy();
+    const double d0 = scaled_rms(y0, y0, y0);
+    const double d1 = scaled_rms(f0, y0, y0);
     double h0 = (d0 < 1e-10 || d1 < 1e-10) ? 1e-6 : 0.01 * d0 / d1;
     h0 = std::min(h0, opt_.h_max);
-    const Vec y1 = y_ + h0 * f0;
+    const Vec y1 = y0 + h0 * f0;
     const Vec f1 = rhs_(t_ + h0, y1);
     ++rhs_evals_;
-    const double d2 = scaled_rms(f1 - f0, y_, y_) / h0;
+    const double d2 = scaled_rms(f1 - f0, y0, y0) / h0;
     const double der = std::max(d1, d2);
     const double h1 = der <= 1e-15 ? std::max(1e-6, h0 * 1e-3) : std::pow(0.01 / der, 0.2);
     return std::min({100.0 * h0, h1, opt_.h_max});
@@ -263,12 +286,14 @@ class Dopri5 {
   static constexpr double kLogErrFloor = -9.210340371976182;  // ln(1e-4)
   double log_facold_ = kLogErrFloor;  // ln of the previous accepted error norm
   bool rejected_last_ = false;
-  Vec y_ = Vec::Zero(), y_prev_ = Vec::Zero();
-  Vec dy_ = Vec::Zero();      // f(t_, y_)
-  Vec f_prev_ = Vec::Zero();  // f(t_prev_, y_prev_), for truncate_last_step
-  Vec k1_ = Vec::Zero(), k2_ = Vec::Zero(), k3_ = Vec::Zero(), k4_ = Vec::Zero(), k5_ = Vec::Zero(),
-      k6_ = Vec::Zero(), k7_ = Vec::Zero();
-  Vec r2_ = Vec::Zero(), r3_ = Vec::Zero(), r4_ = Vec::Zero(), r5_ = Vec::Zero();
+  Vec y_prev_ = Vec::Zero();
+  // stages_[acc_]: the last accepted (or truncated) step's stages, its y1 = y() and k7 = dy();
+  // after reset() only y1 and k7 are set. The other set is the scratch for attempts, so a failed
+  // step() leaves the accepted step and its dense output intact.
+  Stages stages_[2];
+  int acc_ = 0;
+  mutable bool dense_ready_ = true;
+  mutable Vec r2_, r3_, r4_, r5_;  // set by reset() and ensure_dense()
   long rhs_evals_ = 0, accepted_ = 0, rejected_ = 0;
 };
 

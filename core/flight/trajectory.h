@@ -43,13 +43,32 @@ class TrajectoryIntegrator {
   void state(double t, Vec3& position, Vec3& velocity) const;  // both from one evaluation
   // The last step's dense output at the fraction theta in [0, 1] of its independent variable
   // (s or t): its time, position and velocity from one evaluation, without the time inversion.
-  void state_at_fraction(double theta, double& t, Vec3& position, Vec3& velocity) const;
+  // Inline: called for every chord end (its outputs then stay in registers).
+  void state_at_fraction(double theta, double& t, Vec3& position, Vec3& velocity) const {
+    if (in_arc_) {
+      const Vec7 y = arc_.dense_at_theta(theta);
+      t = y[6];
+      position = y.head<3>();
+      velocity = y.segment<3>(3);
+      return;
+    }
+    t = ode_.t_prev() + (ode_.t() - ode_.t_prev()) * theta;
+    state(t, position, velocity);
+  }
   // The last step's interval and its end state, what a caller reads after every step.
   struct StepEnd {
     double t0, t1;  // t_prev(), t()
     Vec3 p, v, a;   // position(), velocity(), acceleration()
   };
-  StepEnd step_end() const;
+  // Inline: read after every step, and the caller's copy of it then folds into its own fields.
+  StepEnd step_end() const {
+    if (in_arc_) {
+      const Vec7& y = arc_.y();
+      return {arc_.y_prev()[6], y[6], y.head<3>(), y.segment<3>(3), arc_accel_};
+    }
+    const Vec6& y = ode_.y();
+    return {ode_.t_prev(), ode_.t(), y.head<3>(), y.tail<3>(), ode_.dy().tail<3>()};
+  }
   Vec3 position() const;  // at t()
   Vec3 velocity() const;
   Vec3 acceleration() const;  // at t()
