@@ -873,24 +873,25 @@ bool BackendJob::groups_alive() {
 
 bool BackendJob::queue_gone() {
   const auto now = Clock::now();
-  if (status_checked_ && now - last_status_ < std::chrono::duration<double>(status_interval_s_))
-    return gone_count_ >= 2;
-  status_checked_ = true;
-  last_status_ = now;
+  if (watch_.status_checked &&
+      now - watch_.last_status < std::chrono::duration<double>(status_interval_s_))
+    return watch_.gone_count >= 2;
+  watch_.status_checked = true;
+  watch_.last_status = now;
   const fs::path out = workdir_ / "status.out";
   const int rc = run_command(expand_ids(status_), out, workdir_ / "status.log", 60.0);
   std::string text = read_file(out);
   const bool empty = text.find_first_not_of(" \t\r\n") == std::string::npos;
   if (rc == 0) {
-    unknown_since_.reset();
-    gone_count_ = empty ? gone_count_ + 1 : 0;
+    watch_.unknown_since.reset();
+    watch_.gone_count = empty ? watch_.gone_count + 1 : 0;
   } else {
     // The queue could not say (controller down, or a job it no longer remembers).
-    if (!unknown_since_) unknown_since_ = now;
-    if (now - *unknown_since_ > std::chrono::duration<double>(lost_after_s_)) return true;
+    if (!watch_.unknown_since) watch_.unknown_since = now;
+    if (now - *watch_.unknown_since > std::chrono::duration<double>(lost_after_s_)) return true;
   }
   // Twice in a row: a shard's last file written on a shared file system shows up here late.
-  return gone_count_ >= 2;
+  return watch_.gone_count >= 2;
 }
 
 bool BackendJob::processes_gone() {

@@ -177,11 +177,21 @@ class BackendJob {
   double status_interval_s_ = 30.0;
   double lost_after_s_ = 600.0;
   std::string submitted_utc_;
-  // Queue status bookkeeping (not persisted).
-  Clock::time_point last_status_{};
-  bool status_checked_ = false;
-  int gone_count_ = 0;
-  std::optional<Clock::time_point> unknown_since_;
+  // Queue status bookkeeping: not persisted, and not copied. The scheduler copies a job to stop
+  // it (Scheduler::cancel) while its monitor thread may be in poll() on the original, writing
+  // these (a data race TSan reported in FakeSlurm.CancelRunsScancel, 2026-11-29); a copy starts
+  // with none, which is all a copy needs (cancel and processes_gone do not read them).
+  struct QueueWatch {
+    Clock::time_point last_status{};
+    bool status_checked = false;
+    int gone_count = 0;
+    std::optional<Clock::time_point> unknown_since;
+    QueueWatch() = default;
+    QueueWatch(const QueueWatch&) {}
+    QueueWatch& operator=(const QueueWatch&) { return *this; }
+    ~QueueWatch() = default;
+  };
+  QueueWatch watch_;
 };
 
 }  // namespace fragsim::server
