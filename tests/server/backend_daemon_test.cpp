@@ -163,33 +163,22 @@ TEST(BackendDaemon, APrecisionJobRunsWholeAsOneShard) {
 }
 
 // Sanitizer builds (deploy/sanitize.sh), where the instrumented code runs 3-10 times slower.
-#if defined(__SANITIZE_THREAD__)
-constexpr bool kUnderTsan = true;
-#elif defined(__has_feature)
-#if __has_feature(thread_sanitizer)
-constexpr bool kUnderTsan = true;
+#if defined(__has_feature)
+#define FRAGSIM_TEST_HAS_FEATURE(x) __has_feature(x)
 #else
-constexpr bool kUnderTsan = false;
+#define FRAGSIM_TEST_HAS_FEATURE(x) 0
 #endif
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__) || \
+    FRAGSIM_TEST_HAS_FEATURE(address_sanitizer) || FRAGSIM_TEST_HAS_FEATURE(thread_sanitizer)
+constexpr bool kSanitized = true;
 #else
-constexpr bool kUnderTsan = false;
-#endif
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kUnderAsan = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kUnderAsan = true;
-#else
-constexpr bool kUnderAsan = false;
-#endif
-#else
-constexpr bool kUnderAsan = false;
+constexpr bool kSanitized = false;
 #endif
 
 // The job a kill -9 interrupts must still run when the daemon is killed: the demo x 8 (640,000
 // histories) in Release, x 2 in a sanitizer build, which is as long in seconds (the x 8 job made
 // the two restart tests 4-5 minutes each under ASan in CI, 2026-11-29).
-constexpr double kRestartScale = kUnderTsan || kUnderAsan ? 2.0 : 8.0;
+constexpr double kRestartScale = kSanitized ? 2.0 : 8.0;
 
 // kill -9 of the daemon while the shards run: they go on; the restarted daemon re-attaches (the
 // job stays running, attempts 1: not rerun) and finishes it with the same figures.
@@ -350,7 +339,7 @@ TEST(BackendDaemon, MpiBackendPrecisionJobSurvivesKillNineOfTheDaemon) {
   const MpiRanksWithoutLeakChecks ranks_unchecked;
   // 6 batches of 40,000 histories (10,000 in a sanitizer build), no target met: long enough to
   // kill the daemon in the middle.
-  Json scenario = scaled_samples(demo_scenario(), kUnderAsan || kUnderTsan ? 0.125 : 0.5);
+  Json scenario = scaled_samples(demo_scenario(), kSanitized ? 0.125 : 0.5);
   scenario["settings"]["precision"] = {{"max_batches", 6}, {"building_rel_error", 1e-9}};
   restart_recovery(fresh_dir("fragsimd_backend_mpi_precision_restart_"), mpi_precision_backend(),
                    scenario);
