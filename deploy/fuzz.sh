@@ -12,6 +12,7 @@
 # modified. FUZZ_KEEP=1 keeps the scratch directory (the grown corpora) and says where it is;
 # FUZZ_CORPUS=DIR fuzzes the corpora DIR/<target>/corpus (e.g. a kept scratch directory, to go
 # on from an earlier run; the seeds are added to them) instead of fresh copies.
+# FUZZ_JOBS (default: the number of cores) targets run at a time, each one process.
 # FUZZ_TIMEOUT (default 1 s) is wall-clock time: on a machine busy with other work, a run in the
 # background needs a larger one (the slowest input is printed; replay it to time it alone).
 # A failing input is saved in build-fuzz/artifacts/<target>/; replay it with
@@ -43,8 +44,9 @@ export LSAN_OPTIONS="suppressions=$root/deploy/sanitizers/lsan.supp:print_suppre
 runs_flag=()
 [ -z "${FUZZ_RUNS:-}" ] || runs_flag=(-runs="$FUZZ_RUNS")
 
-failed=()
-for t in "${targets[@]}"; do
+# One target: its summary goes to $scratch/$t/summary, ok or FAILED to $scratch/$t/status.
+fuzz_one() {
+  local t="$1" corpus log start status execs rate cov slowest
   corpus="$scratch/$t/corpus"
   [ -z "${FUZZ_CORPUS:-}" ] || corpus="$FUZZ_CORPUS/$t/corpus"
   mkdir -p "$corpus" "$scratch/$t/tmp" "$build/artifacts/$t"
@@ -60,19 +62,40 @@ for t in "${targets[@]}"; do
     status=ok
   else
     status=FAILED
-    failed+=("$t")
   fi
   execs="$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)"
   rate="$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -n 1)"
   cov="$(grep -o 'cov: [0-9]*' "$log" | tail -n 1 | cut -d' ' -f2)"
   slowest="$(sed -n 's/^stat::slowest_unit_time_sec: *//p' "$log" | tail -n 1)"
-  echo "fuzz: $t $status: ${execs:-?} executions in $(($(date +%s) - start)) s" \
-    "(${rate:-?}/s), coverage ${cov:-?}, corpus $(ls "$corpus" | wc -l) inputs," \
-    "slowest input ${slowest:-?} s"
-  if [ "$status" != ok ]; then
-    grep -B2 -A40 -m1 -E 'ERROR: |runtime error|==ERROR|fuzz invariant|deadly signal|timeout' \
-      "$log" || tail -n 60 "$log"
+  {
+    echo "fuzz: $t $status: ${execs:-?} executions in $(($(date +%s) - start)) s" \
+      "(${rate:-?}/s), coverage ${cov:-?}, corpus $(ls "$corpus" | wc -l) inputs," \
+      "slowest input ${slowest:-?} s"
+    if [ "$status" != ok ]; then
+      grep -B2 -A40 -m1 -E 'ERROR: |runtime error|==ERROR|fuzz invariant|deadly signal|timeout' \
+        "$log" || tail -n 60 "$log"
+    fi
+  } >"$scratch/$t/summary"
+  echo "$status" >"$scratch/$t/status"
+}
+
+# FUZZ_JOBS targets at a time (default: one per core; each fuzzer is one process on one core),
+# so that CI's 5 x 60 s take 3 minutes on 2 cores, not 5. Summaries are printed in target order.
+jobs="${FUZZ_JOBS:-$(nproc 2>/dev/null || echo 2)}"
+running=0
+for t in "${targets[@]}"; do
+  if [ "$running" -ge "$jobs" ]; then
+    wait -n || true
+    running=$((running - 1))
   fi
+  fuzz_one "$t" &
+  running=$((running + 1))
+done
+wait || true
+failed=()
+for t in "${targets[@]}"; do
+  cat "$scratch/$t/summary" 2>/dev/null || echo "fuzz: $t FAILED: no summary"
+  [ "$(cat "$scratch/$t/status" 2>/dev/null)" = ok ] || failed+=("$t")
 done
 if [ ${#failed[@]} -gt 0 ]; then
   echo "fuzz: FAILED: ${failed[*]} (inputs in $build/artifacts/)" >&2

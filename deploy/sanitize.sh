@@ -18,6 +18,18 @@ supp="$root/deploy/sanitizers"
 # Test executables whose code runs on several threads (labels from tests/CMakeLists.txt).
 TSAN_LABELS='^(test_core_run|test_server)$'
 
+# Left out of the ASan step, as CI's 90 minutes cannot hold them under both sanitizers
+# (docs/testing.md, "What each sanitizer step leaves out"):
+#  - the fan's closed-form density checks (200,000-history runs, 2-5 min each under ASan): the
+#    stratified, Sobol and importance-sampling code they pass through runs under ASan in
+#    StratifiedLaunch.*, Paired.*, Shards.* and DirectionImportance.*;
+#  - the daemon tests whose jobs run through backends (command, mpi, slurm) and the kill -9,
+#    SIGTERM and PID-1 restarts: they run under TSan (step 3), which is where their bugs were
+#    (the daemon's monitor, scheduler and HTTP threads), and the backends' code runs under ASan
+#    in-process in BackendConfig.*, BackendJobFiles.* and the service tests.
+ASAN_SKIP='^(PtnDensity\.HorizontalFan.*|BackendDaemon\..*|FakeSlurm\..*|RealSlurm\..*'
+ASAN_SKIP+='|Daemon\.(JobsSurviveKillNine|AsPidOne|ShutdownPuts).*)$'
+
 # Warnings are errors here as in CI, also when run by hand: clang warns where GCC's Release build
 # does not (-Wunused-private-field failed a CI run whose local sanitizer builds had passed).
 configure() {  # build dir, sanitizers
@@ -50,7 +62,8 @@ asan() {
   # Timeouts as deploy/test.sh's: the instrumented suite is 2-3 times slower, well inside them.
   # The browser test (label viewer) and the Python client's (label python) are left out: their
   # time is Chromium's and Python's, and the routes they use run under ASan in test_server.
-  (cd "$root/build-asan" && "$root/deploy/ctest-scratch.sh" --output-on-failure -j "$jobs" --timeout 1800 -LE 'viewer|python')
+  (cd "$root/build-asan" && "$root/deploy/ctest-scratch.sh" --output-on-failure -j "$jobs" --timeout 900 -LE 'viewer|python' \
+    -E "$ASAN_SKIP")
   echo "sanitize: ASan+UBSan tests $(elapsed "$t0")"
   prune "$root/build-asan"
 }
@@ -66,7 +79,7 @@ tsan() {
   export TSAN_OPTIONS="halt_on_error=1:abort_on_error=1:second_deadlock_stack=1"
   export TSAN_OPTIONS="$TSAN_OPTIONS:suppressions=$supp/tsan.supp:print_suppressions=0"
   t0=$(date +%s)
-  (cd "$root/build-tsan" && "$root/deploy/ctest-scratch.sh" --output-on-failure -j "$jobs" --timeout 1800 -L "$TSAN_LABELS")
+  (cd "$root/build-tsan" && "$root/deploy/ctest-scratch.sh" --output-on-failure -j "$jobs" --timeout 900 -L "$TSAN_LABELS")
   echo "sanitize: TSan tests $(elapsed "$t0")"
   prune "$root/build-tsan"
 }

@@ -162,23 +162,10 @@ TEST(BackendDaemon, APrecisionJobRunsWholeAsOneShard) {
   EXPECT_EQ(d->kill(SIGTERM), 0);
 }
 
-// Sanitizer builds (deploy/sanitize.sh), where the instrumented code runs 3-10 times slower.
-#if defined(__has_feature)
-#define FRAGSIM_TEST_HAS_FEATURE(x) __has_feature(x)
-#else
-#define FRAGSIM_TEST_HAS_FEATURE(x) 0
-#endif
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__) || \
-    FRAGSIM_TEST_HAS_FEATURE(address_sanitizer) || FRAGSIM_TEST_HAS_FEATURE(thread_sanitizer)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
-
 // The job a kill -9 interrupts must still run when the daemon is killed: the demo x 8 (640,000
-// histories) in Release, x 2 in a sanitizer build, which is as long in seconds (the x 8 job made
-// the two restart tests 4-5 minutes each under ASan in CI, 2026-11-29).
-constexpr double kRestartScale = kSanitized ? 2.0 : 8.0;
+// histories) in Release, x 2 in a sanitizer build (the x 8 job made the two restart tests 4-5
+// minutes each under ASan in CI, 2026-11-29).
+const double kRestartScale = outlasting(8.0);
 
 // kill -9 of the daemon while the shards run: they go on; the restarted daemon re-attaches (the
 // job stays running, attempts 1: not rerun) and finishes it with the same figures.
@@ -339,7 +326,7 @@ TEST(BackendDaemon, MpiBackendPrecisionJobSurvivesKillNineOfTheDaemon) {
   const MpiRanksWithoutLeakChecks ranks_unchecked;
   // 6 batches of 40,000 histories (10,000 in a sanitizer build), no target met: long enough to
   // kill the daemon in the middle.
-  Json scenario = scaled_samples(demo_scenario(), kSanitized ? 0.125 : 0.5);
+  Json scenario = scaled_samples(demo_scenario(), outlasting(0.5));
   scenario["settings"]["precision"] = {{"max_batches", 6}, {"building_rel_error", 1e-9}};
   restart_recovery(fresh_dir("fragsimd_backend_mpi_precision_restart_"), mpi_precision_backend(),
                    scenario);
@@ -470,7 +457,7 @@ TEST(BackendDaemon, CancelStopsTheShards) {
   auto d = backend_daemon(dir, command_backend(dir, 2));
   ASSERT_NO_THROW(d->start()) << d->log();
   auto c = d->client();
-  const std::string id = submit(*c, scaled_samples(demo_scenario(), 20.0));
+  const std::string id = submit(*c, scaled_samples(demo_scenario(), outlasting(20.0)));
   const Json running = wait_progress(*c, id);
   ASSERT_EQ(running.value("state", ""), "running") << running.dump();
   const pid_t pgid = manifest(*d, id)["groups"][0]["pgid"].get<pid_t>();
@@ -499,7 +486,7 @@ TEST(BackendDaemon, QueuePrioritiesAndTheBackendsJobLimitApply) {
   auto d = backend_daemon(dir, backend);
   ASSERT_NO_THROW(d->start()) << d->log();
   auto c = d->client();
-  const std::string first = submit(*c, scaled_samples(demo_scenario(), 4.0));
+  const std::string first = submit(*c, scaled_samples(demo_scenario(), outlasting(4.0)));
   ASSERT_EQ(wait_progress(*c, first).value("state", ""), "running");
   Json low = with_seed(minimal_scenario(), 1);
   Json high = with_seed(minimal_scenario(), 2);
@@ -580,7 +567,7 @@ TEST_F(FakeSlurm, SlurmPresetJobIsBitIdenticalAndRecoversAfterKillNine) {
   auto d = backend_daemon(dir_, slurm_backend());
   ASSERT_NO_THROW(d->start()) << d->log();
   auto c = d->client();
-  const Json scenario = scaled_samples(demo_scenario(), 6.0);
+  const Json scenario = scaled_samples(demo_scenario(), outlasting(6.0));
   const std::string id = submit(*c, scenario);
   ASSERT_EQ(wait_progress(*c, id).value("state", ""), "running") << d->log();
   const Json m = manifest(*d, id);
@@ -603,7 +590,7 @@ TEST_F(FakeSlurm, CancelRunsScancel) {
   auto d = backend_daemon(dir_, slurm_backend());
   ASSERT_NO_THROW(d->start()) << d->log();
   auto c = d->client();
-  const std::string id = submit(*c, scaled_samples(demo_scenario(), 20.0));
+  const std::string id = submit(*c, scaled_samples(demo_scenario(), outlasting(20.0)));
   ASSERT_EQ(wait_progress(*c, id).value("state", ""), "running") << d->log();
   const std::string queue_id = manifest(*d, id)["ids"][0];
   auto r = c->Delete("/v1/jobs/" + id);
@@ -681,7 +668,7 @@ TEST_F(RealSlurm, SlurmPresetJobIsBitIdenticalSurvivesKillNineAndCancels) {
   auto d = backend_daemon(dir_, backend);
   ASSERT_NO_THROW(d->start()) << d->log();
   auto c = d->client();
-  const Json scenario = scaled_samples(demo_scenario(), 4.0);
+  const Json scenario = scaled_samples(demo_scenario(), outlasting(4.0));
   const std::string id = submit(*c, scenario);
   ASSERT_EQ(wait_progress(*c, id).value("state", ""), "running") << d->log();
   d->kill(SIGKILL);
@@ -692,7 +679,7 @@ TEST_F(RealSlurm, SlurmPresetJobIsBitIdenticalSurvivesKillNineAndCancels) {
   EXPECT_EQ(s["attempts"], 1);
   expect_same_as_cli(*c, dir_, id, scenario);
 
-  const std::string long_job = submit(*c, scaled_samples(demo_scenario(), 20.0));
+  const std::string long_job = submit(*c, scaled_samples(demo_scenario(), outlasting(20.0)));
   ASSERT_EQ(wait_progress(*c, long_job).value("state", ""), "running") << d->log();
   const std::string queue_id = manifest(*d, long_job)["ids"][0];
   auto r = c->Delete("/v1/jobs/" + long_job);

@@ -11,6 +11,7 @@
 
 #include "api/results_h5.h"
 #include "tests/api/test_support.h"
+#include "tests/sanitizer_build.h"
 #include "tests/server/daemon_process.h"
 
 namespace fragsim::server::testing {
@@ -175,6 +176,16 @@ inline fs::path download(httplib::Client& c, const fs::path& dir, const std::str
 inline Json with_seed(Json scenario, std::uint64_t seed) {
   scenario["settings"]["seed"] = seed;
   return scenario;
+}
+
+using fragsim::testing::kSanitized;
+
+// The samples factor of a job that only has to outlast what a test does to it (a kill -9, a
+// SIGTERM, a cancel, clients polling): `release_factor` in a Release build, a quarter of it in a
+// sanitizer build, where the job is about as long in seconds. CI's sanitizer steps ran the
+// Release-sized jobs, 4-6 minutes a test, and went past CI's 90 minutes (docs/testing.md).
+inline double outlasting(double release_factor) {
+  return kSanitized ? release_factor / 4.0 : release_factor;
 }
 
 inline Json scaled_samples(Json scenario, double factor) {
