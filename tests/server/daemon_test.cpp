@@ -11,6 +11,10 @@
 namespace fragsim::server::testing {
 namespace {
 
+// A job long enough to be caught running by a kill -9 or SIGTERM: the demo x 3 in Release, a
+// quarter of it in a sanitizer build (outlasting()).
+const double kLongJobScale = outlasting(3.0);
+
 TEST(Daemon, DemoJobIsBitIdenticalToTheCli) {
   const fs::path dir = fresh_dir("fragsimd_demo_");
   Daemon d(dir);
@@ -61,7 +65,7 @@ TEST(Daemon, JobsSurviveKillNineAndRerunIdentically) {
   const Json demo = demo_scenario();
   const std::string site = upload_site(*c, demo);
   // The first job is long enough to be caught running; the other two wait behind it.
-  const Json first = scaled_samples(by_site_id(demo, site), outlasting(3.0));
+  const Json first = scaled_samples(by_site_id(demo, site), kLongJobScale);
   const Json second = by_site_id(with_seed(scaled_samples(demo, 0.25), 7), site);
   const Json third = with_seed(minimal_scenario(), 11);  // inline site
   const std::string a = submit(*c, first);
@@ -98,7 +102,7 @@ TEST(Daemon, JobsSurviveKillNineAndRerunIdentically) {
   EXPECT_EQ(job_status(*c, b)["attempts"], 1);
 
   // Each result equals an uninterrupted run of the same scenario.
-  Json first_inline = scaled_samples(demo, outlasting(3.0));
+  Json first_inline = scaled_samples(demo, kLongJobScale);
   Json second_inline = with_seed(scaled_samples(demo, 0.25), 7);
   const std::vector<std::pair<std::string, Json>> cases = {
       {a, first_inline}, {b, second_inline}, {e, third}};
@@ -148,7 +152,7 @@ TEST(Daemon, AsPidOneItStopsOnSigtermAndRerunsAfterKillNine) {
   auto c = d.client();
   const Json demo = demo_scenario();
   const std::string site = upload_site(*c, demo);
-  const std::string id = submit(*c, scaled_samples(by_site_id(demo, site), outlasting(3.0)));
+  const std::string id = submit(*c, scaled_samples(by_site_id(demo, site), kLongJobScale));
   const auto wait_running = [&] {
     const auto deadline = Clock::now() + std::chrono::seconds(120);
     while (Clock::now() < deadline) {
@@ -177,7 +181,7 @@ TEST(Daemon, AsPidOneItStopsOnSigtermAndRerunsAfterKillNine) {
   EXPECT_EQ(s["attempts"], 3) << "started, restarted after SIGTERM, restarted after kill -9";
   const fs::path served = download(*c, dir, id);
   expect_same_datasets(served / "results.h5",
-                       cli_run(dir, id, scaled_samples(demo, outlasting(3.0))) / "results.h5");
+                       cli_run(dir, id, scaled_samples(demo, kLongJobScale)) / "results.h5");
   ::kill(inner_daemon_pid(d.pid()).second, SIGTERM);
   EXPECT_EQ(d.kill(0), 0);
 }
@@ -187,7 +191,7 @@ TEST(Daemon, ShutdownPutsTheRunningJobBackInTheQueue) {
   Daemon d(dir);
   ASSERT_NO_THROW(d.start()) << d.log();
   auto c = d.client();
-  const std::string id = submit(*c, scaled_samples(demo_scenario(), outlasting(3.0)));
+  const std::string id = submit(*c, scaled_samples(demo_scenario(), kLongJobScale));
   const auto deadline = Clock::now() + std::chrono::seconds(120);
   while (Clock::now() < deadline && job_status(*c, id).value("state", "") != "running")
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
