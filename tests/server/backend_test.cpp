@@ -281,7 +281,12 @@ TEST_F(BackendJobFiles, AQueueSubmissionRecordsTheIdsItPrinted) {
                                      "\"$1\" 0 & \"$1\" 1 &\n"
                                      "echo '4242;cluster'\n";
   c.submit = {"/bin/sh", (dir_ / "qsub.sh").string(), "{shard_script}"};
-  c.status = {"/bin/sh", "-c", "echo {ids} >>" + (dir_ / "status.calls").string()};
+  // The queue holds the job until both shards have recorded their end: a queue that forgot it
+  // while the shards still ran (as this stand-in once did) fails the job, and rightly so.
+  const std::string w = (dir_ / "w").string();
+  c.status = {"/bin/sh", "-c",
+              "echo {ids} >>" + (dir_ / "status.calls").string() + "; [ -e " + w +
+                  "/shard-0.exit ] && [ -e " + w + "/shard-1.exit ] || echo {ids}"};
   c.cancel = {"/bin/sh", "-c", "echo \"$0\" >" + (dir_ / "cancelled").string(), "{ids}"};
   c.run = {standin_.string(), "{shard}", "{shard_dir}", "{progress}"};
   c.status_interval_s = 0.05;
