@@ -23,12 +23,24 @@ seconds="${1:-60}"
 shift || true
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(fuzz_scenario fuzz_site fuzz_job fuzz_service fuzz_partial)
-build="$root/build-fuzz"
+# FUZZ_BUILD=DIR uses a tree configured with FRAGSIM_FUZZ=ON already (deploy/sanitize.sh's ASan
+# tree, which builds the fuzz targets beside the tests: one build fewer in CI).
+build="${FUZZ_BUILD:-$root/build-fuzz}"
 
 "$root/deploy/install-deps.sh"
-CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DFRAGSIM_FUZZ=ON -DFRAGSIM_BUILD_TESTS=OFF -DFRAGSIM_BUILD_BENCH=OFF -DFRAGSIM_WERROR=ON >/dev/null
+if [ -z "${FUZZ_BUILD:-}" ]; then
+  CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DFRAGSIM_FUZZ=ON -DFRAGSIM_BUILD_TESTS=OFF -DFRAGSIM_BUILD_BENCH=OFF \
+    -DFRAGSIM_WERROR=ON >/dev/null
+elif ! grep -q '^FRAGSIM_FUZZ:BOOL=ON$' "$build/CMakeCache.txt" 2>/dev/null; then
+  echo "fuzz: FUZZ_BUILD=$build is not a tree configured with -DFRAGSIM_FUZZ=ON" >&2
+  exit 2
+fi
+build_t0=$(date +%s)
 nice -n 5 cmake --build "$build" -j "$(nproc 2>/dev/null || echo 2)" --target "${targets[@]}"
+echo "fuzz: build $(($(date +%s) - build_t0)) s"
+[ -z "${FRAGSIM_CI_TIMES:-}" ] ||
+  echo "  fuzz: build $(($(date +%s) - build_t0)) s" >>"$FRAGSIM_CI_TIMES"
 
 scratch="$(mktemp -d "${TMPDIR:-/tmp}/fragsim-fuzz.XXXXXX")"
 if [ "${FUZZ_KEEP:-0}" = 1 ]; then

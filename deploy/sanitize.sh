@@ -3,7 +3,8 @@
 #   1. the whole test suite built with clang under ASan + UBSan (./build-asan);
 #   2. the threaded tests -- the Monte Carlo run's thread pool, the scheduler, the service and the
 #      daemon -- under TSan (./build-tsan);
-#   3. every fuzz target for FUZZ_SECONDS (default 60) under ASan + UBSan (deploy/fuzz.sh).
+#   3. every fuzz target for FUZZ_SECONDS (default 60) under ASan + UBSan (deploy/fuzz.sh), built
+#      in the ASan tree of step 1 when both are run.
 # Any report fails the step: sanitizers halt on the first one, with a stack.
 #
 #   deploy/sanitize.sh            # all three
@@ -36,10 +37,10 @@ ASAN_SKIP+='|Daemon\.(JobsSurviveKillNine|AsPidOne|ShutdownPuts).*)$'
 
 # Warnings are errors here as in CI, also when run by hand: clang warns where GCC's Release build
 # does not (-Wunused-private-field failed a CI run whose local sanitizer builds had passed).
-configure() {  # build dir, sanitizers
+configure() {  # build dir, sanitizers, further cmake options
   CC=clang CXX=clang++ cmake -S "$root" -B "$1" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DFRAGSIM_SANITIZE="$2" -DFRAGSIM_BUILD_TESTS=ON -DFRAGSIM_BUILD_BENCH=OFF \
-    -DFRAGSIM_WERROR=ON >/dev/null
+    -DFRAGSIM_WERROR=ON "${@:3}" >/dev/null
 }
 
 # In CI (CI set, as .ci/run sets it) a sanitizer build is removed once its tests passed: the CI
@@ -51,13 +52,28 @@ prune() {
 }
 
 elapsed() { echo "$(($(date +%s) - $1)) s"; }
+# A step's time, printed and, under .ci/run, added to the table it prints at its end.
+say() {
+  echo "sanitize: $*"
+  if [ -n "${FRAGSIM_CI_TIMES:-}" ]; then echo "  sanitize: $*" >>"$FRAGSIM_CI_TIMES"; fi
+}
 
+# When the fuzz step is asked for too, the ASan tree also builds the fuzz targets, with coverage
+# instrumentation in api/ and server/ (the parsers they feed; in core/ too it made the tests 1.8
+# times slower), and the fuzz step runs there before the tree is pruned: one library build fewer
+# than a tree of its own (docs/testing.md, "Measured"). deploy/fuzz.sh alone, for long runs, builds
+# its own tree with coverage everywhere.
+fuzz_in_asan=0
 asan() {
   local t0
   t0=$(date +%s)
-  configure "$root/build-asan" address,undefined
+  if [ "$fuzz_in_asan" = 1 ]; then
+    configure "$root/build-asan" address,undefined -DFRAGSIM_FUZZ=ON -DFRAGSIM_FUZZ_COVERAGE=contract
+  else
+    configure "$root/build-asan" address,undefined -DFRAGSIM_FUZZ=OFF
+  fi
   nice -n 5 cmake --build "$root/build-asan" -j "$jobs"
-  echo "sanitize: ASan+UBSan build $(elapsed "$t0")"
+  say "ASan+UBSan build $(elapsed "$t0")"
   export ASAN_OPTIONS="halt_on_error=1:abort_on_error=1:detect_leaks=1:strict_string_checks=1"
   export ASAN_OPTIONS="$ASAN_OPTIONS:detect_stack_use_after_return=1:check_initialization_order=1"
   export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
@@ -68,7 +84,12 @@ asan() {
   # time is Chromium's and Python's, and the routes they use run under ASan in test_server.
   (cd "$root/build-asan" && "$root/deploy/ctest-scratch.sh" --output-on-failure -j "$jobs" --timeout 900 -LE 'viewer|python' \
     -E "$ASAN_SKIP")
-  echo "sanitize: ASan+UBSan tests $(elapsed "$t0")"
+  say "ASan+UBSan tests $(elapsed "$t0")"
+  if [ "$fuzz_in_asan" = 1 ]; then
+    t0=$(date +%s)
+    FUZZ_BUILD="$root/build-asan" "$root/deploy/fuzz.sh" "${FUZZ_SECONDS:-60}"
+    say "fuzzing (in the ASan tree) $(elapsed "$t0")"
+  fi
   prune "$root/build-asan"
 }
 
@@ -79,21 +100,26 @@ tsan() {
   # Only what the threaded tests need (they run fragsim and fragsimd too).
   nice -n 5 cmake --build "$root/build-tsan" -j "$jobs" --target test_core_run test_server \
     fragsim fragsimd
-  echo "sanitize: TSan build $(elapsed "$t0")"
+  say "TSan build $(elapsed "$t0")"
   export TSAN_OPTIONS="halt_on_error=1:abort_on_error=1:second_deadlock_stack=1"
   export TSAN_OPTIONS="$TSAN_OPTIONS:suppressions=$supp/tsan.supp:print_suppressions=0"
   t0=$(date +%s)
   (cd "$root/build-tsan" && "$root/deploy/ctest-scratch.sh" --output-on-failure -j "$jobs" --timeout 900 -L "$TSAN_LABELS")
-  echo "sanitize: TSan tests $(elapsed "$t0")"
+  say "TSan tests $(elapsed "$t0")"
   prune "$root/build-tsan"
 }
 
 fuzz() {
+  [ "$fuzz_in_asan" = 0 ] || return 0  # done in the ASan tree
+  local t0
+  t0=$(date +%s)
   "$root/deploy/fuzz.sh" "${FUZZ_SECONDS:-60}"
+  say "fuzzing $(elapsed "$t0")"
 }
 
 "$root/deploy/install-deps.sh"
 start=$(date +%s)
+case " ${steps[*]} " in *" asan "*" fuzz "* | *" fuzz "*" asan "*) fuzz_in_asan=1 ;; esac
 for s in "${steps[@]}"; do
   case "$s" in
     asan) asan ;;
