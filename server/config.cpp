@@ -58,6 +58,23 @@ double parse_seconds(const std::string& text, const std::string& what) {
   return v;
 }
 
+// Retention's age limit: days in [0, 36500] (0: none).
+constexpr double kMaxRetainDays = 36500.0;
+
+double parse_days(const std::string& text, const std::string& what) {
+  std::size_t used = 0;
+  double v = -1.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty() || !(v >= 0.0) || v > kMaxRetainDays)
+    throw ConfigError(what + ": expected days in [0, 36500] (0: no age limit), got \"" + text +
+                      "\"");
+  return v;
+}
+
 void set_listen(const std::string& text, const std::string& what, Config& c) {
   const auto colon = text.rfind(':');
   if (colon == std::string::npos || colon == 0)
@@ -285,6 +302,19 @@ const std::map<std::string, ConfigSetter>& config_setters() {
        [](const Json& v, const std::string& k, Config& c) {
          c.max_crashes = static_cast<int>(api::read_integer(v, k, 1, 1000));
        }},
+      {"retain_days",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.retain_days = api::read_number(v, k);
+         api::check_ge_le(c.retain_days, 0.0, kMaxRetainDays, k);
+       }},
+      {"retain_bytes",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.retain_bytes = api::read_integer(v, k, 0, kInt64Max);
+       }},
+      {"retain_interval_s",
+       [positive_seconds](const Json& v, const std::string& k, Config& c) {
+         c.retain_interval_s = positive_seconds(v, k);
+       }},
       {"port_file", [](const Json& v, const std::string& k,
                        Config& c) { c.port_file = api::read_string(v, k); }},
       {"ui", [](const Json& v, const std::string& k, Config& c) { c.ui = api::read_bool(v, k); }},
@@ -408,6 +438,12 @@ Invocation parse_command_line(const std::vector<std::string>& args) {
       c.backend.max_jobs = static_cast<int>(parse_integer(value(), a, 1, 10000));
     } else if (a == "--max-crashes") {
       c.max_crashes = static_cast<int>(parse_integer(value(), a, 1, 1000));
+    } else if (a == "--retain-days") {
+      c.retain_days = parse_days(value(), a);
+    } else if (a == "--retain-bytes") {
+      c.retain_bytes = parse_integer(value(), a, 0, kInt64Max);
+    } else if (a == "--retain-interval-s") {
+      c.retain_interval_s = parse_seconds(value(), a);
     } else {
       throw ConfigError(a + ": unknown option");
     }
@@ -456,6 +492,11 @@ const char* usage_text() {
          "30)\n"
          "  --port-file FILE         write the bound port here once listening\n"
          "  --max-crashes N          fail a job after N daemon crashes while it ran (default 3)\n"
+         "  --retain-days D          purge finished jobs D days after they finished (default 0: "
+         "never)\n"
+         "  --retain-bytes N         purge the earliest finished jobs while jobs/ holds more "
+         "(default 0: no limit)\n"
+         "  --retain-interval-s S    apply the two above at start and every S (default 600)\n"
          "  --ui-dir DIR             serve the web viewer (/ui/) from DIR, not the copy built in\n"
          "  --no-ui                  serve no web viewer\n"
          "  --cors-origin ORIGIN     let pages of ORIGIN call the API (repeatable; none by "

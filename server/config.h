@@ -62,6 +62,12 @@ struct Config {
   std::string port_file;
   std::string log_level = "info";
   int max_crashes = 3;  // a job running when the daemon died this many times is marked failed
+  // Retention (server/purge.h, docs/operations.md): finished jobs older than retain_days, or the
+  // earliest finished while the jobs directory holds more than retain_bytes, are purged at start
+  // and every retain_interval_s. 0: no such limit (the default: nothing is purged unasked).
+  double retain_days = 0.0;
+  std::int64_t retain_bytes = 0;
+  double retain_interval_s = 600.0;
   // The web viewer at /ui/ (docs/viewer.md): served from the files compiled in, or from ui_dir
   // when set (development); ui = false serves no page (404).
   bool ui = true;

@@ -67,6 +67,17 @@ std::string Metrics::render(const Gauges& g) const {
   o << "# HELP fragsimd_histories_per_second Throughput of the running job (0 when idle).\n"
     << "# TYPE fragsimd_histories_per_second gauge\nfragsimd_histories_per_second "
     << format_double(g.histories_per_s) << "\n";
+  static constexpr std::array<const char*, 3> kReasons = {"request", "age", "bytes"};
+  o << "# HELP fragsimd_jobs_purged_total Finished jobs purged since start, by reason.\n"
+    << "# TYPE fragsimd_jobs_purged_total counter\n";
+  for (std::size_t k = 0; k < kReasons.size(); ++k)
+    o << "fragsimd_jobs_purged_total{reason=\"" << kReasons[k] << "\"} " << g.purged_jobs[k]
+      << "\n";
+  o << "# HELP fragsimd_purged_bytes_total Bytes of the purged jobs' files, by reason.\n"
+    << "# TYPE fragsimd_purged_bytes_total counter\n";
+  for (std::size_t k = 0; k < kReasons.size(); ++k)
+    o << "fragsimd_purged_bytes_total{reason=\"" << kReasons[k] << "\"} " << g.purged_bytes[k]
+      << "\n";
   o << "# HELP fragsimd_sites Sites held in memory.\n# TYPE fragsimd_sites gauge\nfragsimd_sites "
     << g.sites << "\n";
   o << "# HELP fragsimd_uptime_seconds Seconds since the daemon started.\n"

@@ -27,6 +27,10 @@ class Metrics {
     double histories_per_s = 0.0;
     std::int64_t sites = 0;
     double uptime_s = 0.0;
+    // Jobs purged since start and the bytes their directories held, by reason (request, age,
+    // bytes: server/purge.h, PurgeReason order).
+    std::array<std::uint64_t, 3> purged_jobs{};
+    std::array<std::uint64_t, 3> purged_bytes{};
     // From the connection layer (zeros without one, e.g. in tests without sockets).
     std::int64_t connections_open = 0;
     std::int64_t requests_queued = 0;       // headers in, waiting for a worker

@@ -4,6 +4,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -187,6 +188,15 @@ std::optional<JobState> Scheduler::cancel(const std::string& job_id) {
                        [&] { return !live_ || live_->job_id != job_id; });
   }
   return before;
+}
+
+bool Scheduler::holds(const std::string& job_id) const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (live_ && live_->job_id == job_id) return true;
+  if (cancel_pending_.contains(job_id) || tracked_.contains(job_id)) return true;
+  const auto dir = job_dir(job_id);
+  return std::any_of(stopping_jobs_.begin(), stopping_jobs_.end(),
+                     [&](const auto& s) { return s->job.workdir().parent_path() == dir; });
 }
 
 std::optional<LiveProgress> Scheduler::progress(const std::string& job_id) const {

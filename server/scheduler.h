@@ -69,6 +69,10 @@ class Scheduler {
   // let go of it (well within a second). nullopt: no such job; else the state before.
   std::optional<JobState> cancel(const std::string& job_id);
 
+  // True while the scheduler still has a hand in the job's files: its local run (also one
+  // cancelled and still letting go), a backend job it follows or one whose processes it is
+  // stopping. A purge waits until it lets go (server/purge.h).
+  bool holds(const std::string& job_id) const;
   // The live progress of a running job (nullopt: not running here, or not started yet).
   std::optional<LiveProgress> progress(const std::string& job_id) const;
   // The speed of every running job, summed (histories per second).

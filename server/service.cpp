@@ -211,16 +211,22 @@ Service::Service(Config config)
       store_(data_dir_ / "fragsimd.sqlite"),
       sites_(store_, data_dir_ / "sites"),
       scheduler_(store_, sites_, data_dir_ / "jobs", config_.threads, config_.job_nice,
-                 resolve_backend(config_.backend), config_.max_crashes) {
+                 resolve_backend(config_.backend), config_.max_crashes),
+      purger_(store_, scheduler_, data_dir_ / "jobs", catalogue_mutex_) {
   if (const std::size_t n = clean_stale_temporaries(data_dir_); n > 0)
     log(LogLevel::kWarn, "removed temporaries left by a killed daemon",
         {{"files", std::to_string(n)}});
+  if (const std::size_t n = purger_.sweep_orphans(); n > 0)
+    log(LogLevel::kWarn, "removed the directories of jobs purged by a killed daemon",
+        {{"directories", std::to_string(n)}});
   sites_.load();
   // Backend jobs an earlier daemon submitted go on where they run; the rest is requeued.
   const auto adopted = scheduler_.adopt_backend_jobs();
   for (const auto& id : store_.recover_interrupted(config_.max_crashes, utc_now(), adopted))
     log(LogLevel::kWarn, "job interrupted by a previous daemon; queued again", {{"job_id", id}});
   scheduler_.start();
+  retention_.emplace(purger_, RetentionPolicy{config_.retain_days, config_.retain_bytes,
+                                              config_.retain_interval_s});
 }
 
 Service::~Service() {
@@ -228,6 +234,7 @@ Service::~Service() {
 }
 
 void Service::shutdown() {
+  if (retention_) retention_->stop();
   scheduler_.shutdown();
 }
 
@@ -483,6 +490,8 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
     bad = check_query(req, {"units"});
   } else if (route.id == RouteId::kJobPlanBoundary) {
     bad = check_query(req, {"smoothing_m"});
+  } else if (route.id == RouteId::kJob && req.method == "DELETE") {
+    bad = check_query(req, {"purge"});
   } else {
     bad = check_query(req, {});
   }
@@ -506,7 +515,7 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
   if (route.id == RouteId::kJobScene) return job_scene(req, id);
   if (route.id == RouteId::kJobPlanBoundary) return job_plan_boundary(req, id);
   switch (route.id) {
-    case RouteId::kJob: return get ? get_job(id) : delete_job(id, owner_of(req));
+    case RouteId::kJob: return get ? get_job(id) : delete_job(req, id);
     case RouteId::kJobSummary: return job_summary(id);
     case RouteId::kJobBuildings: return job_buildings(id);
     case RouteId::kJobResults: return job_results_h5(id);
@@ -551,6 +560,9 @@ Response Service::metrics_page() {
   g.histories_per_s = scheduler_.histories_per_s();
   g.sites = static_cast<std::int64_t>(sites_.size());
   g.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+  const auto purged = purger_.counters();
+  g.purged_jobs = purged.jobs;
+  g.purged_bytes = purged.bytes;
   metrics_.fill_connection_gauges(g);
   Response r;
   r.content_type = "text/plain; version=0.0.4";
@@ -794,6 +806,8 @@ Response Service::post_job(const Request& req) {
     const std::lock_guard<std::mutex> lock(catalogue_mutex_);
     if (row.site_id && !sites_.find(*row.site_id))  // deleted while the request was parsed
       throw InputError("site_id", "unknown site \"" + *row.site_id + "\"");
+    if (jr.compare_with && !store_.has_job(*jr.compare_with))  // purged meanwhile
+      throw InputError("compare_with", "no job " + *jr.compare_with);
     // A retry of a request already accepted is answered below whatever the queue holds.
     const bool retry = row.idempotency_key && store_.has_idempotency_key(*row.idempotency_key);
     const auto queued = store_.job_counts()[static_cast<std::size_t>(JobState::kQueued)];
@@ -848,7 +862,16 @@ Response Service::get_job(const std::string& id) {
   return json_response(200, job_json(*row));
 }
 
-Response Service::delete_job(const std::string& id, const std::optional<std::string>& by) {
+// DELETE /v1/jobs/{id}: cancels a queued or running job; with ?purge=true removes a finished
+// one and its files (server/purge.h).
+Response Service::delete_job(const Request& req, const std::string& id) {
+  const std::optional<std::string> by = owner_of(req);
+  if (const auto it = req.query.find("purge"); it != req.query.end()) {
+    if (it->second == "true") return purge_job(id, by);
+    if (it->second != "false")
+      return error_response(400, "bad_parameter",
+                            "must be true or false (got \"" + it->second + "\")", "purge");
+  }
   const auto before = scheduler_.cancel(id);
   if (!before) return error_response(404, "not_found", "no job " + id);
   if (is_final(*before))
@@ -862,6 +885,36 @@ Response Service::delete_job(const std::string& id, const std::optional<std::str
        {"by", by.value_or("-")},
        {"owner", row->owner.value_or("-")}});
   return json_response(200, job_json(*row));
+}
+
+Response Service::purge_job(const std::string& id, const std::optional<std::string>& by) {
+  const PurgeResult r = purger_.purge(id, PurgeReason::kRequest, by.value_or("-"));
+  const std::string state = job_state_name(r.state);
+  switch (r.outcome) {
+    case PurgeResult::Outcome::kNoSuchJob: return error_response(404, "not_found", "no job " + id);
+    case PurgeResult::Outcome::kNotFinished:
+      return error_response(409, "conflict",
+                            "job " + id + " is " + state +
+                                "; only a finished job can be purged (cancel it first: DELETE "
+                                "without purge)");
+    case PurgeResult::Outcome::kStillStopping: {
+      Response e = error_response(409, "conflict",
+                                  "job " + id + " is cancelled but still letting go of its files; "
+                                                "purge it again in a moment");
+      e.headers.emplace_back("Retry-After", "1");
+      return e;
+    }
+    case PurgeResult::Outcome::kComparisonBase:
+      return error_response(409, "conflict",
+                            "job " + id + " is the base of " + std::to_string(r.comparisons) +
+                                " queued or running comparison" + (r.comparisons == 1 ? "" : "s") +
+                                " (compare_with); purge it when they have finished");
+    case PurgeResult::Outcome::kPurged: break;
+  }
+  return json_response(200, OJson{{"job_id", id},
+                                  {"purged", true},
+                                  {"state", state},
+                                  {"bytes_freed", r.bytes_freed}});
 }
 
 std::variant<JobRow, Response> Service::finished_job(const std::string& id) {

@@ -21,6 +21,7 @@
 #include "server/job_maps.h"
 #include "server/job_reports.h"
 #include "server/metrics.h"
+#include "server/purge.h"
 #include "server/scene_files.h"
 #include "server/scheduler.h"
 #include "server/site_registry.h"
@@ -110,7 +111,8 @@ class Service {
   Response job_compare(const std::string& id, bool h5);
   Response list_jobs(const Request& req);
   Response get_job(const std::string& id);
-  Response delete_job(const std::string& id, const std::optional<std::string>& by);
+  Response delete_job(const Request& req, const std::string& id);
+  Response purge_job(const std::string& id, const std::optional<std::string>& by);
   Response job_summary(const std::string& id);
   Response job_buildings(const std::string& id);
   Response job_ptn(const Request& req, const std::string& id);
@@ -157,8 +159,11 @@ class Service {
   JobMaps maps_;
   JobReports reports_;
   SceneFiles scenes_;
-  // Site deletion and job submission check and change "which jobs use which site" together.
+  // Site deletion and job submission check and change "which jobs use which site" together;
+  // a purge and a comparison's submission, "which job pairs with which".
   std::mutex catalogue_mutex_;
+  JobPurger purger_;
+  std::optional<RetentionTimer> retention_;  // started at the end of the constructor
 };
 
 }  // namespace fragsim::server

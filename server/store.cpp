@@ -518,6 +518,62 @@ std::vector<JobRow> Store::running_jobs() {
   return out;
 }
 
+// ---- Purge ----
+
+Store::Removal Store::remove_finished_job(const std::string& job_id) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return transaction([&]() -> Removal {
+    Removal r;
+    Statement q(*this, "SELECT state FROM jobs WHERE job_id = ?1", "job state");
+    q.bind(1, job_id);
+    if (!q.step()) return r;
+    r.state = parse_job_state(q.text(0)).value_or(JobState::kFailed);
+    if (!is_final(r.state)) {
+      r.outcome = Removal::Outcome::kNotFinished;
+      return r;
+    }
+    // compare_with is a top-level key of the stored request (api/job_request.h).
+    Statement c(*this,
+                "SELECT COUNT(*) FROM jobs WHERE state IN ('queued', 'running') AND "
+                "json_extract(scenario_json, '$.compare_with') = ?1",
+                "comparisons pairing with a job");
+    c.bind(1, job_id);
+    c.step();
+    r.comparisons = c.integer(0);
+    if (r.comparisons > 0) {
+      r.outcome = Removal::Outcome::kComparisonBase;
+      return r;
+    }
+    Statement b(*this, "DELETE FROM job_buildings WHERE job_id = ?1", "delete job buildings");
+    b.bind(1, job_id).run();
+    Statement d(*this, "DELETE FROM jobs WHERE job_id = ?1", "delete job");
+    d.bind(1, job_id).run();
+    r.outcome = Removal::Outcome::kRemoved;
+    return r;
+  });
+}
+
+std::vector<Store::Finished> Store::finished_jobs() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(*this,
+              "SELECT job_id, finished_utc, state FROM jobs WHERE state IN ('done', 'failed', "
+              "'cancelled') ORDER BY finished_utc, seq",
+              "finished jobs");
+  std::vector<Finished> out;
+  while (s.step()) {
+    out.push_back({s.text(0), s.optional_text(1).value_or(""),
+                   parse_job_state(s.text(2)).value_or(JobState::kFailed)});
+  }
+  return out;
+}
+
+bool Store::has_job(const std::string& job_id) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Statement s(*this, "SELECT 1 FROM jobs WHERE job_id = ?1", "job exists");
+  s.bind(1, job_id);
+  return s.step();
+}
+
 std::optional<std::string> Store::summary_json(const std::string& job_id) {
   const std::lock_guard<std::mutex> lock(mutex_);
   Statement s(*this, "SELECT summary_json FROM jobs WHERE job_id = ?1 AND state = 'done'",

@@ -114,6 +114,29 @@ class Store {
   // The running jobs, with their scenarios, oldest first.
   std::vector<JobRow> running_jobs();
 
+  // ---- Purge (server/purge.h) ----
+  struct Removal {
+    enum class Outcome {
+      kRemoved,          // its rows are gone
+      kNoSuchJob,
+      kNotFinished,      // queued or running: cancel it first
+      kComparisonBase,   // a queued or running comparison pairs with it
+    } outcome = Outcome::kNoSuchJob;
+    JobState state = JobState::kFailed;  // the job's state when it was found
+    std::int64_t comparisons = 0;        // kComparisonBase: how many
+  };
+  // Removes a finished (done, failed or cancelled) job's rows in one transaction.
+  Removal remove_finished_job(const std::string& job_id);
+  struct Finished {
+    std::string job_id;
+    std::string finished_utc;  // ISO 8601, so that text order is time order
+    JobState state = JobState::kDone;
+  };
+  // Finished jobs, the earliest finished first (ties: submission order).
+  std::vector<Finished> finished_jobs();
+  // Job ids with a row, for the start's sweep of directories whose job was purged.
+  bool has_job(const std::string& job_id);
+
   std::optional<std::string> summary_json(const std::string& job_id);
   std::vector<BuildingRow> buildings(const std::string& job_id);
 

@@ -353,6 +353,26 @@ class Client:
         """
         return self._obj("DELETE", f"/v1/jobs/{_id(job_id)}")
 
+    def purge(self, job_id: str) -> Dict[str, Any]:
+        """``DELETE /v1/jobs/{id}?purge=true``: removes a finished (done, failed or cancelled)
+        job, its row and every file of it; returns ``job_id``, ``purged``, ``state`` (the one
+        it had) and ``bytes_freed``. The job is then unknown (:class:`~fragsim.errors.NotFound`).
+
+        A queued or running job raises :class:`~fragsim.errors.Conflict` (cancel it first), as
+        does the base job of a queued or running comparison. A job just cancelled whose run is
+        still letting go of its files answers 409 with ``Retry-After``: waited out up to
+        ``retries`` times.
+        """
+        attempt = 0
+        while True:
+            try:
+                return self._obj("DELETE", f"/v1/jobs/{_id(job_id)}", query={"purge": "true"})
+            except errors.Conflict as e:
+                if e.retry_after is None or attempt >= self.retries:
+                    raise
+                attempt += 1
+                time.sleep(min(e.retry_after, self.max_retry_wait))
+
     def follow(
         self,
         job_id: str,

@@ -122,6 +122,16 @@ class ClientTest(unittest.TestCase):
         self.c.delete_site(site_id)
         with self.assertRaises(fragsim.NotFound):
             self.c.site(site_id)
+        # Finished (cancelled), it can be purged; then it is unknown.
+        purged = self.c.purge(job["job_id"])
+        self.assertEqual(purged["job_id"], job["job_id"])
+        self.assertTrue(purged["purged"])
+        self.assertEqual(purged["state"], "cancelled")
+        self.assertGreaterEqual(purged["bytes_freed"], 0)
+        with self.assertRaises(fragsim.NotFound):
+            self.c.job(job["job_id"])
+        with self.assertRaises(fragsim.NotFound):
+            self.c.purge(job["job_id"])
 
     # -- jobs -----------------------------------------------------------------------------
 

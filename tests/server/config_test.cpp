@@ -188,6 +188,13 @@ TEST(ConfigCommandLine, BadValuesNameTheFlag) {
       {"--log-level", "INFO"},
       {"--max-crashes", "0"},
       {"--max-crashes", "1001"},
+      {"--retain-days", "-1"},
+      {"--retain-days", "36501"},
+      {"--retain-days", "nan"},
+      {"--retain-days", "7d"},
+      {"--retain-bytes", "-1"},
+      {"--retain-bytes", "1G"},
+      {"--retain-interval-s", "0"},
   };
   for (const auto& [flag, value] : bad) {
     const std::string e = command_line_error({flag, value});
@@ -201,6 +208,13 @@ TEST(ConfigCommandLine, RangeBoundsAreAccepted) {
   EXPECT_EQ(parse_command_line({"--max-body-bytes", "1024"}).config.max_body_bytes, 1024);
   EXPECT_EQ(parse_command_line({"--request-timeout-s", "86400"}).config.request_timeout_s, 86400.0);
   EXPECT_EQ(parse_command_line({"--max-crashes", "1"}).config.max_crashes, 1);
+  EXPECT_EQ(parse_command_line({"--retain-days", "0"}).config.retain_days, 0.0);
+  EXPECT_EQ(parse_command_line({"--retain-days", "36500"}).config.retain_days, 36500.0);
+  EXPECT_EQ(parse_command_line({"--retain-days", "0.5"}).config.retain_days, 0.5);
+  EXPECT_EQ(parse_command_line({"--retain-bytes", "0"}).config.retain_bytes, 0);
+  EXPECT_EQ(parse_command_line({"--retain-bytes", "1000000000"}).config.retain_bytes, 1000000000);
+  EXPECT_EQ(parse_command_line({"--retain-interval-s", "86400"}).config.retain_interval_s,
+            86400.0);
   for (const char* level : {"debug", "info", "warn", "error"})
     EXPECT_EQ(parse_command_line({"--log-level", level}).config.log_level, level);
 }
@@ -219,7 +233,8 @@ TEST(ConfigCommandLine, UsageMentionsEveryFlag) {
        {"--config", "--listen", "--data-dir", "--threads", "--http-threads", "--token-file",
         "--no-auth", "--max-body-bytes", "--max-samples-per-job", "--max-sites",
         "--max-terrain-triangles", "--max-queued-jobs", "--request-timeout-s", "--port-file",
-        "--max-crashes", "--log-level", "--version", "--help"})
+        "--max-crashes", "--retain-days", "--retain-bytes", "--retain-interval-s", "--log-level",
+        "--version", "--help"})
     EXPECT_NE(usage.find(flag), std::string::npos) << flag;
 }
 
@@ -230,7 +245,8 @@ TEST_F(ConfigFile, EveryKey) {
     "listen": "[::1]:9000", "data_dir": "/srv/data", "threads": 3, "http_threads": 4,
     "token_file": "/etc/tokens", "auth": false, "max_body_bytes": 4096,
     "max_samples_per_job": 777, "max_sites": 5, "max_queued_jobs": 6,
-    "request_timeout_s": 1.5, "log_level": "warn", "max_crashes": 2, "port_file": "/tmp/p"})");
+    "request_timeout_s": 1.5, "log_level": "warn", "max_crashes": 2, "port_file": "/tmp/p",
+    "retain_days": 30, "retain_bytes": 5000000000, "retain_interval_s": 60})");
   Config c;
   apply_config_file(path, c);
   EXPECT_EQ(c.listen_host, "::1");
@@ -248,6 +264,9 @@ TEST_F(ConfigFile, EveryKey) {
   EXPECT_EQ(c.log_level, "warn");
   EXPECT_EQ(c.max_crashes, 2);
   EXPECT_EQ(c.port_file, "/tmp/p");
+  EXPECT_EQ(c.retain_days, 30.0);
+  EXPECT_EQ(c.retain_bytes, 5000000000);
+  EXPECT_EQ(c.retain_interval_s, 60.0);
 }
 
 TEST_F(ConfigFile, KeysNotGivenKeepTheirValues) {
@@ -302,6 +321,11 @@ TEST_F(ConfigFile, BadValuesNameTheKey) {
       {"data_dir", "1"},
       {"max_samples_per_job", "1.5"},
       {"token_file", "null"},
+      {"retain_days", "-0.5"},
+      {"retain_days", R"("30")"},
+      {"retain_bytes", "-1"},
+      {"retain_bytes", "1.5"},
+      {"retain_interval_s", "0"},
   };
   for (const auto& [key, value] : bad) {
     const std::string e = file_error("{\"" + key + "\": " + value + "}");

@@ -531,11 +531,19 @@ def exercise(c):
     c.call("GET", f"/v1/jobs/{long_job}", 200)
     c.call("DELETE", f"/v1/sites/{site_b}", 409)
     c.call("GET", f"/v1/jobs/{long_job}/summary", 409)  # not_ready
+    c.call("DELETE", f"/v1/jobs/{long_job}?purge=true", 409)  # running: cancel it first
     c.call("DELETE", f"/v1/jobs/{long_job}", 200)
     c.call("DELETE", f"/v1/jobs/{long_job}", 409)
     c.call("DELETE", f"/v1/jobs/{unknown_job}", 404)
     c.call("DELETE", f"/v1/sites/{site_b}", 204)
     c.call("DELETE", f"/v1/sites/{site_b}", 404)
+    # A finished job purged with its files (docs/operations.md, "Retention"); then it is gone.
+    purged = c.call("POST", "/v1/jobs", 202, job_body(site_a, 100)).json()["job_id"]
+    wait_state(c, purged, {"done"})
+    c.call("DELETE", f"/v1/jobs/{purged}?purge=maybe", 400)
+    c.call("DELETE", f"/v1/jobs/{purged}?purge=true", 200)
+    c.call("DELETE", f"/v1/jobs/{purged}?purge=true", 404)
+    c.call("GET", f"/v1/jobs/{purged}", 404)
 
     c.call("GET", "/v1/jobs", 200)
     c.call("GET", "/v1/jobs?state=done&limit=5", 200)

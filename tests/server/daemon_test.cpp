@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <set>
+#include <thread>
+#include <vector>
 
 #include "tests/server/daemon_support.h"
 
@@ -512,6 +514,67 @@ TEST(Daemon, CancelStopsARunningJobAndLeavesNoResults) {
   auto again = c->Delete("/v1/jobs/" + id);
   ASSERT_TRUE(again);
   EXPECT_EQ(again->status, 409);
+}
+
+// docs/operations.md: a kill -9 while jobs are being purged leaves each job whole (row, files,
+// results served) or gone (404, no directory), and the restart clears what a purge cut short.
+TEST(Daemon, KillNineDuringPurgesLeavesEachJobWholeOrGone) {
+  const fs::path dir = fresh_dir("fragsimd_purge_kill_");
+  Daemon d(dir);
+  ASSERT_NO_THROW(d.start()) << d.log();
+  auto c = d.client();
+  std::vector<std::string> ids;
+  for (int k = 0; k < 12; ++k) ids.push_back(submit(*c, with_seed(minimal_scenario(), 100 + k)));
+  for (const auto& id : ids) ASSERT_EQ(wait_final(*c, id).value("state", ""), "done") << id;
+
+  // Purges one after another on a thread; killed once five have been answered, so that the kill
+  // lands in the middle of the sixth or seventh.
+  std::atomic<int> answered{0};
+  std::thread purger([&] {
+    auto pc = d.client();
+    for (const auto& id : ids) {
+      auto r = pc->Delete("/v1/jobs/" + id + "?purge=true");
+      if (!r) return;  // the daemon is gone
+      answered.fetch_add(1);
+    }
+  });
+  const auto deadline = Clock::now() + std::chrono::seconds(60);
+  while (answered.load() < 5 && Clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  d.kill(SIGKILL);
+  purger.join();
+  ASSERT_GE(answered.load(), 5);
+
+  ASSERT_NO_THROW(d.start()) << d.log();
+  c = d.client();
+  int gone = 0;
+  for (const auto& id : ids) {
+    SCOPED_TRACE(id);
+    auto r = c->Get("/v1/jobs/" + id);
+    ASSERT_TRUE(r);
+    if (r->status == 404) {
+      ++gone;
+      EXPECT_FALSE(fs::exists(d.data() / "jobs" / id));
+      continue;
+    }
+    ASSERT_EQ(r->status, 200) << r->body;
+    EXPECT_EQ(Json::parse(r->body)["state"], "done");
+    auto h5 = c->Get("/v1/jobs/" + id + "/results.h5");
+    ASSERT_TRUE(h5);
+    EXPECT_EQ(h5->status, 200);
+    EXPECT_GT(h5->body.size(), 1000u);
+  }
+  EXPECT_GE(gone, 5);
+  for (const auto& e : fs::directory_iterator(d.data() / "jobs"))
+    EXPECT_FALSE(e.path().filename().string().starts_with(".purging-")) << e.path();
+  // The rest can go too; then the jobs directory is empty.
+  for (const auto& id : ids) {
+    auto r = c->Delete("/v1/jobs/" + id + "?purge=true");
+    ASSERT_TRUE(r);
+    EXPECT_TRUE(r->status == 200 || r->status == 404) << r->status << " " << r->body;
+  }
+  EXPECT_TRUE(fs::is_empty(d.data() / "jobs"));
+  EXPECT_EQ(d.kill(SIGTERM), 0);
 }
 
 }  // namespace

@@ -1534,6 +1534,215 @@ TEST_F(ServiceResults, ConcurrentFirstMapRequestsAgree) {
   EXPECT_EQ(m["files"].size(), 5u);  // the GeoTIFFs, the GeoPackage, terrain and buildings VTKHDF
 }
 
+// ---- Purge and retention (server/purge.h, docs/operations.md) ----
+
+std::uintmax_t tree_bytes(const fs::path& dir) {
+  std::uintmax_t n = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) n += e.file_size();
+  return n;
+}
+
+class ServicePurge : public ServiceTest {
+ protected:
+  Response purge(const std::string& id, const std::string& value = "true") {
+    return call("DELETE", "/v1/jobs/" + id, {{"purge", value}});
+  }
+  // Polls until GET /v1/jobs/{id} answers 404; false at the deadline.
+  bool wait_until_gone(const std::string& id) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (std::chrono::steady_clock::now() < deadline) {
+      if (get("/v1/jobs/" + id).status == 404) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return false;
+  }
+};
+
+TEST_F(ServicePurge, AFinishedJobGoesWithItsRowsAndFiles) {
+  start();
+  const std::string site = add_site();
+  const std::string id = add_job(job_on(site, 200));
+  ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
+  const fs::path dir = dir_ / "data" / "jobs" / id;
+  ASSERT_TRUE(fs::exists(dir / "results.h5"));
+  ASSERT_EQ(get("/v1/jobs/" + id + "/maps").status, 200);  // made on demand: in the directory too
+  const std::uintmax_t bytes = tree_bytes(dir);
+
+  const Response r = purge(id);
+  ASSERT_EQ(r.status, 200) << r.body;
+  const Json j = body_of(r);
+  EXPECT_EQ(j["job_id"], id);
+  EXPECT_EQ(j["purged"], true);
+  EXPECT_EQ(j["state"], "done");
+  EXPECT_EQ(j["bytes_freed"], bytes);
+  EXPECT_FALSE(fs::exists(dir));
+  for (const auto& e : fs::directory_iterator(dir_ / "data" / "jobs"))
+    ADD_FAILURE() << "left in jobs/: " << e.path();
+
+  expect_error(get("/v1/jobs/" + id), 404, "not_found");
+  for (const char* part : {"/summary", "/buildings", "/results.h5", "/maps"})
+    expect_error(get("/v1/jobs/" + id + part), 404, "not_found");
+  EXPECT_TRUE(body_of(get("/v1/jobs"))["jobs"].empty());
+  expect_error(purge(id), 404, "not_found");
+  const std::string m = metrics_text();
+  EXPECT_NE(m.find("fragsimd_jobs_purged_total{reason=\"request\"} 1\n"), std::string::npos) << m;
+  EXPECT_NE(m.find("fragsimd_purged_bytes_total{reason=\"request\"} " + std::to_string(bytes) +
+                   "\n"),
+            std::string::npos)
+      << m;
+  EXPECT_NE(m.find("fragsimd_jobs_purged_total{reason=\"age\"} 0\n"), std::string::npos) << m;
+  // The site stays, and a new job on it runs.
+  EXPECT_EQ(get("/v1/sites/" + site).status, 200);
+  EXPECT_EQ(wait_for_state(add_job(job_on(site, 100)), "done")["state"], "done");
+}
+
+TEST_F(ServicePurge, QueuedAndRunningJobsAreNeverPurged) {
+  start();
+  const std::string site = add_site();
+  const std::string blocker = add_job(blocker_job(site));
+  ASSERT_EQ(wait_for_state(blocker, "running")["state"], "running");
+  Json body = job_on(site, 100);
+  body["priority"] = -1000;
+  const std::string queued = add_job(body);
+
+  for (const std::string& id : {blocker, queued}) {
+    SCOPED_TRACE(id);
+    const Response r = purge(id);
+    expect_error(r, 409, "conflict");
+    EXPECT_NE(body_of(r)["message"].get<std::string>().find("cancel it first"), std::string::npos);
+  }
+  EXPECT_EQ(job(blocker)["state"], "running");
+  EXPECT_EQ(job(queued)["state"], "queued");
+
+  // Cancelled, they can go; the running one once the worker let go of it (409 with Retry-After
+  // until then).
+  ASSERT_EQ(del("/v1/jobs/" + queued).status, 200);
+  const Response q = purge(queued);
+  ASSERT_EQ(q.status, 200) << q.body;
+  EXPECT_EQ(body_of(q)["state"], "cancelled");
+  EXPECT_EQ(body_of(q)["bytes_freed"], 0) << "never started: no directory";
+  ASSERT_EQ(del("/v1/jobs/" + blocker).status, 200);
+  Response b = purge(blocker);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (b.status == 409 && std::chrono::steady_clock::now() < deadline) {
+    EXPECT_EQ(header(b, "Retry-After"), "1");
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    b = purge(blocker);
+  }
+  ASSERT_EQ(b.status, 200) << b.body;
+  EXPECT_FALSE(fs::exists(dir_ / "data" / "jobs" / blocker));
+  EXPECT_EQ(body_of(get("/v1/sites/" + site))["jobs_using"], 0);
+}
+
+TEST_F(ServicePurge, ThePurgeParameterIsChecked) {
+  start();
+  const std::string id = add_job(job_on(add_site(), 100));
+  ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
+  for (const char* bad : {"yes", "1", "TRUE", ""})
+    expect_error(purge(id, bad), 400, "bad_parameter", "purge");
+  expect_error(get("/v1/jobs/" + id, {{"purge", "true"}}), 400, "bad_parameter", "purge");
+  // purge=false is a cancel, and a done job cannot be cancelled.
+  expect_error(purge(id, "false"), 409, "conflict");
+  EXPECT_EQ(job(id)["state"], "done");
+  // Unknown and malformed ids.
+  expect_error(purge(kUnknownJob), 404, "not_found");
+  expect_error(purge("j_nothex"), 404, "not_found");
+}
+
+TEST_F(ServicePurge, TheBaseOfAQueuedComparisonStays) {
+  start();
+  const std::string site = add_site();
+  const std::string base = add_job(job_on(site, 200));
+  ASSERT_EQ(wait_for_state(base, "done")["state"], "done");
+  const std::string blocker = add_job(blocker_job(site));
+  Json variant = job_on(site, 200);
+  variant["compare_with"] = base;
+  variant["priority"] = -1000;
+  const std::string comparison = add_job(variant);
+
+  const Response r = purge(base);
+  expect_error(r, 409, "conflict");
+  EXPECT_NE(body_of(r)["message"].get<std::string>().find("compare_with"), std::string::npos);
+  EXPECT_EQ(job(base)["state"], "done");
+  ASSERT_EQ(del("/v1/jobs/" + comparison).status, 200);
+  EXPECT_EQ(purge(base).status, 200);
+  // A comparison with a purged job is refused as one with an unknown job.
+  variant.erase("priority");
+  expect_error(post("/v1/jobs", variant), 422, "invalid_input", "compare_with");
+  EXPECT_EQ(del("/v1/jobs/" + blocker).status, 200);
+}
+
+TEST_F(ServicePurge, RetentionByAgeTakesFinishedJobsOnly) {
+  start([](Config& c) {
+    c.retain_days = 1e-6;  // 86 ms
+    c.retain_interval_s = 0.05;
+  });
+  const std::string site = add_site();
+  const std::string done = add_job(job_on(site, 100));
+  ASSERT_TRUE(wait_until_gone(done));
+  EXPECT_FALSE(fs::exists(dir_ / "data" / "jobs" / done));
+  // A running job and a queued one behind it stay, however long they take.
+  const std::string blocker = add_job(blocker_job(site));
+  Json body = job_on(site, 100);
+  body["priority"] = -1000;
+  const std::string queued = add_job(body);
+  ASSERT_EQ(wait_for_state(blocker, "running")["state"], "running");
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  EXPECT_EQ(job(blocker)["state"], "running");
+  EXPECT_EQ(job(queued)["state"], "queued");
+  EXPECT_NE(metrics_text().find("fragsimd_jobs_purged_total{reason=\"age\"} 1\n"),
+            std::string::npos);
+  // Cancelled, the queued one finishes and goes too.
+  ASSERT_EQ(del("/v1/jobs/" + queued).status, 200);
+  EXPECT_TRUE(wait_until_gone(queued));
+  EXPECT_EQ(job(blocker)["state"], "running");
+}
+
+TEST_F(ServicePurge, RetentionByBytesTakesTheEarliestFinishedFirst) {
+  start();
+  const std::string site = add_site();
+  const std::string first = add_job(job_on(site, 200));
+  ASSERT_EQ(wait_for_state(first, "done")["state"], "done");
+  const std::string second = add_job(job_on(site, 200));
+  ASSERT_EQ(wait_for_state(second, "done")["state"], "done");
+  const fs::path jobs = dir_ / "data" / "jobs";
+  const std::uintmax_t second_bytes = tree_bytes(jobs / second);
+  ASSERT_GT(tree_bytes(jobs / first), 1u);
+
+  // Room for one of the two: the earlier finished goes, at start.
+  service_.reset();
+  start([&](Config& c) {
+    c.retain_bytes = static_cast<std::int64_t>(second_bytes) + 1;
+    c.retain_interval_s = 0.05;
+  });
+  ASSERT_TRUE(wait_until_gone(first));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // a few more passes
+  EXPECT_EQ(job(second)["state"], "done");
+  EXPECT_TRUE(fs::exists(jobs / second / "results.h5"));
+  const std::string m = metrics_text();
+  EXPECT_NE(m.find("fragsimd_jobs_purged_total{reason=\"bytes\"} 1\n"), std::string::npos) << m;
+}
+
+TEST_F(ServicePurge, APurgeCutShortByADeathIsFinishedAtTheNextStart) {
+  start();
+  const std::string kept = add_job(job_on(add_site(), 100));
+  ASSERT_EQ(wait_for_state(kept, "done")["state"], "done");
+  service_.reset();
+  // What a kill -9 during a purge can leave: the rows gone and the directory still there (not
+  // yet renamed), or renamed and partly removed.
+  const fs::path jobs = dir_ / "data" / "jobs";
+  fs::create_directories(jobs / "j_00000000000000ab" / "maps");
+  std::ofstream(jobs / "j_00000000000000ab" / "results.h5") << "left";
+  fs::create_directories(jobs / ".purging-j_00000000000000cd" / "maps");
+  std::ofstream(jobs / ".purging-j_00000000000000cd" / "summary.json") << "{}";
+  start();
+  EXPECT_FALSE(fs::exists(jobs / "j_00000000000000ab"));
+  EXPECT_FALSE(fs::exists(jobs / ".purging-j_00000000000000cd"));
+  EXPECT_TRUE(fs::exists(jobs / kept / "results.h5"));
+  EXPECT_EQ(get("/v1/jobs/" + kept + "/summary").status, 200);
+}
+
 // ---- Metrics ----
 
 TEST_F(ServiceMetrics, NeedsAToken) {

@@ -496,6 +496,70 @@ TEST_F(StoreTest, ActiveJobsUsingCountsOnlyQueuedAndRunning) {
 
 // ---- Database ----
 
+// ---- Purge (server/purge.h) ----
+
+TEST_F(StoreTest, OnlyAFinishedJobIsRemovedWithItsBuildings) {
+  store().insert_job(job_row("j_q"));
+  store().insert_job(job_row("j_r"));
+  store().insert_job(job_row("j_d"));
+  ASSERT_TRUE(store().mark_running("j_r", "t"));
+  ASSERT_TRUE(store().mark_running("j_d", "t"));
+  ASSERT_TRUE(store().mark_done("j_d", "2026-01-01T00:01:00.000Z", 1000, "{}",
+                                {building("B", 1.0), building("C", 2.0)}));
+  for (const char* id : {"j_q", "j_r"}) {
+    const auto r = store().remove_finished_job(id);
+    EXPECT_EQ(r.outcome, Store::Removal::Outcome::kNotFinished) << id;
+    EXPECT_TRUE(store().has_job(id));
+  }
+  EXPECT_EQ(store().remove_finished_job("j_none").outcome, Store::Removal::Outcome::kNoSuchJob);
+  const auto r = store().remove_finished_job("j_d");
+  EXPECT_EQ(r.outcome, Store::Removal::Outcome::kRemoved);
+  EXPECT_EQ(r.state, JobState::kDone);
+  EXPECT_FALSE(store().has_job("j_d"));
+  EXPECT_FALSE(store().job("j_d").has_value());
+  EXPECT_TRUE(store().buildings("j_d").empty());
+  EXPECT_EQ(store().remove_finished_job("j_d").outcome, Store::Removal::Outcome::kNoSuchJob);
+  // A cancelled or failed job goes the same way.
+  store().cancel("j_q", "2026-01-01T00:02:00.000Z");
+  EXPECT_EQ(store().remove_finished_job("j_q").outcome, Store::Removal::Outcome::kRemoved);
+  reopen();
+  EXPECT_FALSE(store().has_job("j_d"));
+  EXPECT_TRUE(store().has_job("j_r"));
+  EXPECT_EQ(store().integrity_check(), "ok");
+}
+
+TEST_F(StoreTest, TheBaseOfAnActiveComparisonStays) {
+  store().insert_job(job_row("j_base"));
+  ASSERT_TRUE(store().mark_running("j_base", "t"));
+  ASSERT_TRUE(store().mark_done("j_base", "2026-01-01T00:01:00.000Z", 1000, "{}", {}));
+  JobRow variant = job_row("j_variant");
+  variant.scenario_json = R"({"compare_with": "j_base", "fragment_groups": []})";
+  store().insert_job(variant);
+  const auto r = store().remove_finished_job("j_base");
+  EXPECT_EQ(r.outcome, Store::Removal::Outcome::kComparisonBase);
+  EXPECT_EQ(r.comparisons, 1);
+  EXPECT_TRUE(store().has_job("j_base"));
+  store().cancel("j_variant", "2026-01-01T00:02:00.000Z");
+  EXPECT_EQ(store().remove_finished_job("j_base").outcome, Store::Removal::Outcome::kRemoved);
+}
+
+TEST_F(StoreTest, FinishedJobsEarliestFinishedFirst) {
+  for (const char* id : {"j_1", "j_2", "j_3", "j_4"}) store().insert_job(job_row(id));
+  ASSERT_TRUE(store().mark_running("j_1", "t"));
+  ASSERT_TRUE(store().mark_done("j_1", "2026-03-01T00:00:00.000Z", 1, "{}", {}));
+  ASSERT_TRUE(store().mark_running("j_2", "t"));
+  ASSERT_TRUE(store().mark_failed("j_2", "2026-01-01T00:00:00.000Z", "internal", "x"));
+  store().cancel("j_3", "2026-02-01T00:00:00.000Z");
+  const auto f = store().finished_jobs();  // j_4 is queued: not listed
+  ASSERT_EQ(f.size(), 3u);
+  EXPECT_EQ(f[0].job_id, "j_2");
+  EXPECT_EQ(f[0].state, JobState::kFailed);
+  EXPECT_EQ(f[1].job_id, "j_3");
+  EXPECT_EQ(f[1].state, JobState::kCancelled);
+  EXPECT_EQ(f[2].job_id, "j_1");
+  EXPECT_EQ(f[2].finished_utc, "2026-03-01T00:00:00.000Z");
+}
+
 TEST_F(StoreTest, IntegrityCheckIsOk) {
   EXPECT_EQ(store().integrity_check(), "ok");
   store().insert_job(job_row("j_a", 0, "k"));

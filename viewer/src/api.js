@@ -110,6 +110,8 @@ export const api = {
   submitJob: (text) =>
     request('/v1/jobs', { method: 'POST', body: text, headers: { 'Content-Type': 'application/json' } }),
   cancelJob: (id) => request(`/v1/jobs/${enc(id)}`, { method: 'DELETE' }),
+  // A finished job and all its files (docs/operations.md); 409 while it still runs.
+  purgeJob: (id) => request(`/v1/jobs/${enc(id)}?purge=true`, { method: 'DELETE' }),
   summary: (id) => request(`/v1/jobs/${enc(id)}/summary`),
   maps: (id) => request(`/v1/jobs/${enc(id)}/maps`),
   comparison: (id) => request(`/v1/jobs/${enc(id)}/compare`),

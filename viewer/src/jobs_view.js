@@ -1,4 +1,5 @@
-// Jobs view (#/jobs): the job table (refreshed every second), submission and cancellation.
+// Jobs view (#/jobs): the job table (refreshed every second), submission, cancellation and the
+// deletion (purge) of finished jobs.
 
 import { api, errorText } from './api.js';
 import { el, duration, integer, localTime, showError } from './format.js';
@@ -92,7 +93,8 @@ function updateIdCell(cell, j) {
   cell.replaceChildren(want === 'link' ? el('a', { href: `#/jobs/${j.job_id}`, text: j.job_id }) : j.job_id);
 }
 
-// Cancel button for queued/running jobs, open link for done ones, error for failed ones.
+// Cancel button for queued/running jobs; for finished ones a Delete button, after an open link
+// (done) or the error (failed).
 function updateActions(cell, j) {
   const key = j.state + (j.error ? `:${j.error.code}:${j.error.message}` : '');
   if (cell.dataset.key === key) return;
@@ -101,14 +103,19 @@ function updateActions(cell, j) {
     const b = el('button', { type: 'button', class: 'cancel', text: 'Cancel' });
     b.addEventListener('click', () => cancel(j.job_id, b));
     cell.replaceChildren(b);
-  } else if (j.state === 'done') {
-    cell.replaceChildren(el('a', { class: 'open', href: `#/jobs/${j.job_id}`, text: 'Open' }));
+    return;
+  }
+  const parts = [];
+  if (j.state === 'done') {
+    parts.push(el('a', { class: 'open', href: `#/jobs/${j.job_id}`, text: 'Open' }));
   } else if (j.state === 'failed') {
     const msg = j.error ? `${j.error.code}: ${j.error.message}` : 'failed';
-    cell.replaceChildren(el('span', { class: 'error job-error', text: msg }));
-  } else {
-    cell.replaceChildren();
+    parts.push(el('span', { class: 'error job-error', text: msg }));
   }
+  const del = el('button', { type: 'button', class: 'purge', text: 'Delete', title: 'Delete this job and all its results' });
+  del.addEventListener('click', () => purge(j.job_id, j.state, del));
+  parts.push(del);
+  cell.replaceChildren(...parts);
 }
 
 async function cancel(id, button) {
@@ -118,6 +125,19 @@ async function cancel(id, button) {
     await refresh();
   } catch (e) {
     showError($('jobs-error'), `cancel ${id}: ${errorText(e)}`);
+    button.disabled = false;
+  }
+}
+
+async function purge(id, state, button) {
+  const what = state === 'done' ? 'and all its results (files, maps, reports)' : 'and its files';
+  if (!window.confirm(`Delete ${state} job ${id} ${what}? This cannot be undone.`)) return;
+  button.disabled = true;
+  try {
+    await api.purgeJob(id);
+    await refresh();
+  } catch (e) {
+    showError($('jobs-error'), `delete ${id}: ${errorText(e)}`);
     button.disabled = false;
   }
 }

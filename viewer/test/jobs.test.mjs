@@ -1,6 +1,7 @@
 // (b) The jobs table follows a submitted job: its progress cell moves while it runs and its state
 // becomes "done" (with an a.open link). (d) A running job is cancelled from the page's
-// button.cancel (confirm() accepted) and the daemon reports it cancelled.
+// button.cancel (confirm() accepted) and the daemon reports it cancelled; then its button.purge
+// (confirm() accepted) deletes it: the row goes and the daemon answers 404 for it.
 import assert from 'node:assert/strict';
 import { after, before, test } from 'node:test';
 import * as h from './harness.mjs';
@@ -94,6 +95,23 @@ test('cancel a running job from the page', { timeout: 60000 }, async () => {
   assert.equal(await row.locator('button.cancel').count(), 0, 'cancelled job still has a cancel button');
   await h.screenshot(page, 'jobs-4-cancelled', { fullPage: true });
   console.log(`# dialogs accepted: ${JSON.stringify(page.diag.dialogs.slice(dialogsBefore))}`);
+
+  // Finished, it can be deleted (purged) after a confirmation; its row goes, the daemon forgets it.
+  const purge = row.locator('button.purge');
+  await purge.waitFor();
+  const confirmsBefore = page.diag.dialogs.length;
+  // The cancel's 200 came once the worker had let go of the run (Scheduler::cancel waits for
+  // it), so the purge is not refused as "still letting go".
+  await purge.click();
+  await row.waitFor({ state: 'detached', timeout: 10000 });
+  const confirms = page.diag.dialogs.slice(confirmsBefore);
+  assert.ok(confirms.length === 1 && confirms[0].startsWith('confirm: ') && confirms[0].includes(id),
+    `no confirm() naming the job before the delete: ${JSON.stringify(confirms)}`);
+  assert.ok(page.diag.requests.some((r) => r.method === 'DELETE' && r.url.endsWith(`/v1/jobs/${id}?purge=true`)),
+    'no DELETE /v1/jobs/{id}?purge=true request from the page');
+  const gone = await daemon.request(`/v1/jobs/${id}`);
+  assert.equal(gone.status, 404, 'the purged job is still known to the daemon');
+  await h.screenshot(page, 'jobs-4b-deleted', { fullPage: true });
 
   assert.deepEqual(page.diag.pageErrors, [], 'page errors');
   assert.deepEqual(h.unexpectedConsoleErrors(page, [401]), [], 'console errors');
