@@ -68,8 +68,11 @@ JobPurger::JobPurger(Store& store, Scheduler& scheduler, fs::path jobs_dir, std:
 PurgeResult JobPurger::purge(const std::string& job_id, PurgeReason why, const std::string& by) {
   const std::lock_guard<std::mutex> lock(purge_mutex_);
   PurgeResult r;
-  if (scheduler_.holds(job_id)) {
+  // A running job is held too; it is named as running, not as "letting go".
+  if (const auto row = store_.job(job_id); row && is_final(row->state) &&
+                                           scheduler_.holds(job_id)) {
     r.outcome = PurgeResult::Outcome::kStillStopping;
+    r.state = row->state;
     return r;
   }
   Store::Removal removal;
