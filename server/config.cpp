@@ -307,10 +307,8 @@ const std::map<std::string, ConfigSetter>& config_setters() {
          c.retain_days = api::read_number(v, k);
          api::check_ge_le(c.retain_days, 0.0, kMaxRetainDays, k);
        }},
-      {"retain_bytes",
-       [](const Json& v, const std::string& k, Config& c) {
-         c.retain_bytes = api::read_integer(v, k, 0, kInt64Max);
-       }},
+      {"retain_bytes", [](const Json& v, const std::string& k,
+                          Config& c) { c.retain_bytes = api::read_integer(v, k, 0, kInt64Max); }},
       {"retain_interval_s",
        [positive_seconds](const Json& v, const std::string& k, Config& c) {
          c.retain_interval_s = positive_seconds(v, k);

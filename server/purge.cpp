@@ -69,8 +69,8 @@ PurgeResult JobPurger::purge(const std::string& job_id, PurgeReason why, const s
   const std::lock_guard<std::mutex> lock(purge_mutex_);
   PurgeResult r;
   // A running job is held too; it is named as running, not as "letting go".
-  if (const auto row = store_.job(job_id); row && is_final(row->state) &&
-                                           scheduler_.holds(job_id)) {
+  if (const auto row = store_.job(job_id);
+      row && is_final(row->state) && scheduler_.holds(job_id)) {
     r.outcome = PurgeResult::Outcome::kStillStopping;
     r.state = row->state;
     return r;
@@ -83,7 +83,9 @@ PurgeResult JobPurger::purge(const std::string& job_id, PurgeReason why, const s
   r.state = removal.state;
   r.comparisons = removal.comparisons;
   switch (removal.outcome) {
-    case Store::Removal::Outcome::kNoSuchJob: r.outcome = PurgeResult::Outcome::kNoSuchJob; return r;
+    case Store::Removal::Outcome::kNoSuchJob:
+      r.outcome = PurgeResult::Outcome::kNoSuchJob;
+      return r;
     case Store::Removal::Outcome::kNotFinished:
       r.outcome = PurgeResult::Outcome::kNotFinished;
       return r;
@@ -209,9 +211,9 @@ void RetentionTimer::loop() {
   while (!stopping_) {
     lock.unlock();
     try {
-      const double now = std::chrono::duration<double>(
-                             std::chrono::system_clock::now().time_since_epoch())
-                             .count();
+      const double now =
+          std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+              .count();
       purger_.apply(policy_, now);
     } catch (const std::exception& e) {
       // A database fault: logged, and tried again at the next interval.

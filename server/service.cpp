@@ -899,8 +899,9 @@ Response Service::purge_job(const std::string& id, const std::optional<std::stri
                                 "without purge)");
     case PurgeResult::Outcome::kStillStopping: {
       Response e = error_response(409, "conflict",
-                                  "job " + id + " is cancelled but still letting go of its files; "
-                                                "purge it again in a moment");
+                                  "job " + id +
+                                      " is cancelled but still letting go of its files; "
+                                      "purge it again in a moment");
       e.headers.emplace_back("Retry-After", "1");
       return e;
     }
@@ -911,10 +912,9 @@ Response Service::purge_job(const std::string& id, const std::optional<std::stri
                                 " (compare_with); purge it when they have finished");
     case PurgeResult::Outcome::kPurged: break;
   }
-  return json_response(200, OJson{{"job_id", id},
-                                  {"purged", true},
-                                  {"state", state},
-                                  {"bytes_freed", r.bytes_freed}});
+  return json_response(
+      200,
+      OJson{{"job_id", id}, {"purged", true}, {"state", state}, {"bytes_freed", r.bytes_freed}});
 }
 
 std::variant<JobRow, Response> Service::finished_job(const std::string& id) {

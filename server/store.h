@@ -117,10 +117,10 @@ class Store {
   // ---- Purge (server/purge.h) ----
   struct Removal {
     enum class Outcome {
-      kRemoved,          // its rows are gone
+      kRemoved,  // its rows are gone
       kNoSuchJob,
-      kNotFinished,      // queued or running: cancel it first
-      kComparisonBase,   // a queued or running comparison pairs with it
+      kNotFinished,     // queued or running: cancel it first
+      kComparisonBase,  // a queued or running comparison pairs with it
     } outcome = Outcome::kNoSuchJob;
     JobState state = JobState::kFailed;  // the job's state when it was found
     std::int64_t comparisons = 0;        // kComparisonBase: how many

@@ -213,8 +213,7 @@ TEST(ConfigCommandLine, RangeBoundsAreAccepted) {
   EXPECT_EQ(parse_command_line({"--retain-days", "0.5"}).config.retain_days, 0.5);
   EXPECT_EQ(parse_command_line({"--retain-bytes", "0"}).config.retain_bytes, 0);
   EXPECT_EQ(parse_command_line({"--retain-bytes", "1000000000"}).config.retain_bytes, 1000000000);
-  EXPECT_EQ(parse_command_line({"--retain-interval-s", "86400"}).config.retain_interval_s,
-            86400.0);
+  EXPECT_EQ(parse_command_line({"--retain-interval-s", "86400"}).config.retain_interval_s, 86400.0);
   for (const char* level : {"debug", "info", "warn", "error"})
     EXPECT_EQ(parse_command_line({"--log-level", level}).config.log_level, level);
 }
@@ -229,12 +228,27 @@ TEST(ConfigCommandLine, MissingValueAndUnknownFlag) {
 
 TEST(ConfigCommandLine, UsageMentionsEveryFlag) {
   const std::string usage = usage_text();
-  for (const char* flag :
-       {"--config", "--listen", "--data-dir", "--threads", "--http-threads", "--token-file",
-        "--no-auth", "--max-body-bytes", "--max-samples-per-job", "--max-sites",
-        "--max-terrain-triangles", "--max-queued-jobs", "--request-timeout-s", "--port-file",
-        "--max-crashes", "--retain-days", "--retain-bytes", "--retain-interval-s", "--log-level",
-        "--version", "--help"})
+  for (const char* flag : {"--config",
+                           "--listen",
+                           "--data-dir",
+                           "--threads",
+                           "--http-threads",
+                           "--token-file",
+                           "--no-auth",
+                           "--max-body-bytes",
+                           "--max-samples-per-job",
+                           "--max-sites",
+                           "--max-terrain-triangles",
+                           "--max-queued-jobs",
+                           "--request-timeout-s",
+                           "--port-file",
+                           "--max-crashes",
+                           "--retain-days",
+                           "--retain-bytes",
+                           "--retain-interval-s",
+                           "--log-level",
+                           "--version",
+                           "--help"})
     EXPECT_NE(usage.find(flag), std::string::npos) << flag;
 }
 

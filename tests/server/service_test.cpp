@@ -1587,9 +1587,9 @@ TEST_F(ServicePurge, AFinishedJobGoesWithItsRowsAndFiles) {
   expect_error(purge(id), 404, "not_found");
   const std::string m = metrics_text();
   EXPECT_NE(m.find("fragsimd_jobs_purged_total{reason=\"request\"} 1\n"), std::string::npos) << m;
-  EXPECT_NE(m.find("fragsimd_purged_bytes_total{reason=\"request\"} " + std::to_string(bytes) +
-                   "\n"),
-            std::string::npos)
+  EXPECT_NE(
+      m.find("fragsimd_purged_bytes_total{reason=\"request\"} " + std::to_string(bytes) + "\n"),
+      std::string::npos)
       << m;
   EXPECT_NE(m.find("fragsimd_jobs_purged_total{reason=\"age\"} 0\n"), std::string::npos) << m;
   // The site stays, and a new job on it runs.
