@@ -221,6 +221,18 @@ class ServiceTest : public ::testing::Test {
     return wait_for(id,
                     [&](const Json& j) { return j["state"] == state || j["state"] == "failed"; });
   }
+  // The blocker job, once it runs (the worker is then busy until the test ends or cancels it).
+  std::string running_blocker(const std::string& site) {
+    const std::string id = add_job(blocker_job(site));
+    EXPECT_EQ(wait_for_state(id, "running")["state"], "running");
+    return id;
+  }
+  // A small job that stays queued behind a running blocker (the lowest priority).
+  static Json queued_behind(const std::string& site) {
+    Json j = job_on(site, 100);
+    j["priority"] = -1000;
+    return j;
+  }
   std::string metrics_text() {
     const Response r = get("/metrics");
     EXPECT_EQ(r.status, 200) << r.body;
@@ -1600,11 +1612,8 @@ TEST_F(ServicePurge, AFinishedJobGoesWithItsRowsAndFiles) {
 TEST_F(ServicePurge, QueuedAndRunningJobsAreNeverPurged) {
   start();
   const std::string site = add_site();
-  const std::string blocker = add_job(blocker_job(site));
-  ASSERT_EQ(wait_for_state(blocker, "running")["state"], "running");
-  Json body = job_on(site, 100);
-  body["priority"] = -1000;
-  const std::string queued = add_job(body);
+  const std::string blocker = running_blocker(site);
+  const std::string queued = add_job(queued_behind(site));
 
   for (const std::string& id : {blocker, queued}) {
     SCOPED_TRACE(id);
@@ -1655,10 +1664,9 @@ TEST_F(ServicePurge, TheBaseOfAQueuedComparisonStays) {
   const std::string site = add_site();
   const std::string base = add_job(job_on(site, 200));
   ASSERT_EQ(wait_for_state(base, "done")["state"], "done");
-  const std::string blocker = add_job(blocker_job(site));
-  Json variant = job_on(site, 200);
+  const std::string blocker = running_blocker(site);
+  Json variant = queued_behind(site);
   variant["compare_with"] = base;
-  variant["priority"] = -1000;
   const std::string comparison = add_job(variant);
 
   const Response r = purge(base);
@@ -1683,11 +1691,8 @@ TEST_F(ServicePurge, RetentionByAgeTakesFinishedJobsOnly) {
   ASSERT_TRUE(wait_until_gone(done));
   EXPECT_FALSE(fs::exists(dir_ / "data" / "jobs" / done));
   // A running job and a queued one behind it stay, however long they take.
-  const std::string blocker = add_job(blocker_job(site));
-  Json body = job_on(site, 100);
-  body["priority"] = -1000;
-  const std::string queued = add_job(body);
-  ASSERT_EQ(wait_for_state(blocker, "running")["state"], "running");
+  const std::string blocker = running_blocker(site);
+  const std::string queued = add_job(queued_behind(site));
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   EXPECT_EQ(job(blocker)["state"], "running");
   EXPECT_EQ(job(queued)["state"], "queued");
