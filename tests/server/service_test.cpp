@@ -1662,7 +1662,7 @@ TEST_F(ServicePurge, ThePurgeParameterIsChecked) {
 TEST_F(ServicePurge, TheBaseOfAQueuedComparisonStays) {
   start();
   const std::string site = add_site();
-  const std::string base = add_job(job_on(site, 200));
+  const std::string base = add_job(job_on(site, 100));  // as queued_behind
   ASSERT_EQ(wait_for_state(base, "done")["state"], "done");
   const std::string blocker = running_blocker(site);
   Json variant = queued_behind(site);
