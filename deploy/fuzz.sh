@@ -3,7 +3,7 @@
 # for SECONDS (default 60). Fails on any crash, sanitizer report, leak, input slower than 1 s
 # (-timeout=1) or RSS above 2 GiB. docs/testing.md.
 #
-#   deploy/fuzz.sh                 # CI: 60 s per target
+#   deploy/fuzz.sh                 # 60 s per target (CI sets FUZZ_SECONDS=30)
 #   deploy/fuzz.sh 3600            # the long run: an hour per target
 #   FUZZ_RUNS=10000000 deploy/fuzz.sh 86400   # stop each target at 10 M executions instead
 #   deploy/fuzz.sh 60 fuzz_site    # some targets only
