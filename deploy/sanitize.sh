@@ -130,7 +130,7 @@ fuzz() {
 
 "$root/deploy/install-deps.sh"
 start=$(date +%s)
-case " ${steps[*]} " in *" asan "*" fuzz "* | *" fuzz "*" asan "*) fuzz_in_asan=1 ;; esac
+if [[ " ${steps[*]} " == *" asan "* && " ${steps[*]} " == *" fuzz "* ]]; then fuzz_in_asan=1; fi
 for s in "${steps[@]}"; do
   case "$s" in
     asan) asan ;;
