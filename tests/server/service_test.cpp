@@ -1648,7 +1648,8 @@ TEST_F(ServicePurge, ThePurgeParameterIsChecked) {
   start();
   const std::string id = add_job(job_on(add_site(), 100));
   ASSERT_EQ(wait_for_state(id, "done")["state"], "done");
-  for (const char* bad : {"yes", "1", "TRUE", ""})
+  // expect_error parses the body: a value that is not UTF-8 must not make it invalid JSON.
+  for (const char* bad : {"yes", "1", "TRUE", "", "\xff\xfe", "true\n", "nan"})
     expect_error(purge(id, bad), 400, "bad_parameter", "purge");
   expect_error(get("/v1/jobs/" + id, {{"purge", "true"}}), 400, "bad_parameter", "purge");
   // purge=false is a cancel, and a done job cannot be cancelled.

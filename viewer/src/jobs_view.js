@@ -118,28 +118,25 @@ function updateActions(cell, j) {
   cell.replaceChildren(...parts);
 }
 
-async function cancel(id, button) {
+// Cancel (`what` = 'cancel') or delete: the button is disabled while the request is out, and
+// enabled again with the error shown if it failed.
+async function act(what, call, id, button) {
   button.disabled = true;
   try {
-    await api.cancelJob(id);
+    await call(id);
     await refresh();
   } catch (e) {
-    showError($('jobs-error'), `cancel ${id}: ${errorText(e)}`);
+    showError($('jobs-error'), `${what} ${id}: ${errorText(e)}`);
     button.disabled = false;
   }
 }
 
-async function purge(id, state, button) {
+const cancel = (id, button) => act('cancel', api.cancelJob, id, button);
+
+function purge(id, state, button) {
   const what = state === 'done' ? 'and all its results (files, maps, reports)' : 'and its files';
   if (!window.confirm(`Delete ${state} job ${id} ${what}? This cannot be undone.`)) return;
-  button.disabled = true;
-  try {
-    await api.purgeJob(id);
-    await refresh();
-  } catch (e) {
-    showError($('jobs-error'), `delete ${id}: ${errorText(e)}`);
-    button.disabled = false;
-  }
+  act('delete', api.purgeJob, id, button);
 }
 
 // ---- submission ---------------------------------------------------------------------------------
