@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "api/output_dir.h"
+
 namespace fragsim::api::h5 {
 
 // The HDF5 library Debian ships is not built thread-safe: every call into it from this file is
@@ -107,28 +109,108 @@ inline hid_t string_type(std::size_t size, H5T_cset_t cset = H5T_CSET_UTF8) {
   return t;
 }
 
+// ---- The in-memory file's image ----
+
+// Bob Jenkins' lookup3 hash ("hashlittle", public domain, 2006), the checksum the HDF5 file format
+// gives its version 2 and 3 superblocks (HDF5 File Format Specification 3.0, "Superblock",
+// "Superblock Checksum"; H5_checksum_lookup3 in the library). Bytes taken as little-endian words.
+inline std::uint32_t lookup3(const unsigned char* k, std::size_t length,
+                             std::uint32_t initval = 0) {
+  const auto rot = [](std::uint32_t x, int r) { return (x << r) | (x >> (32 - r)); };
+  const auto word = [](const unsigned char* p, std::size_t n) {  // n <= 4 bytes, the rest 0
+    std::uint32_t w = 0;
+    for (std::size_t i = 0; i < n; ++i) w |= static_cast<std::uint32_t>(p[i]) << (8 * i);
+    return w;
+  };
+  std::uint32_t a = 0xdeadbeefU + static_cast<std::uint32_t>(length) + initval, b = a, c = a;
+  while (length > 12) {
+    a += word(k, 4), b += word(k + 4, 4), c += word(k + 8, 4);
+    a -= c, a ^= rot(c, 4), c += b;  // mix
+    b -= a, b ^= rot(a, 6), a += c;
+    c -= b, c ^= rot(b, 8), b += a;
+    a -= c, a ^= rot(c, 16), c += b;
+    b -= a, b ^= rot(a, 19), a += c;
+    c -= b, c ^= rot(b, 4), b += a;
+    k += 12, length -= 12;
+  }
+  if (length == 0) return c;
+  a += word(k, std::min<std::size_t>(length, 4));
+  if (length > 4) b += word(k + 4, std::min<std::size_t>(length - 4, 4));
+  if (length > 8) c += word(k + 8, length - 8);
+  c ^= b, c -= rot(b, 14);  // final
+  a ^= c, a -= rot(c, 11);
+  b ^= a, b -= rot(a, 25);
+  c ^= b, c -= rot(b, 16);
+  a ^= c, a -= rot(c, 4);
+  b ^= a, b -= rot(a, 14);
+  c ^= b, c -= rot(b, 24);
+  return c;
+}
+
+// H5Fget_file_image of HDF5 1.10.8 (Debian 12) patches the image's version 2 superblock (its
+// status flags) without recomputing the superblock's checksum, and no reader opens the image
+// ("incorrect metadata checksum"). The checksum is recomputed here: 4 bytes little-endian after
+// signature (8), version, sizes of offsets and lengths, flags (1 each), base, extension,
+// end-of-file and root addresses (4 of the size of offsets).
+inline void reseal_superblock(std::string& image, const std::string& name) {
+  const auto* p = reinterpret_cast<unsigned char*>(image.data());
+  if (image.size() < 12 || (p[8] != 2 && p[8] != 3))
+    throw std::runtime_error("HDF5: the image of " + name + " has no version 2 or 3 superblock");
+  const std::size_t covered = 12 + 4 * static_cast<std::size_t>(p[9]);
+  if (image.size() < covered + 4) throw std::runtime_error("HDF5: a short image of " + name);
+  const std::uint32_t sum = lookup3(p, covered);
+  for (int i = 0; i < 4; ++i) image[covered + i] = static_cast<char>((sum >> (8 * i)) & 0xff);
+}
+
 // ---- Writer ----
 
+// Builds the file in memory (HDF5's core driver, no backing store) and writes it out in one piece
+// at close(). HDF5 1.10 cannot survive a file whose writes fail: an H5Fclose that fails for a full
+// disk leaves the file's id valid over freed memory, and the next call on it, or the library's
+// own clean-up at exit, crashes (seen with Debian 12's 1.10.8, docs/operations.md). Here HDF5
+// never writes to disk; write_new_file() reserves the whole size first, and a full disk becomes a
+// StorageFullError naming the path and the bytes. Peak memory at close: twice the file's size.
+// The image's superblock checksum is mended (reseal_superblock) before it is written.
 class Writer {
  public:
-  explicit Writer(const std::filesystem::path& path) : name_(path.string()) {
+  explicit Writer(const std::filesystem::path& path) : path_(path), name_(path.string()) {
     const Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose, "property list");
     check(H5Pset_attr_phase_change(fcpl, 0, 0), "dense attribute storage");
     const Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "property list");
     check(H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18), "format version bounds");
+    check(H5Pset_fapl_core(fapl, kImageIncrement, 0), "in-memory file driver");
+    std::error_code ec;
+    if (std::filesystem::exists(path_, ec))
+      throw std::runtime_error("HDF5: cannot create " + name_ + ": it exists");
     file_ = H5Fcreate(name_.c_str(), H5F_ACC_EXCL, fcpl, fapl);
     if (file_ < 0) throw std::runtime_error("HDF5: cannot create " + name_);
   }
   ~Writer() {
-    if (file_ >= 0) H5Fclose(file_);
+    if (file_ >= 0) H5Fclose(file_);  // memory only: nothing reaches the disk
   }
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
 
+  // Writes the file: HDF5 flushes into its image, the image is copied out and the in-memory file
+  // closed, then the copy is written to the path.
   void close() {
     const hid_t f = file_;
     file_ = -1;
+    std::string image;
+    try {
+      check(H5Fflush(f, H5F_SCOPE_GLOBAL), "flushing " + name_);
+      const ssize_t size = H5Fget_file_image(f, nullptr, 0);
+      if (size < 0) throw std::runtime_error("HDF5: the image of " + name_);
+      image.resize(static_cast<std::size_t>(size));
+      if (H5Fget_file_image(f, image.data(), image.size()) != size)
+        throw std::runtime_error("HDF5: copying the image of " + name_);
+      reseal_superblock(image, name_);
+    } catch (...) {
+      H5Fclose(f);
+      throw;
+    }
     check(H5Fclose(f), "closing " + name_);
+    write_new_file(path_, image);
   }
 
   hid_t file() const { return file_; }
@@ -231,6 +313,8 @@ class Writer {
 
   static constexpr std::size_t kCompressElements = 1 << 16;
   static constexpr std::size_t kChunkElements = 1 << 16;
+  static constexpr std::size_t kImageIncrement = 4 << 20;  // the in-memory file grows by 4 MiB
+  std::filesystem::path path_;
   std::string name_;
   hid_t file_ = -1;
 };

@@ -14,8 +14,17 @@ namespace fragsim::api {
 
 namespace {
 
-[[noreturn]] void fail_errno(const std::string& what, const std::filesystem::path& path, int err) {
+[[noreturn]] void fail_errno(const std::string& what, const std::filesystem::path& path, int err,
+                             std::int64_t bytes_needed = -1) {
+  if (is_no_space(err)) throw StorageFullError(path, err, bytes_needed);
   throw std::runtime_error(what + " " + path.string() + ": " + std::strerror(err));
+}
+
+std::string storage_full_message(const std::filesystem::path& path, int err, std::int64_t bytes) {
+  std::string m = std::strerror(err);
+  m += " writing " + path.string();
+  if (bytes >= 0) m += " (" + std::to_string(bytes) + " bytes needed)";
+  return m;
 }
 
 // 64 random bits in hex (the kernel's generator through std::random_device).
@@ -32,6 +41,48 @@ bool is_temporary_name(const std::string& name) {
 }
 
 }  // namespace
+
+StorageFullError::StorageFullError(const std::filesystem::path& path, int err,
+                                   std::int64_t bytes_needed)
+    : std::runtime_error(storage_full_message(path, err, bytes_needed)),
+      path_(path),
+      error_(err),
+      bytes_needed_(bytes_needed) {}
+
+bool is_no_space(int err) {
+  return err == ENOSPC || err == EDQUOT;
+}
+
+void write_new_file(const std::filesystem::path& path, std::string_view bytes) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) fail_errno("cannot create", path, errno, static_cast<std::int64_t>(bytes.size()));
+  // On a failure the file made here goes, so that the space it took is free again.
+  const auto fail = [&](const char* what, int err, std::int64_t needed) {
+    ::close(fd);
+    ::unlink(path.c_str());
+    fail_errno(what, path, err, needed);
+  };
+  if (!bytes.empty()) {
+    // EINVAL/EOPNOTSUPP: a file system without it; the writes below then find a full disk.
+    const int rc = ::posix_fallocate(fd, 0, static_cast<off_t>(bytes.size()));
+    if (is_no_space(rc))
+      fail("cannot reserve space for", rc, static_cast<std::int64_t>(bytes.size()));
+  }
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      fail("cannot write", errno, static_cast<std::int64_t>(bytes.size() - done));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(path.c_str());
+    fail_errno("cannot close", path, err);
+  }
+}
 
 void fsync_path(const std::filesystem::path& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
@@ -73,6 +124,7 @@ OutputDir::OutputDir(std::filesystem::path dir) : dir_(std::move(dir)), unique_(
   for (auto it = missing.rbegin(); it != missing.rend(); ++it) {
     if (!std::filesystem::create_directory(*it, ec) && ec) {
       discard();
+      if (is_no_space(ec.value())) throw StorageFullError(*it, ec.value(), -1);
       throw std::runtime_error("cannot create directory " + it->string() + ": " + ec.message());
     }
     created_dirs_.push_back(*it);
@@ -93,6 +145,9 @@ void OutputDir::stage(const std::string& name,
   try {
     write(temporary);
     fsync_path(temporary);
+  } catch (const StorageFullError& e) {
+    std::filesystem::remove(temporary, ec);
+    throw StorageFullError(dir_ / name, e.error(), e.bytes_needed());  // the name a reader knows
   } catch (...) {
     std::filesystem::remove(temporary, ec);
     throw;
@@ -101,29 +156,14 @@ void OutputDir::stage(const std::string& name,
 }
 
 void OutputDir::stage_text(const std::string& name, std::string_view contents) {
-  stage(name, [&](const std::filesystem::path& path) {
-    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-    if (fd < 0) fail_errno("cannot create", path, errno);
-    std::size_t done = 0;
-    while (done < contents.size()) {
-      const ssize_t n = ::write(fd, contents.data() + done, contents.size() - done);
-      if (n < 0) {
-        if (errno == EINTR) continue;
-        const int err = errno;
-        ::close(fd);
-        fail_errno("cannot write", path, err);
-      }
-      done += static_cast<std::size_t>(n);
-    }
-    if (::close(fd) != 0) fail_errno("cannot close", path, errno);
-  });
+  stage(name, [&](const std::filesystem::path& path) { write_new_file(path, contents); });
 }
 
 void OutputDir::commit() {
   for (const Staged& s : staged_) {
     std::error_code ec;
     std::filesystem::rename(s.temporary, dir_ / s.name, ec);
-    if (ec) throw std::runtime_error("cannot rename " + s.temporary.string() + ": " + ec.message());
+    if (ec) fail_errno("cannot rename", s.temporary, ec.value());
   }
   committed_ = true;
   staged_.clear();

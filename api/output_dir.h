@@ -9,13 +9,40 @@
 // killed while staging leaves its temporaries: their names never collide with a later run's
 // (they do not depend on the process id, which a restarted container gives again: PID 1), and
 // remove_stale_temporaries() clears them where no other writer can be at work.
+#include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
 
 namespace fragsim::api {
+
+// A write the file system refused for want of space (ENOSPC, or EDQUOT: a quota), with the path
+// written and, when known, the bytes the write needed (-1: unknown). fragsimd reports it as
+// storage_full (docs/operations.md).
+class StorageFullError : public std::runtime_error {
+ public:
+  StorageFullError(const std::filesystem::path& path, int err, std::int64_t bytes_needed);
+  const std::filesystem::path& path() const { return path_; }
+  int error() const { return error_; }
+  std::int64_t bytes_needed() const { return bytes_needed_; }
+
+ private:
+  std::filesystem::path path_;
+  int error_;
+  std::int64_t bytes_needed_;
+};
+
+// True for the errno values that mean "no space": ENOSPC and EDQUOT.
+bool is_no_space(int err);
+
+// Creates `path` (which must not exist) holding `bytes`: the space is reserved first
+// (posix_fallocate, where the file system has it), so a full disk is found before anything is
+// written. Throws StorageFullError for want of space, std::runtime_error naming the path
+// otherwise; on a throw the file may be left behind for the caller to remove.
+void write_new_file(const std::filesystem::path& path, std::string_view bytes);
 
 class OutputDir {
  public:

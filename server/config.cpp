@@ -218,16 +218,38 @@ bool is_loopback_host(const std::string& host) {
   return (ntohl(addr.s_addr) >> 24) == 127;
 }
 
-std::vector<std::string> read_tokens(const std::string& path) {
+const char* role_name(Role r) {
+  switch (r) {
+    case Role::kRead: return "read";
+    case Role::kSubmit: return "submit";
+    case Role::kAdmin: break;
+  }
+  return "admin";
+}
+
+std::optional<Role> parse_role(std::string_view name) {
+  for (const Role r : {Role::kRead, Role::kSubmit, Role::kAdmin})
+    if (name == role_name(r)) return r;
+  return std::nullopt;
+}
+
+std::vector<Token> read_tokens(const std::string& path) {
   std::istringstream in(read_text_file(path, "token file"));
-  std::vector<std::string> tokens;
+  std::vector<Token> tokens;
   std::string line;
   while (std::getline(in, line)) {
     while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t'))
       line.pop_back();
     std::size_t start = line.find_first_not_of(" \t");
     if (start == std::string::npos || line[start] == '#') continue;
-    tokens.push_back(line.substr(start));
+    Token t{line.substr(start), Role::kAdmin};
+    if (const std::size_t gap = t.secret.find_last_of(" \t"); gap != std::string::npos) {
+      if (const auto role = parse_role(std::string_view(t.secret).substr(gap + 1))) {
+        t.role = *role;
+        t.secret.erase(t.secret.find_last_not_of(" \t", gap) + 1);
+      }
+    }
+    tokens.push_back(std::move(t));
   }
   return tokens;
 }
@@ -309,6 +331,10 @@ const std::map<std::string, ConfigSetter>& config_setters() {
        }},
       {"retain_bytes", [](const Json& v, const std::string& k,
                           Config& c) { c.retain_bytes = api::read_integer(v, k, 0, kInt64Max); }},
+      {"min_free_bytes",
+       [](const Json& v, const std::string& k, Config& c) {
+         c.min_free_bytes = api::read_integer(v, k, 0, kInt64Max);
+       }},
       {"retain_interval_s",
        [positive_seconds](const Json& v, const std::string& k, Config& c) {
          c.retain_interval_s = positive_seconds(v, k);
@@ -365,8 +391,15 @@ void apply_config_file(const std::string& path, Config& c) {
   }
 }
 
-Invocation parse_command_line(const std::vector<std::string>& args) {
+Invocation parse_command_line(const std::vector<std::string>& command_line) {
   Invocation inv;
+  std::vector<std::string> args = command_line;
+  if (!args.empty() && args[0] == "backup") {
+    if (args.size() < 2 || args[1].rfind("--", 0) == 0)
+      throw ConfigError("backup: needs a target directory (fragsimd backup DIR [--data-dir D])");
+    inv.backup_target = args[1];
+    args.erase(args.begin(), args.begin() + 2);
+  }
   // The config file first, so that flags override it wherever they stand.
   for (std::size_t k = 0; k < args.size(); ++k) {
     if (args[k] == "--config") {
@@ -440,6 +473,8 @@ Invocation parse_command_line(const std::vector<std::string>& args) {
       c.retain_days = parse_days(value(), a);
     } else if (a == "--retain-bytes") {
       c.retain_bytes = parse_integer(value(), a, 0, kInt64Max);
+    } else if (a == "--min-free-bytes") {
+      c.min_free_bytes = parse_integer(value(), a, 0, kInt64Max);
     } else if (a == "--retain-interval-s") {
       c.retain_interval_s = parse_seconds(value(), a);
     } else {
@@ -471,6 +506,9 @@ void check_config(const Config& c) {
 
 const char* usage_text() {
   return "usage: fragsimd [options]\n"
+         "       fragsimd backup DIR [--data-dir D | --config FILE]\n"
+         "                           copy the data directory to DIR while the daemon runs\n"
+         "                           (docs/operations.md)\n"
          "  --config FILE            JSON config file (keys: docs/http-api.md); flags override it\n"
          "  --listen HOST:PORT       address (default 127.0.0.1:8080; port 0 = any free port)\n"
          "  --data-dir DIR           queue, sites and results (default ./fragsimd-data)\n"
@@ -495,6 +533,8 @@ const char* usage_text() {
          "  --retain-bytes N         purge the earliest finished jobs while jobs/ holds more "
          "(default 0: no limit)\n"
          "  --retain-interval-s S    apply the two above at start and every S (default 600)\n"
+         "  --min-free-bytes N       below N bytes free on the data directory's file system, "
+         "refuse new jobs (507) and hold queued ones (default 536870912; 0: off)\n"
          "  --ui-dir DIR             serve the web viewer (/ui/) from DIR, not the copy built in\n"
          "  --no-ui                  serve no web viewer\n"
          "  --cors-origin ORIGIN     let pages of ORIGIN call the API (repeatable; none by "

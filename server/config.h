@@ -68,6 +68,9 @@ struct Config {
   double retain_days = 0.0;
   std::int64_t retain_bytes = 0;
   double retain_interval_s = 600.0;
+  // The free-space guard (server/disk_guard.h): below this many bytes available on the data
+  // directory's file system, new jobs and sites get 507 and queued jobs wait. 0: off.
+  std::int64_t min_free_bytes = 512LL << 20;
   // The web viewer at /ui/ (docs/viewer.md): served from the files compiled in, or from ui_dir
   // when set (development); ui = false serves no page (404).
   bool ui = true;
@@ -84,6 +87,8 @@ struct Invocation {
   Config config;
   bool help = false;
   bool version = false;
+  // `fragsimd backup TARGET [flags]`: back the data directory up to TARGET (server/backup.h).
+  std::optional<std::string> backup_target;
 };
 
 // Throws ConfigError (exit 2) naming the flag or key and the problem.
@@ -99,8 +104,23 @@ void apply_config_file(const std::string& path, Config& config);
 void check_config(const Config& config);
 
 bool is_loopback_host(const std::string& host);
-// Tokens from a token file: one per line; blank lines and lines starting with '#' ignored.
-std::vector<std::string> read_tokens(const std::string& path);
+// What a token may do (docs/operations.md, "Roles"), each role everything the one before may:
+// read (list and read sites, jobs, results, metrics), submit (also submit jobs and sites, cancel
+// and retry its own jobs), admin (also others' jobs, purge, delete sites).
+enum class Role { kRead = 0, kSubmit = 1, kAdmin = 2 };
+const char* role_name(Role r);
+std::optional<Role> parse_role(std::string_view name);
+
+struct Token {
+  std::string secret;
+  Role role = Role::kAdmin;
+  bool operator==(const Token&) const = default;
+};
+
+// Tokens from a token file: one per line, "<token>" or "<token> <role>" (role read, submit or
+// admin; a line without one is admin, as every token was before roles); blank lines and lines
+// starting with '#' ignored. A line whose last word is not a role is all token.
+std::vector<Token> read_tokens(const std::string& path);
 
 const char* usage_text();
 

@@ -244,7 +244,13 @@ HttpServer::HttpServer(Service& service) : service_(service) {
   // body would be read whole whatever its size), and a Content-Length above the limit (cpp-httplib
   // would read and discard the whole body first: 300 MiB announced, the 413 came after the
   // request timeout).
-  s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+  s.set_pre_routing_handler([this, handler](const httplib::Request& req, httplib::Response& res) {
+    // Methods cpp-httplib routes nowhere (it would answer 400): the service answers them as any
+    // other method it does not serve, 405 with Allow on a known path, 404 elsewhere.
+    if (req.method == "TRACE" || req.method == "CONNECT") {
+      handler(req, res);
+      return httplib::Server::HandlerResponse::Handled;
+    }
     std::optional<Response> refusal;
     const auto max = static_cast<std::uint64_t>(service_.config().max_body_bytes);
     if (req.has_header("Transfer-Encoding")) {

@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "fragsim/version.h"
+#include "server/backup.h"
 #include "server/config.h"
 #include "server/http_server.h"
 #include "server/log.h"
@@ -54,6 +55,22 @@ void raise_open_file_limit(std::int64_t max_connections) {
          {"max_connections", std::to_string(max_connections)}});
 }
 
+// `fragsimd backup DIR`: 0 when the backup is whole, 1 otherwise (nothing is left at DIR).
+int backup(const std::string& data_dir, const std::string& target) {
+  try {
+    const BackupReport r = backup_data_dir(data_dir, target);
+    std::cout << "fragsimd: backed up " << data_dir << " to " << target << ": " << r.sites
+              << " sites, " << r.jobs << " jobs (" << r.done_jobs << " done, with their files), "
+              << r.bytes << " bytes, store schema " << r.schema_version << "\n";
+    for (const std::string& id : r.gone)
+      std::cout << "fragsimd: job " << id << " was purged while the backup ran: left out\n";
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "fragsimd: backup failed: " << e.what() << "\n";
+    return 1;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -68,6 +85,7 @@ int main(int argc, char** argv) {
       std::cout << "fragsimd " << fragsim::kVersion << " (git " << fragsim::kGitSha << ")\n";
       return 0;
     }
+    if (inv.backup_target) return backup(inv.config.data_dir, *inv.backup_target);
     check_config(inv.config);
   } catch (const ConfigError& e) {
     std::cerr << "fragsimd: error: " << e.what() << "\n(see fragsimd --help)\n";

@@ -105,14 +105,15 @@ struct Scheduler::Stopping {
 };
 
 Scheduler::Scheduler(Store& store, SiteRegistry& sites, std::filesystem::path jobs_dir, int threads,
-                     int job_nice, ResolvedBackend backend, int max_crashes)
+                     int job_nice, ResolvedBackend backend, int max_crashes, const DiskGuard* disk)
     : store_(store),
       sites_(sites),
       jobs_dir_(std::move(jobs_dir)),
       threads_(threads),
       job_nice_(job_nice),
       backend_(std::move(backend)),
-      max_crashes_(max_crashes) {}
+      max_crashes_(max_crashes),
+      disk_(disk) {}
 
 std::filesystem::path Scheduler::backend_dir(const std::string& job_id, int attempt) const {
   return job_dir(job_id) / ("backend-" + std::to_string(attempt));
@@ -233,6 +234,7 @@ void Scheduler::loop() {
           const std::lock_guard<std::mutex> lock(mutex_);
           if (stopping_) return;
         }
+        if (!room_to_start()) break;  // checked again on the next wake-up (1 s at most)
         const auto job = store_.next_queued();
         if (!job) break;
         if (!store_.mark_running(job->job_id, utc_now())) continue;  // cancelled meanwhile
@@ -243,6 +245,31 @@ void Scheduler::loop() {
       log(LogLevel::kError, "scheduler error", {{"error", e.what()}});
     }
   }
+}
+
+// False while the data directory is short of space (the disk guard): queued jobs wait. Logged
+// when that starts and when it ends. Called by one thread only (the worker, or the monitor with
+// a backend).
+bool Scheduler::room_to_start() {
+  const auto found = disk_ != nullptr ? disk_->short_of_space() : std::nullopt;
+  if (found.has_value() != disk_short_) {
+    disk_short_ = found.has_value();
+    if (found)
+      log(LogLevel::kWarn, "queued jobs wait for disk space",
+          {{"free_bytes", std::to_string(found->free_bytes)},
+           {"min_free_bytes", std::to_string(disk_->min_free_bytes())}});
+    else
+      log(LogLevel::kInfo, "disk space back; queued jobs start");
+  }
+  return !found;
+}
+
+// Records a failed job (its error as GET /v1/jobs/{id} shows it) and logs it.
+void Scheduler::fail_job(const std::string& id, const std::string& code,
+                         const std::string& message) {
+  store_.mark_failed(id, utc_now(), code, message);
+  log(code == "invalid_input" ? LogLevel::kWarn : LogLevel::kError, "job failed",
+      {{"job_id", id}, {"code", code}, {"error", message}});
 }
 
 void Scheduler::run_job(const JobRow& job) {
@@ -281,14 +308,13 @@ void Scheduler::run_job(const JobRow& job) {
     if (result.cancelled || cancel_run_.load()) return end_interrupted(id);
     if (!persist(job, v.doc, *v.site, result, started)) return;
   } catch (const InputError& e) {
-    store_.mark_failed(id, utc_now(), "invalid_input", e.what());
-    log(LogLevel::kWarn, "job failed", {{"job_id", id}, {"error", e.what()}});
+    fail_job(id, "invalid_input", e.what());
+  } catch (const api::StorageFullError& e) {
+    fail_job(id, "storage_full", e.what());
   } catch (const std::bad_alloc&) {
-    store_.mark_failed(id, utc_now(), "internal", "out of memory");
-    log(LogLevel::kError, "job failed", {{"job_id", id}, {"error", "out of memory"}});
+    fail_job(id, "internal", "out of memory");
   } catch (const std::exception& e) {
-    store_.mark_failed(id, utc_now(), "internal", e.what());
-    log(LogLevel::kError, "job failed", {{"job_id", id}, {"error", e.what()}});
+    fail_job(id, "internal", e.what());
   }
 }
 
@@ -483,6 +509,7 @@ void Scheduler::submit_queued() {
       const std::lock_guard<std::mutex> lock(mutex_);
       if (stopping_ || static_cast<int>(tracked_.size()) >= backend_.max_jobs) return;
     }
+    if (!room_to_start()) return;
     const auto job = store_.next_queued();
     if (!job) return;
     if (!store_.mark_running(job->job_id, utc_now())) continue;  // cancelled meanwhile
@@ -524,11 +551,11 @@ void Scheduler::submit_queued() {
       }
       if (cancelled) stop_backend_job(t->job, !backend_.keep_workdir);
     } catch (const InputError& e) {
-      store_.mark_failed(id, utc_now(), "invalid_input", e.what());
-      log(LogLevel::kWarn, "job failed", {{"job_id", id}, {"error", e.what()}});
+      fail_job(id, "invalid_input", e.what());
+    } catch (const api::StorageFullError& e) {
+      fail_job(id, "storage_full", e.what());
     } catch (const std::exception& e) {
-      store_.mark_failed(id, utc_now(), "backend", e.what());
-      log(LogLevel::kError, "job failed", {{"job_id", id}, {"error", e.what()}});
+      fail_job(id, "backend", e.what());
     }
   }
 }
@@ -613,10 +640,9 @@ void Scheduler::finish_backend_job(Tracked& t) {
   const auto started = Clock::now();
   try {
     if (const int n = count_finish_attempt(t.job.workdir()); n > max_crashes_) {
-      store_.mark_failed(id, utc_now(), "crashed",
-                         "the daemon stopped abnormally " + std::to_string(n - 1) +
-                             " times while merging this job's shards");
-      log(LogLevel::kError, "job failed", {{"job_id", id}, {"error", "crashed while merging"}});
+      fail_job(id, "crashed",
+               "the daemon stopped abnormally " + std::to_string(n - 1) +
+                   " times while merging this job's shards");
       return;
     }
     std::shared_ptr<const SiteEntry> entry;
@@ -632,14 +658,13 @@ void Scheduler::finish_backend_job(Tracked& t) {
       std::filesystem::remove_all(t.job.workdir(), ec);
     }
   } catch (const InputError& e) {
-    store_.mark_failed(id, utc_now(), "invalid_input", e.what());
-    log(LogLevel::kWarn, "job failed", {{"job_id", id}, {"error", e.what()}});
+    fail_job(id, "invalid_input", e.what());
+  } catch (const api::StorageFullError& e) {
+    fail_job(id, "storage_full", e.what());
   } catch (const std::bad_alloc&) {
-    store_.mark_failed(id, utc_now(), "internal", "out of memory while merging the shards");
-    log(LogLevel::kError, "job failed", {{"job_id", id}, {"error", "out of memory"}});
+    fail_job(id, "internal", "out of memory while merging the shards");
   } catch (const std::exception& e) {
-    store_.mark_failed(id, utc_now(), "backend", e.what());
-    log(LogLevel::kError, "job failed", {{"job_id", id}, {"error", e.what()}});
+    fail_job(id, "backend", e.what());
   }
 }
 

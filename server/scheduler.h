@@ -28,6 +28,7 @@
 #include "core/run/result.h"
 #include "core/run/run.h"
 #include "server/backend.h"
+#include "server/disk_guard.h"
 #include "server/site_registry.h"
 #include "server/store.h"
 
@@ -49,8 +50,10 @@ class Scheduler {
   // are answered promptly while a job keeps the cores busy.
   // `backend`: where jobs run (local: this process); `max_crashes`: a backend job whose merge
   // was interrupted by the daemon's death this many times fails (code "crashed").
+  // `disk`: while it finds the data directory short of space, queued jobs wait (null: never).
   Scheduler(Store& store, SiteRegistry& sites, std::filesystem::path jobs_dir, int threads,
-            int job_nice = 0, ResolvedBackend backend = {}, int max_crashes = 3);
+            int job_nice = 0, ResolvedBackend backend = {}, int max_crashes = 3,
+            const DiskGuard* disk = nullptr);
   ~Scheduler();
   Scheduler(const Scheduler&) = delete;
   Scheduler& operator=(const Scheduler&) = delete;
@@ -89,6 +92,8 @@ class Scheduler {
   struct Stopping;  // a cancelled or failed backend job whose processes may still be at work
 
   void loop();
+  bool room_to_start();
+  void fail_job(const std::string& id, const std::string& code, const std::string& message);
   void run_job(const JobRow& job);
   // The run's progress (from its worker threads): the live figures GET /jobs/{id} shows, and
   // the stored count at most once a second (`last_flush`, guarded by mutex_).
@@ -141,6 +146,8 @@ class Scheduler {
 
   ResolvedBackend backend_;
   int max_crashes_;
+  const DiskGuard* disk_;
+  bool disk_short_ = false;  // last seen by room_to_start() (logged on each change)
   std::condition_variable monitor_wake_;
   std::map<std::string, std::shared_ptr<Tracked>> tracked_;  // backend jobs, by id
   std::vector<std::shared_ptr<Stopping>> stopping_jobs_;

@@ -14,6 +14,7 @@
 
 #include "api/compare_json.h"
 #include "api/job_request.h"
+#include "api/output_dir.h"
 #include "api/ptn_json.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
@@ -60,7 +61,9 @@ enum class RouteId {
   kJobScene,
   kJobPlanBoundary,
   kJobCompare,
-  kJobCompareH5
+  kJobCompareH5,
+  kJobRetry,
+  kWhoami
 };
 
 constexpr const char* kJsonType = "application/json";
@@ -206,13 +209,18 @@ Service::Service(Config config)
     : config_(std::move(config)),
       data_dir_(config_.data_dir),
       lock_(data_dir_),
-      tokens_(config_.auth ? read_tokens(config_.token_file) : std::vector<std::string>{}),
+      tokens_(config_.auth ? read_tokens(config_.token_file) : std::vector<Token>{}),
       started_(std::chrono::steady_clock::now()),
+      disk_(data_dir_, config_.min_free_bytes),
       store_(data_dir_ / "fragsimd.sqlite"),
       sites_(store_, data_dir_ / "sites"),
       scheduler_(store_, sites_, data_dir_ / "jobs", config_.threads, config_.job_nice,
-                 resolve_backend(config_.backend), config_.max_crashes),
+                 resolve_backend(config_.backend), config_.max_crashes, &disk_),
       purger_(store_, scheduler_, data_dir_ / "jobs", catalogue_mutex_) {
+  if (const int from = store_.upgraded_from(); from > 0 && from < kStoreSchemaVersion)
+    log(LogLevel::kWarn, "store upgraded",
+        {{"from_schema", std::to_string(from)},
+         {"to_schema", std::to_string(kStoreSchemaVersion)}});
   if (const std::size_t n = clean_stale_temporaries(data_dir_); n > 0)
     log(LogLevel::kWarn, "removed temporaries left by a killed daemon",
         {{"files", std::to_string(n)}});
@@ -246,18 +254,19 @@ std::optional<std::string> Service::owner_of(const Request& req) const {
   return "tok_" + api::sha256_hex(it->second.substr(7)).substr(0, 16);
 }
 
-bool Service::authorised(const Request& req) const {
-  if (!config_.auth) return true;
+std::optional<Role> Service::role_of(const Request& req) const {
+  if (!config_.auth) return Role::kAdmin;  // loopback only (check_config)
   const auto it = req.headers.find("authorization");
-  if (it == req.headers.end()) return false;
+  if (it == req.headers.end()) return std::nullopt;
   const std::string& h = it->second;
   constexpr std::string_view kBearer = "bearer ";
   if (h.size() <= kBearer.size() || ascii_lower(h.substr(0, kBearer.size())) != kBearer)
-    return false;
+    return std::nullopt;
   const std::string token = h.substr(kBearer.size());
-  bool ok = false;
-  for (const auto& t : tokens_) ok = same_token(token, t) || ok;  // no early exit
-  return ok;
+  std::optional<Role> role;
+  for (const auto& t : tokens_)  // no early exit
+    if (same_token(token, t.secret)) role = t.role;
+  return role;
 }
 
 namespace {
@@ -284,8 +293,23 @@ const std::vector<Service::Route>& routes() {
       {RouteId::kJobPlanBoundary, "/v1/jobs/{id}/plan_boundary", {"GET"}},
       {RouteId::kJobCompare, "/v1/jobs/{id}/compare", {"GET"}},
       {RouteId::kJobCompareH5, "/v1/jobs/{id}/compare.h5", {"GET"}},
+      {RouteId::kJobRetry, "/v1/jobs/{id}/retry", {"POST"}},
+      {RouteId::kWhoami, "/v1/whoami", {"GET"}},
   };
   return kRoutes;
+}
+
+// The least role a request needs (docs/operations.md, "Roles"): reading anything is read;
+// submitting a job or a site, cancelling or retrying a job is submit (its own jobs: checked by
+// the handler); purging a job or deleting a site is admin.
+Role needed_role(RouteId route, const Request& req) {
+  if (req.method == "GET" || req.method == "HEAD") return Role::kRead;
+  if (route == RouteId::kSite) return Role::kAdmin;
+  if (route == RouteId::kJob) {
+    const auto it = req.query.find("purge");
+    return it != req.query.end() && it->second == "true" ? Role::kAdmin : Role::kSubmit;
+  }
+  return Role::kSubmit;
 }
 
 }  // namespace
@@ -442,15 +466,23 @@ Response Service::route_request(const Request& req) {
       return r;
     }
     Response r;
-    if (!route.public_route && !authorised(req)) {
+    const std::optional<Role> role = route.public_route ? Role::kRead : role_of(req);
+    if (!role) {
       r = error_response(401, "unauthorized",
                          req.headers.count("authorization")
                              ? "the bearer token is not valid"
                              : "this route needs an Authorization: Bearer <token> header");
       r.headers.emplace_back("WWW-Authenticate", "Bearer realm=\"fragsimd\"");
+    } else if (const Role needed = needed_role(route.id, req); *role < needed) {
+      r = error_response(
+          403, "forbidden",
+          std::string("this token's role (") + role_name(*role) + ") may not " + req.method + " " +
+              route.pattern +
+              (route.id == RouteId::kJob && needed == Role::kAdmin ? "?purge=true" : "") +
+              "; that needs " + role_name(needed) + (needed == Role::kSubmit ? " or admin" : ""));
     } else {
       try {
-        r = dispatch(req, route, id, name);
+        r = dispatch(req, route, id, name, *role);
       } catch (const api::JsonTooDeepError& e) {
         r = error_response(400, "too_deep", e.message(), e.field());
       } catch (const api::MalformedJsonError& e) {
@@ -462,6 +494,9 @@ Response Service::route_request(const Request& req) {
       } catch (const LimitError& e) {
         r = error_response(422, "limit_exceeded", e.what(),
                            e.field().empty() ? std::nullopt : std::optional(e.field()));
+      } catch (const api::StorageFullError& e) {
+        log(LogLevel::kError, "storage full", {{"path", path}, {"error", e.what()}});
+        r = error_response(507, "storage_full", e.what());
       } catch (const std::bad_alloc&) {
         r = error_response(500, "internal", "out of memory while handling the request");
       } catch (const std::exception& e) {
@@ -476,7 +511,7 @@ Response Service::route_request(const Request& req) {
 }
 
 Response Service::dispatch(const Request& req, const Route& route, const std::string& id,
-                           const std::string& name) {
+                           const std::string& name, Role role) {
   const bool get = req.method == "GET" || req.method == "HEAD";
   // Query parameters first (the same order on every route), then the id in the path.
   std::optional<Response> bad;
@@ -508,6 +543,7 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
       if (!api::is_site_id(id)) return error_response(404, "not_found", "no site " + id);
       return site_scene(id);
     case RouteId::kJobs: return get ? list_jobs(req) : post_job(req);
+    case RouteId::kWhoami: return whoami(req, role);
     default: break;
   }
   if (!api::is_job_id(id)) return error_response(404, "not_found", "no job " + id);
@@ -515,7 +551,7 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
   if (route.id == RouteId::kJobScene) return job_scene(req, id);
   if (route.id == RouteId::kJobPlanBoundary) return job_plan_boundary(req, id);
   switch (route.id) {
-    case RouteId::kJob: return get ? get_job(id) : delete_job(req, id);
+    case RouteId::kJob: return get ? get_job(id) : delete_job(req, id, role);
     case RouteId::kJobSummary: return job_summary(id);
     case RouteId::kJobBuildings: return job_buildings(id);
     case RouteId::kJobResults: return job_results_h5(id);
@@ -525,6 +561,7 @@ Response Service::dispatch(const Request& req, const Route& route, const std::st
     case RouteId::kJobReportPdf: return job_report(req, id, true);
     case RouteId::kJobCompare: return job_compare(id, false);
     case RouteId::kJobCompareH5: return job_compare(id, true);
+    case RouteId::kJobRetry: return retry_job(req, id, role);
     default: return error_response(404, "not_found", "no route " + req.path);
   }
 }
@@ -541,6 +578,12 @@ Response Service::health() {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
   j["jobs"] = {{"queued", counts[static_cast<std::size_t>(JobState::kQueued)]},
                {"running", counts[static_cast<std::size_t>(JobState::kRunning)]}};
+  if (const auto space = disk_space(data_dir_))
+    j["storage"] = {
+        {"free_bytes", space->free_bytes},
+        {"total_bytes", space->total_bytes},
+        {"min_free_bytes", disk_.min_free_bytes()},
+        {"short", disk_.min_free_bytes() > 0 && space->free_bytes < disk_.min_free_bytes()}};
   return json_response(200, j);
 }
 
@@ -597,6 +640,7 @@ Response Service::post_site(const Request& req) {
   std::shared_ptr<const SiteEntry> entry = sites_.find(doc.site_id);
   bool created = false;
   if (!entry) {
+    if (const auto found = disk_.short_of_space()) return storage_short(*found);
     // Built with no lock held: job submissions and site deletions go on meanwhile. Only the
     // insertion, which is quick, is serialised with them.
     const auto prepared = SiteRegistry::prepare(doc);
@@ -800,6 +844,10 @@ Response Service::post_job(const Request& req) {
   row.histories_total = jr.total_samples;
   row.created_utc = utc_now();
   row.owner = owner_of(req);
+  // A new job on a short disk is refused; a retry of one accepted earlier writes nothing.
+  if (const auto found = disk_.short_of_space();
+      found && !(row.idempotency_key && store_.has_idempotency_key(*row.idempotency_key)))
+    return storage_short(*found);
 
   Store::Insert inserted;
   {
@@ -864,7 +912,7 @@ Response Service::get_job(const std::string& id) {
 
 // DELETE /v1/jobs/{id}: cancels a queued or running job; with ?purge=true removes a finished
 // one and its files (server/purge.h).
-Response Service::delete_job(const Request& req, const std::string& id) {
+Response Service::delete_job(const Request& req, const std::string& id, Role role) {
   const std::optional<std::string> by = owner_of(req);
   if (const auto it = req.query.find("purge"); it != req.query.end()) {
     if (it->second == "true") return purge_job(id, by);
@@ -872,6 +920,7 @@ Response Service::delete_job(const Request& req, const std::string& id) {
       return error_response(400, "bad_parameter",
                             "must be true or false (got \"" + it->second + "\")", "purge");
   }
+  if (auto refused = not_own_job(req, id, role, "cancel")) return *refused;
   const auto before = scheduler_.cancel(id);
   if (!before) return error_response(404, "not_found", "no job " + id);
   if (is_final(*before))
@@ -915,6 +964,67 @@ Response Service::purge_job(const std::string& id, const std::optional<std::stri
   return json_response(
       200,
       OJson{{"job_id", id}, {"purged", true}, {"state", state}, {"bytes_freed", r.bytes_freed}});
+}
+
+// POST /v1/jobs/{id}/retry: a failed job queued again under its id (after a full disk was freed,
+// a crash, a backend fault); not one that failed for its input, which would fail again.
+Response Service::retry_job(const Request& req, const std::string& id, Role role) {
+  if (auto refused = not_own_job(req, id, role, "retry")) return *refused;
+  // Checked before the guard (a job that cannot be retried says so whatever the disk), and
+  // again by Store::retry, atomically, for a job that changed meanwhile.
+  const auto refusal = [&](const JobRow& row) -> std::optional<Response> {
+    if (row.state != JobState::kFailed)
+      return error_response(
+          409, "conflict",
+          "job " + id + " is " + job_state_name(row.state) + "; only a failed job can be retried");
+    if (row.error_code == "invalid_input")
+      return error_response(409, "conflict",
+                            "job " + id +
+                                " failed for its input (invalid_input) and would fail again; "
+                                "submit a corrected job");
+    return std::nullopt;
+  };
+  const auto row = store_.job(id);
+  if (!row) return error_response(404, "not_found", "no job " + id);
+  if (auto r = refusal(*row)) return *r;
+  if (const auto found = disk_.short_of_space()) return storage_short(*found);
+  const auto before = store_.retry(id);
+  if (!before) return error_response(404, "not_found", "no job " + id);  // purged meanwhile
+  if (auto r = refusal(*before)) return *r;
+  scheduler_.notify();
+  log(LogLevel::kInfo, "job queued again by request",
+      {{"job_id", id},
+       {"failed_with", before->error_code.value_or("-")},
+       {"by", owner_of(req).value_or("-")}});
+  Response r = json_response(202, job_json(*store_.job(id)));
+  r.headers.emplace_back("Location", "/v1/jobs/" + id);
+  return r;
+}
+
+// A submit token acts on its own jobs only (admin: on any). nullopt: allowed, or no such job
+// (the handler answers 404).
+std::optional<Response> Service::not_own_job(const Request& req, const std::string& id, Role role,
+                                             const char* action) {
+  if (role != Role::kSubmit) return std::nullopt;
+  const auto row = store_.job(id);
+  if (!row || (row->owner && row->owner == owner_of(req))) return std::nullopt;
+  return error_response(403, "forbidden",
+                        std::string("job ") + id + " was submitted by another token (" +
+                            row->owner.value_or("none recorded") + "); a submit token may " +
+                            action + " only its own jobs, admin any");
+}
+
+// GET /v1/whoami: what the token presented may do (the viewer shows only that).
+Response Service::whoami(const Request& req, Role role) const {
+  OJson j;
+  j["role"] = role_name(role);
+  j["owner"] = owner_of(req) ? OJson(*owner_of(req)) : OJson(nullptr);
+  j["auth"] = config_.auth;
+  return json_response(200, j);
+}
+
+Response Service::storage_short(const DiskSpace& found) const {
+  return error_response(507, "storage_full", disk_.refusal(found));
 }
 
 std::variant<JobRow, Response> Service::finished_job(const std::string& id) {

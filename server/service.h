@@ -18,6 +18,7 @@
 
 #include "api/job_request.h"
 #include "server/config.h"
+#include "server/disk_guard.h"
 #include "server/job_maps.h"
 #include "server/job_reports.h"
 #include "server/metrics.h"
@@ -87,7 +88,7 @@ class Service {
  private:
   Response route_request(const Request& req);
   Response dispatch(const Request& req, const Route& route, const std::string& id,
-                    const std::string& name);
+                    const std::string& name, Role role);
   // The web viewer's files at /ui/ ("/" and "/ui" redirect there).
   static bool is_ui_path(const std::string& path);
   Response ui_file(const Request& req);
@@ -111,8 +112,13 @@ class Service {
   Response job_compare(const std::string& id, bool h5);
   Response list_jobs(const Request& req);
   Response get_job(const std::string& id);
-  Response delete_job(const Request& req, const std::string& id);
+  Response delete_job(const Request& req, const std::string& id, Role role);
   Response purge_job(const std::string& id, const std::optional<std::string>& by);
+  Response retry_job(const Request& req, const std::string& id, Role role);
+  std::optional<Response> not_own_job(const Request& req, const std::string& id, Role role,
+                                      const char* action);
+  Response whoami(const Request& req, Role role) const;
+  Response storage_short(const DiskSpace& found) const;
   Response job_summary(const std::string& id);
   Response job_buildings(const std::string& id);
   Response job_ptn(const Request& req, const std::string& id);
@@ -123,7 +129,8 @@ class Service {
   Response job_map_file(const std::string& id, const std::string& name);
   Response job_report(const Request& req, const std::string& id, bool pdf);
 
-  bool authorised(const Request& req) const;
+  // The role of the request's bearer token; nullopt: no valid token (401). Admin with auth off.
+  std::optional<Role> role_of(const Request& req) const;
   void check_terrain_size(const scene::TerrainSpec& terrain, const std::string& field) const;
   // The built site a submitted job names or holds (an inline one checked and built now).
   std::shared_ptr<const scene::Site> job_site(const api::JobRequest& jr,
@@ -150,8 +157,9 @@ class Service {
   Config config_;
   std::filesystem::path data_dir_;
   DataDirLock lock_;
-  std::vector<std::string> tokens_;
+  std::vector<Token> tokens_;
   std::chrono::steady_clock::time_point started_;
+  DiskGuard disk_;
   Store store_;
   SiteRegistry sites_;
   Scheduler scheduler_;

@@ -1,7 +1,11 @@
 #include "server/store.h"
 
 #include <array>
+#include <cerrno>
 #include <stdexcept>
+
+#include "api/output_dir.h"
+#include "fragsim/version.h"
 
 namespace fragsim::server {
 
@@ -64,6 +68,16 @@ constexpr const char* kJobStatusColumns =
     "job_id, seq, site_id, priority, state, idempotency_key, request_sha256, '', "
     "histories_total, histories_done, attempts, crashes, created_utc, started_utc, finished_utc, "
     "error_code, error_message, owner";
+
+// SQLITE_FULL (the disk or a quota is full) is a StorageFullError naming the database file, as
+// a full disk anywhere else; other errors name the statement.
+[[noreturn]] void throw_database_error(sqlite3* db, const char* what, const std::string& message) {
+  if (sqlite3_errcode(db) == SQLITE_FULL) {
+    const char* file = sqlite3_db_filename(db, "main");
+    throw api::StorageFullError(file != nullptr ? file : "the database", ENOSPC, -1);
+  }
+  throw std::runtime_error(std::string("database error (") + what + "): " + message);
+}
 
 }  // namespace
 
@@ -149,9 +163,7 @@ class Store::Statement {
   void check(int rc) {
     if (rc != SQLITE_OK) fail();
   }
-  [[noreturn]] void fail() {
-    throw std::runtime_error(std::string("database error (") + what_ + "): " + sqlite3_errmsg(db_));
-  }
+  [[noreturn]] void fail() { throw_database_error(db_, what_, sqlite3_errmsg(db_)); }
   sqlite3* db_;
   const char* what_;
   sqlite3_stmt* stmt_ = nullptr;
@@ -167,12 +179,15 @@ Store::Store(const std::string& path) {
   }
   sqlite3_busy_timeout(db_, 10000);
   try {
+    refuse_newer(path);  // before anything is written, the journal mode too
     exec("PRAGMA journal_mode = WAL", "journal mode");
     // FULL: a transaction that returned is on disk (a 202 must survive a power cut).
     exec("PRAGMA synchronous = FULL", "synchronous");
     exec("PRAGMA foreign_keys = ON", "foreign keys");
+    const int before = schema_version();  // 0: a new store
     exec(kSchema, "schema");
-    add_missing_columns();
+    migrate();
+    upgraded_from_ = before;
   } catch (...) {
     sqlite3_close(db_);
     throw;
@@ -184,23 +199,12 @@ Store::~Store() {
   sqlite3_close(db_);
 }
 
-// Databases written by an earlier fragsimd lack the columns added since (CREATE TABLE IF NOT
-// EXISTS leaves an existing table as it is).
-void Store::add_missing_columns() {
-  bool has_owner = false;
-  {
-    Statement s(*this, "SELECT name FROM pragma_table_info('jobs')", "table info");
-    while (s.step()) has_owner = has_owner || s.text(0) == "owner";
-  }
-  if (!has_owner) exec("ALTER TABLE jobs ADD COLUMN owner TEXT", "add column owner");
-}
-
 void Store::exec(const char* sql, const char* what) {
   char* error = nullptr;
   if (sqlite3_exec(db_, sql, nullptr, nullptr, &error) != SQLITE_OK) {
     const std::string message = error ? error : sqlite3_errmsg(db_);
     sqlite3_free(error);
-    throw std::runtime_error(std::string("database error (") + what + "): " + message);
+    throw_database_error(db_, what, message);
   }
 }
 
@@ -215,6 +219,57 @@ auto Store::transaction(F&& body) {
     sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
     throw;
   }
+}
+
+// The schema version in meta.schema_version (docs/operations.md, "Upgrades"); 0 when the store
+// has none yet (a new file).
+int Store::schema_version() {
+  Statement t(*this, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'meta'",
+              "meta table");
+  if (!t.step()) return 0;
+  Statement s(*this, "SELECT value FROM meta WHERE key = 'schema_version'", "schema version");
+  if (!s.step()) return 0;
+  const std::string v = s.text(0);
+  int n = 0;
+  for (const char c : v) {
+    if (c < '0' || c > '9' || n > 100000) return -1;
+    n = n * 10 + (c - '0');
+  }
+  return v.empty() ? -1 : n;
+}
+
+// A store written by a newer fragsimd is refused untouched: its tables may mean what this one
+// cannot know.
+void Store::refuse_newer(const std::string& path) {
+  const int v = schema_version();
+  if (v >= 0 && v <= kStoreSchemaVersion) return;
+  throw StoreVersionError(
+      "the store " + path + " has schema version " +
+      (v < 0 ? std::string("(unreadable)") : std::to_string(v)) +
+      ", written by a newer fragsimd; this one (" + kVersion + ") reads versions 1 to " +
+      std::to_string(kStoreSchemaVersion) +
+      ": run the fragsimd that wrote it, or restore a backup made before the upgrade "
+      "(docs/operations.md, \"Upgrades\"); nothing was changed");
+}
+
+// Brings an earlier store (or a new one, made at version 1 by kSchema) to this version, in one
+// transaction.
+//   1  the first schema (fragsimd 0.1.0 of 2026-11-23); stores written before versions were
+//      kept say 1, with or without jobs.owner
+//   2  jobs.owner (who submitted a job; every store fragsimd writes since this version)
+void Store::migrate() {
+  if (schema_version() == kStoreSchemaVersion) return;
+  transaction([&] {
+    bool has_owner = false;
+    {
+      Statement s(*this, "SELECT name FROM pragma_table_info('jobs')", "table info");
+      while (s.step()) has_owner = has_owner || s.text(0) == "owner";
+    }
+    if (!has_owner) exec("ALTER TABLE jobs ADD COLUMN owner TEXT", "add column owner");
+    Statement u(*this, "UPDATE meta SET value = ?1 WHERE key = 'schema_version'", "schema version");
+    u.bind(1, std::to_string(kStoreSchemaVersion)).run();
+    return 0;
+  });
 }
 
 // ---- Sites ----
@@ -450,6 +505,30 @@ std::optional<JobState> Store::cancel(const std::string& job_id, const std::stri
       Statement s(*this, "UPDATE jobs SET state = 'cancelled', finished_utc = ?2 WHERE job_id = ?1",
                   "cancel job");
       s.bind(1, job_id).bind(2, finished_utc).run();
+    }
+    return before;
+  });
+}
+
+std::optional<JobRow> Store::retry(const std::string& job_id) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return transaction([&]() -> std::optional<JobRow> {
+    std::optional<JobRow> before;
+    {
+      Statement q(*this,
+                  std::string("SELECT ") + kJobStatusColumns + " FROM jobs WHERE job_id = ?1",
+                  "get job");
+      q.bind(1, job_id);
+      if (!q.step()) return std::nullopt;
+      before = read_job(q);
+    }
+    if (before->state == JobState::kFailed && before->error_code != "invalid_input") {
+      Statement s(*this,
+                  "UPDATE jobs SET state = 'queued', histories_done = 0, crashes = 0, "
+                  "started_utc = NULL, finished_utc = NULL, error_code = NULL, "
+                  "error_message = NULL WHERE job_id = ?1",
+                  "retry job");
+      s.bind(1, job_id).run();
     }
     return before;
   });

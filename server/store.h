@@ -58,11 +58,24 @@ struct BuildingRow {
   double penetrations_std_error = 0.0;
 };
 
+// The store's schema version this fragsimd writes (docs/operations.md, "Upgrades"); it opens
+// every earlier one, upgrading it in place, and refuses a later one.
+inline constexpr int kStoreSchemaVersion = 2;
+
+// A store of a newer schema: refused before anything is written.
+class StoreVersionError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 // SQLite failures (disk full, corruption): std::runtime_error naming the statement's purpose.
 class Store {
  public:
   explicit Store(const std::string& path);
   ~Store();
+  // The schema version the store had when opened (kStoreSchemaVersion if it was current;
+  // 0: a new store).
+  int upgraded_from() const { return upgraded_from_; }
   Store(const Store&) = delete;
   Store& operator=(const Store&) = delete;
 
@@ -105,6 +118,10 @@ class Store {
   std::optional<JobState> cancel(const std::string& job_id, const std::string& finished_utc);
   // running -> queued (clean shutdown: the job reruns next time; not counted as a crash).
   void requeue(const std::string& job_id);
+  // failed -> queued, its error, progress and crash count cleared, unless it failed for its
+  // input (invalid_input: it would fail again). Returns the job as it was (nullopt: no such job);
+  // it was queued again if that row is failed with another code.
+  std::optional<JobRow> retry(const std::string& job_id);
   // At start: jobs left running by a dead daemon. Each is queued again (crashes + 1), or marked
   // failed with code "crashed" once it has crashed `max_crashes` times; except those in
   // `still_running` (backend jobs the new daemon follows again), which stay running. Returns the
@@ -146,7 +163,9 @@ class Store {
  private:
   class Statement;
   void exec(const char* sql, const char* what);
-  void add_missing_columns();
+  int schema_version();
+  void refuse_newer(const std::string& path);
+  void migrate();
   // Runs `body` in one write transaction; rolled back if it throws. Defined in store.cpp.
   template <class F>
   auto transaction(F&& body);
@@ -155,6 +174,7 @@ class Store {
 
   std::mutex mutex_;
   sqlite3* db_ = nullptr;
+  int upgraded_from_ = 0;
   std::unordered_map<std::string, sqlite3_stmt*> statements_;  // prepared, by SQL text
 };
 

@@ -237,7 +237,7 @@ struct RunResult {
   std::int64_t samples = 0;
   double real_fragments = 0.0;
   std::uint64_t seed = 0;
-  bool cancelled = false;  // partial: not a final result
+  bool cancelled = false;  // stopped early: only the counts, stop reason and timing are set
   std::int64_t histories_done = 0;
   // Batches of the groups' samples (settings.precision; 1 without). A run that stopped after
   // K batches is bit-identical to one with precision.max_batches = K and no targets.

@@ -1021,14 +1021,6 @@ RunResult finish_tally(const Scenario& sc, const scene::Site& site, PartialRun p
   r.batches = r.cancelled ? p.batches + 1 : p.batches;  // the partial batch counts (one's estimate)
   r.stop_reason = p.stop_reason;
   r.precision = p.precision;
-  fill_figures(sc, site, p, r.cancelled ? p.tallied_batches + 1 : p.tallied_batches, r);
-  auto by_history = [](const auto& a, const auto& b) {
-    return std::tie(a.group, a.history) < std::tie(b.group, b.history);
-  };
-  std::sort(p.records.begin(), p.records.end(), by_history);
-  std::sort(p.trajectories.begin(), p.trajectories.end(), by_history);
-  r.fragments = std::move(p.records);
-  r.trajectories = std::move(p.trajectories);
   r.stats = p.stats;
   r.timing.wall_s = p.wall_s;
   r.timing.threads = p.threads;
@@ -1039,6 +1031,18 @@ RunResult finish_tally(const Scenario& sc, const scene::Site& site, PartialRun p
     r.timing.fragments_per_s = static_cast<double>(r.histories_done) / r.timing.wall_s;
     r.timing.fragments_per_s_per_thread = r.timing.fragments_per_s / r.timing.threads;
   }
+  // A cancelled run's figures are never shown (no caller writes or serves them): its counts
+  // are enough, and a cancel returns without the figures' work or sorting millions of records
+  // (seconds under TSan: a cancel must end within a second, docs/http-api.md).
+  if (r.cancelled) return r;
+  fill_figures(sc, site, p, p.tallied_batches, r);
+  auto by_history = [](const auto& a, const auto& b) {
+    return std::tie(a.group, a.history) < std::tie(b.group, b.history);
+  };
+  std::sort(p.records.begin(), p.records.end(), by_history);
+  std::sort(p.trajectories.begin(), p.trajectories.end(), by_history);
+  r.fragments = std::move(p.records);
+  r.trajectories = std::move(p.trajectories);
   return r;
 }
 

@@ -373,6 +373,14 @@ class Client:
                 attempt += 1
                 time.sleep(min(e.retry_after, self.max_retry_wait))
 
+    def retry(self, job_id: str) -> Dict[str, Any]:
+        """``POST /v1/jobs/{id}/retry``: a failed job queued again under its id (e.g. one that
+        failed with ``storage_full`` once space was freed); returns its JobStatus (``queued``).
+        A job that is not failed, or failed with ``invalid_input``, raises
+        :class:`~fragsim.errors.Conflict`; a short disk :class:`~fragsim.errors.StorageFull`.
+        """
+        return self._obj("POST", f"/v1/jobs/{_id(job_id)}/retry")
+
     def follow(
         self,
         job_id: str,

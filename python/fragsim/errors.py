@@ -8,6 +8,7 @@ subclass is chosen by the status (and for some by the code)::
     ├── ApiError                   any 4xx/5xx answer: .status .code .message .field
     │   ├── BadRequest             400 (malformed_json, too_deep, bad_parameter, bad_request)
     │   ├── Unauthorized           401
+    │   ├── Forbidden              403 (the token's role may not do this)
     │   ├── NotFound               404
     │   ├── MethodNotAllowed       405
     │   ├── RequestTimeout         408
@@ -20,6 +21,7 @@ subclass is chosen by the status (and for some by the code)::
     │   │   └── LimitExceeded      422 limit_exceeded
     │   ├── HeadersTooLarge        431
     │   ├── ServerError            500 and any other 5xx
+    │   │   └── StorageFull        507 storage_full (the data directory's disk is short)
     │   └── ServiceUnavailable     503 (busy, pdf_unavailable, too_many_connections)
     ├── TransportError             no HTTP answer (connection refused, reset, timed out)
     ├── JobFailed                  wait(): the job ended failed or cancelled
@@ -85,6 +87,11 @@ class Unauthorized(ApiError):
     """401: missing or wrong bearer token."""
 
 
+class Forbidden(ApiError):
+    """403 ``forbidden``: the token's role (read, submit, admin) may not do this
+    (docs/operations.md, "Roles"); the message says what is needed."""
+
+
 class NotFound(ApiError):
     """404: unknown route, site or job."""
 
@@ -133,6 +140,11 @@ class ServerError(ApiError):
     """500 (``internal``) and any 5xx other than 503."""
 
 
+class StorageFull(ServerError):
+    """507 ``storage_full``: the daemon's disk is short of space (docs/operations.md); new jobs
+    are refused until space is freed, queued ones wait."""
+
+
 class ServiceUnavailable(ApiError):
     """503: ``busy`` (retry after ``retry_after``), ``pdf_unavailable``,
     ``too_many_connections``."""
@@ -169,6 +181,7 @@ class UnsupportedFormat(FragsimError, ValueError):
 _BY_STATUS: Dict[int, Type[ApiError]] = {
     400: BadRequest,
     401: Unauthorized,
+    403: Forbidden,
     404: NotFound,
     405: MethodNotAllowed,
     408: RequestTimeout,
@@ -180,6 +193,7 @@ _BY_STATUS: Dict[int, Type[ApiError]] = {
     431: HeadersTooLarge,
     500: ServerError,
     503: ServiceUnavailable,
+    507: StorageFull,
 }
 
 _BY_CODE: Dict[str, Type[ApiError]] = {

@@ -122,6 +122,9 @@ class ClientTest(unittest.TestCase):
         self.c.delete_site(site_id)
         with self.assertRaises(fragsim.NotFound):
             self.c.site(site_id)
+        # Only a failed job can be retried.
+        with self.assertRaises(fragsim.Conflict):
+            self.c.retry(job["job_id"])
         # Finished (cancelled), it can be purged; then it is unknown.
         purged = self.c.purge(job["job_id"])
         self.assertEqual(purged["job_id"], job["job_id"])

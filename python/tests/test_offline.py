@@ -42,6 +42,11 @@ class ErrorMappingTest(unittest.TestCase):
         self.assertIs(type(errors.from_response(400, b'{"code":"not_ready"}')), fragsim.BadRequest)
         self.assertIs(type(errors.from_response(502, b"<html>bad gateway</html>")),
                       fragsim.ServerError)
+        self.assertIsInstance(errors.from_response(403, b'{"code":"forbidden","message":"m"}'),
+                              fragsim.Forbidden)
+        full = errors.from_response(507, b'{"code":"storage_full","message":"m","field":null}')
+        self.assertIsInstance(full, fragsim.StorageFull)
+        self.assertIsInstance(full, fragsim.ServerError)
         other = errors.from_response(418, b"teapot")
         self.assertIs(type(other), fragsim.ApiError)
         self.assertEqual((other.code, other.message), ("http_418", "teapot"))

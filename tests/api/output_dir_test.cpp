@@ -8,6 +8,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "small_disk.h"
 #include "test_support.h"
 
 namespace fragsim::api {
@@ -147,6 +148,50 @@ TEST_F(OutputDirTest, NamesMustBePlain) {
   OutputDir out(root_ / "out");
   EXPECT_THROW(out.stage_text("../escape.json", "{}"), std::invalid_argument);
   EXPECT_THROW(out.stage_text("", "{}"), std::invalid_argument);
+}
+
+// A full disk is a StorageFullError naming the file and the bytes, found before anything is
+// written (the space is reserved first), and the staged name a reader knows, with no temporary
+// left; once space is freed the same write succeeds.
+TEST_F(OutputDirTest, AFullDiskIsStorageFullWithThePathAndTheBytes) {
+  std::string why;
+  const auto disk = fragsim::testing::SmallDisk::make(root_ / "disk", 1 << 20, &why);
+  if (!disk) GTEST_SKIP() << "no small file system here: " << why;
+  const std::string two_mib(2 << 20, 'x');
+  const fs::path file = root_ / "disk" / "big";
+  try {
+    write_new_file(file, two_mib);
+    FAIL() << "wrote 2 MiB on a 1 MiB file system";
+  } catch (const StorageFullError& e) {
+    EXPECT_EQ(e.path(), file);
+    EXPECT_EQ(e.error(), ENOSPC);
+    EXPECT_EQ(e.bytes_needed(), 2 << 20);
+    EXPECT_NE(std::string(e.what()).find("No space left on device writing " + file.string() +
+                                         " (2097152 bytes needed)"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(file));
+
+  const fs::path dir = root_ / "disk" / "out";
+  {
+    OutputDir out(dir);
+    out.stage_text("summary.json", "{}\n");
+    try {
+      out.stage_text("results.h5", two_mib);
+      FAIL() << "staged 2 MiB on a 1 MiB file system";
+    } catch (const StorageFullError& e) {
+      EXPECT_EQ(e.path(), dir / "results.h5");  // not the temporary's name
+      EXPECT_EQ(e.bytes_needed(), 2 << 20);
+    }
+  }
+  EXPECT_FALSE(fs::exists(dir));  // discarded: nothing staged remains, the new directory goes
+  EXPECT_GT(disk->available(), (1 << 20) - (64 << 10));
+
+  OutputDir again(dir);
+  again.stage_text("results.h5", std::string(512 << 10, 'y'));
+  again.commit();
+  EXPECT_EQ(fs::file_size(dir / "results.h5"), 512u << 10);
 }
 
 }  // namespace

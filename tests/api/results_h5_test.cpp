@@ -6,7 +6,10 @@
 
 #include <stdexcept>
 
+#include "api/h5_writer.h"
+#include "api/output_dir.h"
 #include "fragsim/version.h"
+#include "small_disk.h"
 #include "test_support.h"
 
 namespace fragsim::api {
@@ -95,14 +98,17 @@ class ResultsH5 : public ::testing::Test {
   }
 
   fs::path write(const std::string& name, const run::RunResult& r, bool record = true) {
+    const fs::path path = dir_ / name;
+    write_at(path, r, record);
+    return path;
+  }
+  void write_at(const fs::path& path, const run::RunResult& r, bool record = true) {
     run::Scenario sc = scenario_;
     sc.settings.record_fragments = record;
     sc.settings.record_trajectories = record;
     Provenance p = build_provenance();
     p.scenario_sha256 = std::string(64, 'a');
-    const fs::path path = dir_ / name;
     write_results_h5(path, r, *site_, sc, scenario_to_json(sc).dump(), p);
-    return path;
   }
 
   fs::path dir_;
@@ -110,6 +116,60 @@ class ResultsH5 : public ::testing::Test {
   std::shared_ptr<const scene::Site> site_;
   run::RunResult result_;
 };
+
+// The superblock checksum the writer mends in the in-memory file's image (h5::reseal_superblock):
+// lookup3 over a file HDF5 wrote to disk itself (an older fragsimd, tests/server/data) gives the
+// checksum HDF5 stored; a changed byte gives another.
+TEST(H5Image, Lookup3IsTheSuperblockChecksumHdf5Writes) {
+  const std::string file = testing::read_text(
+      testing::source_path("tests/server/data/store-v1/jobs/j_cfdf454a3ec0d3ad/results.h5"));
+  ASSERT_GT(file.size(), 48u);
+  ASSERT_EQ(file[8], 2) << "superblock version";
+  const auto* p = reinterpret_cast<const unsigned char*>(file.data());
+  const std::uint32_t stored = p[44] | (p[45] << 8) | (p[46] << 16) | (std::uint32_t{p[47]} << 24);
+  EXPECT_EQ(h5::lookup3(p, 44), stored);
+  std::string changed = file.substr(0, 48);
+  changed[30] ^= 1;
+  EXPECT_NE(h5::lookup3(reinterpret_cast<const unsigned char*>(changed.data()), 44), stored);
+  h5::reseal_superblock(changed, "changed");
+  EXPECT_EQ(h5::lookup3(reinterpret_cast<const unsigned char*>(changed.data()), 44),
+            static_cast<std::uint32_t>(static_cast<unsigned char>(changed[44]) |
+                                       (static_cast<unsigned char>(changed[45]) << 8) |
+                                       (static_cast<unsigned char>(changed[46]) << 16) |
+                                       (static_cast<unsigned char>(changed[47]) << 24)));
+  // Jenkins' own test vector for hashlittle: "Four score and seven years ago", initval 0.
+  const std::string four = "Four score and seven years ago";
+  EXPECT_EQ(h5::lookup3(reinterpret_cast<const unsigned char*>(four.data()), four.size()),
+            0x17770551U);
+}
+
+// HDF5 1.10 cannot survive a file whose writes fail (a failed H5Fclose leaves a dangling id that
+// crashed fragsim at exit); the writer builds the file in memory and writes it in one piece. On a
+// full disk: StorageFullError with the path and the file's size, no file, and HDF5 still sound:
+// the next file is written and read back, and this process exits cleanly (ctest sees a crash).
+TEST_F(ResultsH5, AFullDiskIsStorageFullAndHdf5GoesOn) {
+  std::string why;
+  const auto disk = fragsim::testing::SmallDisk::make(dir_ / "disk", 256 << 10, &why);
+  if (!disk) GTEST_SKIP() << "no small file system here: " << why;
+  const fs::path big = write("big.h5", result_);
+  const auto size = static_cast<std::int64_t>(fs::file_size(big));
+  ASSERT_GT(size, 16 << 10);
+  disk->fill_leaving(size / 2);
+  const fs::path path = dir_ / "disk" / "results.h5";
+  try {
+    write_at(path, result_);
+    FAIL() << "a file of " << size << " bytes written with " << disk->available() << " free";
+  } catch (const StorageFullError& e) {
+    EXPECT_EQ(e.path(), path);
+    EXPECT_EQ(e.bytes_needed(), size);
+  }
+  EXPECT_FALSE(fs::exists(path));  // the file made for it went again
+  disk->free_filler();
+  write_at(path, result_);
+  EXPECT_EQ(static_cast<std::int64_t>(fs::file_size(path)), size);
+  EXPECT_EQ(read_attribute_int64(path, "/", "samples"), 2000);
+  EXPECT_EQ(read_dataset_double(path, "/ptn/density_per_m2"), result_.ptn_density_per_m2);
+}
 
 TEST_F(ResultsH5, RootAttributes) {
   const fs::path f = write("r.h5", result_);

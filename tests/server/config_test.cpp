@@ -599,13 +599,41 @@ TEST_F(ConfigTokens, CommentsBlankLinesAndWhitespace) {
                                  "gamma delta\n"
                                  "   \n"
                                  "last-without-newline");
-  EXPECT_EQ(read_tokens(path),
-            (std::vector<std::string>{"alpha", "beta", "gamma delta", "last-without-newline"}));
+  EXPECT_EQ(read_tokens(path), (std::vector<Token>{{"alpha", Role::kAdmin},
+                                                   {"beta", Role::kAdmin},
+                                                   {"gamma delta", Role::kAdmin},
+                                                   {"last-without-newline", Role::kAdmin}}));
 }
 
 TEST_F(ConfigTokens, CrlfFile) {
-  const std::string path = write("tokens", "one\r\ntwo\r\n");
-  EXPECT_EQ(read_tokens(path), (std::vector<std::string>{"one", "two"}));
+  const std::string path = write("tokens", "one\r\ntwo submit\r\n");
+  EXPECT_EQ(read_tokens(path), (std::vector<Token>{{"one", Role::kAdmin}, {"two", Role::kSubmit}}));
+}
+
+// A role after the token (the last word: read, submit or admin); without one, admin, as every
+// token was before roles; a last word that is not a role is part of the token.
+TEST_F(ConfigTokens, RolesAfterTheToken) {
+  const std::string path = write("tokens",
+                                 "wall-screen read\n"
+                                 "front-end\tsubmit\n"
+                                 "  operator   admin  \n"
+                                 "old-token\n"
+                                 "two words\n"
+                                 "a token read submit\n"
+                                 "READ\n"
+                                 "x Read\n");
+  EXPECT_EQ(read_tokens(path), (std::vector<Token>{{"wall-screen", Role::kRead},
+                                                   {"front-end", Role::kSubmit},
+                                                   {"operator", Role::kAdmin},
+                                                   {"old-token", Role::kAdmin},
+                                                   {"two words", Role::kAdmin},
+                                                   {"a token read", Role::kSubmit},
+                                                   {"READ", Role::kAdmin},
+                                                   {"x Read", Role::kAdmin}}));
+  for (const Role r : {Role::kRead, Role::kSubmit, Role::kAdmin})
+    EXPECT_EQ(parse_role(role_name(r)), r);
+  EXPECT_FALSE(parse_role("Admin"));
+  EXPECT_FALSE(parse_role(""));
 }
 
 TEST_F(ConfigTokens, EmptyAndMissing) {

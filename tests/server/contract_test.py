@@ -14,7 +14,8 @@ and then:
    code the server's sources send is in the Error enum; no schema is a bare `type: object`
    (except the free-form ones listed in FREE_FORM, each with its reason);
 2. drives every operation of the document through the statuses it can provoke (200, 201, 202,
-   204, 400, 401, 404, 405, 408, 409, 411, 413, 414, 415, 422, 431, 503, ...) and validates each
+   204, 400, 401, 403 with a token of role read, 404, 405, 408, 409, 411, 413, 414, 415, 422,
+   431, 503, and 507 on a second daemon whose --min-free-bytes no disk meets) and validates each
    answer: the status is declared for that operation, its media type is declared, and its body
    validates against the declared schema (JSON Schema 2020-12, python3-jsonschema);
 3. fails if an operation was not exercised, or a declared status was not provoked and is not in
@@ -45,7 +46,8 @@ import yaml
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SOURCE = os.path.abspath(os.path.join(HERE, "..", ".."))
-TOKEN = "contract-test-token-0123456789"
+TOKEN = "contract-test-token-0123456789"  # no role in the token file: admin
+READER = "contract-test-reader-0123456789"  # role read: 403 on every change
 MAX_BODY = 4 << 20  # --max-body-bytes: a 413 needs only its Content-Length
 MAX_CONNECTIONS = 8
 
@@ -59,6 +61,9 @@ FREE_FORM = {}
 # Declared statuses this test does not provoke, by operation ('*' = every one), with the reason.
 NOT_PROVOKED = {
     ("*", "500"): "a genuine fault of the daemon: nothing a client sends provokes it",
+    ("retryJob", "202"): "needs a failed job that may be retried (a full disk, a crash): "
+                         "ServiceDisk.AJobThatMeetsAFullDiskFailsAsStorageFullAndIsDoneWhenRetried",
+    ("retryJob", "507"): "needs a failed job and a short disk at once: ServiceDisk.* provoke both",
     ("getJobReportHtml", "503"): "busy needs a second report in the making for 5 s",
     ("getJobReportPdf", "503"): "busy needs a second report in the making for 5 s",
 }
@@ -169,10 +174,10 @@ def check_document(doc, errors):
 # ---- the daemon --------------------------------------------------------------------------------
 
 class Daemon:
-    def __init__(self, binary, workdir):
+    def __init__(self, binary, workdir, extra=()):
         self.dir = workdir
         with open(os.path.join(workdir, "tokens"), "w") as f:
-            f.write(f"# contract test\n{TOKEN}\n")
+            f.write(f"# contract test\n{TOKEN}\n{READER} read\n")
         self.log = open(os.path.join(workdir, "fragsimd.log"), "w")
         port_file = os.path.join(workdir, "port")
         self.proc = subprocess.Popen(
@@ -181,7 +186,7 @@ class Daemon:
              "--token-file", os.path.join(workdir, "tokens"), "--threads", "1",
              "--max-body-bytes", str(MAX_BODY), "--max-sites", "2",
              "--max-samples-per-job", "10000000", "--max-connections", str(MAX_CONNECTIONS),
-             "--request-timeout-s", "1", "--log-level", "warn"],
+             "--request-timeout-s", "1", "--log-level", "warn", *extra],
             stdout=self.log, stderr=self.log, start_new_session=True)
         deadline = time.monotonic() + 20
         while time.monotonic() < deadline:
@@ -232,9 +237,10 @@ class Contract:
 
     # -- transport
     def request(self, method, path, body=None, headers=None, token=True):
+        """token: True (the admin token), False (none) or a token."""
         hdrs = dict(headers or {})
         if token:
-            hdrs.setdefault("Authorization", f"Bearer {TOKEN}")
+            hdrs.setdefault("Authorization", f"Bearer {TOKEN if token is True else token}")
         if body is not None and not isinstance(body, (bytes, str)):
             body = json.dumps(body)
             hdrs.setdefault("Content-Type", "application/json")
@@ -500,6 +506,9 @@ def exercise(c):
     c.call("GET", "/v1/sites/not-an-id", 404)
     c.call("GET", f"/v1/sites/{site_a}/scene", 200)
     c.call("GET", f"/v1/sites/{unknown_site}/scene", 404)
+    c.call("POST", "/v1/sites", 403, small_site(cell_m=90.0), token=READER)  # role read
+    c.call("GET", "/v1/whoami", 200)
+    c.call("GET", "/v1/whoami", 200, token=READER)
 
     # A done job (UTM 11N: every map file, GeoJSON and KML included).
     accepted = c.call("POST", "/v1/jobs", 202, job_body(site_a, 300, idempotency_key="k-1")).json()
@@ -510,6 +519,7 @@ def exercise(c):
     c.call("POST", "/v1/jobs", 422, job_body(site_a, 20000000))  # limit_exceeded: samples
     c.call("POST", "/v1/jobs", 400, "{", {"Content-Type": "application/json"})
     c.call("POST", "/v1/jobs", 415, json.dumps(job_body(site_a, 300)), {"Content-Type": "text/csv"})
+    c.call("POST", "/v1/jobs", 403, job_body(site_a, 300), token=READER)
     inline = job_body(site_a, 200)
     del inline["site_id"]
     inline["site"] = small_site(crs="local")
@@ -530,6 +540,8 @@ def exercise(c):
     time.sleep(0.3)  # some progress: histories_per_s and eta_s are numbers
     c.call("GET", f"/v1/jobs/{long_job}", 200)
     c.call("DELETE", f"/v1/sites/{site_b}", 409)
+    c.call("DELETE", f"/v1/sites/{site_b}", 403, token=READER)
+    c.call("DELETE", f"/v1/jobs/{long_job}", 403, token=READER)
     c.call("GET", f"/v1/jobs/{long_job}/summary", 409)  # not_ready
     c.call("DELETE", f"/v1/jobs/{long_job}?purge=true", 409)  # running: cancel it first
     c.call("DELETE", f"/v1/jobs/{long_job}", 200)
@@ -551,6 +563,9 @@ def exercise(c):
     c.call("GET", "/v1/jobs?limit=0", 400)
     c.call("GET", f"/v1/jobs/{done}", 200)
     c.call("GET", f"/v1/jobs/{unknown_job}", 404)
+    c.call("POST", f"/v1/jobs/{done}/retry", 409)  # done: only a failed job is retried
+    c.call("POST", f"/v1/jobs/{done}/retry", 403, token=READER)
+    c.call("POST", f"/v1/jobs/{unknown_job}/retry", 404)
 
     # The results of the done job, and of the cancelled one (409 not_ready), and unknown ids.
     results = {
@@ -655,6 +670,22 @@ def exercise(c):
         c.call_raw(verb, url, f"{verb} {url} HTTP/1.1\r\nHost: x\r\n".encode(), 408, wait_s=1.5)
 
 
+def short_disk(c, binary, work):
+    """507 storage_full: a second daemon whose free-space guard no disk can meet."""
+    os.makedirs(work)
+    second = Daemon(binary, work, ("--min-free-bytes", str(1 << 62)))
+    first, c.daemon = c.daemon, second
+    try:
+        c.call("POST", "/v1/sites", 507, small_site())
+        inline = job_body("s_0000000000000000", 100)
+        del inline["site_id"]
+        inline["site"] = small_site(crs="local")
+        c.call("POST", "/v1/jobs", 507, inline)
+    finally:
+        c.daemon = first
+        second.stop()
+
+
 def saturate(c):
     """Keep-alive connections opened until the daemon refuses one: then it holds its most.
 
@@ -716,6 +747,7 @@ def main():
         c = Contract(daemon, doc)
         check_document(doc, c.errors)
         exercise(c)
+        short_disk(c, args.fragsimd, os.path.join(work, "short"))
         c.errors += coverage(c)
         for _, _, op in operations(doc):
             print(f"  {op['operationId']}: " + " ".join(sorted(c.seen.get(op["operationId"], ()))))

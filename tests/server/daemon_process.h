@@ -42,12 +42,15 @@ inline fs::path source_path(const std::string& relative) {
   return fs::path(FRAGSIM_SOURCE_DIR) / relative;
 }
 
-// Runs a program to completion; returns its exit status (-1 when it did not exit normally).
+// Runs a program to completion, its output (stdout and stderr) appended to `log`; returns its
+// exit status (-1 when it did not exit normally).
 inline int run_process(const std::vector<std::string>& argv, const fs::path& log) {
   const pid_t pid = ::fork();
   if (pid == 0) {
     std::FILE* f = std::freopen(log.c_str(), "a", stderr);
+    std::FILE* g = std::freopen(log.c_str(), "a", stdout);
     (void)f;
+    (void)g;
     std::vector<char*> args;
     for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
@@ -81,19 +84,13 @@ class Daemon {
       std::FILE* f = std::freopen((dir_ / "fragsimd.log").c_str(), "a", stderr);
       (void)f;
       std::vector<std::string> argv = wrapper_;
-      const std::vector<std::string> daemon = {FRAGSIMD,
-                                               "--listen",
-                                               "127.0.0.1:0",
-                                               "--data-dir",
-                                               (dir_ / "data").string(),
-                                               "--token-file",
-                                               (dir_ / "tokens").string(),
-                                               "--port-file",
-                                               (dir_ / "port").string(),
-                                               "--threads",
-                                               "2",
-                                               "--log-level",
-                                               "debug"};
+      const std::vector<std::string> daemon = {
+          FRAGSIMD, "--listen", "127.0.0.1:0", "--data-dir", (dir_ / "data").string(),
+          "--token-file", (dir_ / "tokens").string(), "--port-file", (dir_ / "port").string(),
+          "--threads", "2", "--log-level", "debug",
+          // The CI machine's disk runs close to full while
+          // the sanitizer builds sit beside the tests.
+          "--min-free-bytes", "16777216"};
       argv.insert(argv.end(), daemon.begin(), daemon.end());
       argv.insert(argv.end(), extra_.begin(), extra_.end());
       std::vector<char*> args;

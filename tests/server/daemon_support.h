@@ -7,6 +7,7 @@
 #include <sys/time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <nlohmann/json.hpp>
 
 #include "api/results_h5.h"
@@ -74,45 +75,62 @@ inline Json wait_final(httplib::Client& c, const std::string& id, int seconds = 
   return s;
 }
 
-// Sends `request` (raw HTTP bytes) to 127.0.0.1:port in one write, then reads until the server
-// closes or 10 s pass; returns what was read. One write matters for a request the server answers
-// before reading its body: a client library writing headers and body separately may find the
-// connection closed between the two (EPIPE) before it reads the answer.
-inline std::string raw_exchange(int port, const std::string& request) {
+// A socket connected to 127.0.0.1:port whose reads time out after 10 s; -1 when it cannot be.
+inline int connect_loopback(int port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) return "";
+  if (fd < 0) return -1;
   timeval timeout{10, 0};
   ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   addr.sin_port = htons(static_cast<std::uint16_t>(port));
   addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  std::string answer;
-  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0 &&
-      ::send(fd, request.data(), request.size(), MSG_NOSIGNAL) ==
-          static_cast<ssize_t>(request.size())) {
-    char buf[4096];
-    for (ssize_t n; (n = ::recv(fd, buf, sizeof buf, 0)) > 0;) answer.append(buf, n);
-  }
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0) return fd;
+  ::close(fd);
+  return -1;
+}
+
+// Appends what the server sends until it closes (or 10 s pass), then closes `fd`.
+inline std::string read_to_close(int fd, std::string answer = {}) {
+  char buf[4096];
+  for (ssize_t n; (n = ::recv(fd, buf, sizeof buf, 0)) > 0;) answer.append(buf, n);
   ::close(fd);
   return answer;
+}
+
+// Sends `request` (raw HTTP bytes) to 127.0.0.1:port in one write, then reads until the server
+// closes or 10 s pass; returns what was read. One write matters for a request the server answers
+// before reading its body: a client library writing headers and body separately may find the
+// connection closed between the two (EPIPE) before it reads the answer.
+inline std::string raw_exchange(int port, const std::string& request) {
+  const int fd = connect_loopback(port);
+  if (fd < 0) return "";
+  ::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+  return read_to_close(fd);
+}
+
+// Sends `request` in pieces of `piece` bytes, `pause` apart, while the server accepts them, then
+// reads until it closes (10 s at most); returns what was read.
+inline std::string pieces_exchange(int port, const std::string& request, std::size_t piece,
+                                   std::chrono::milliseconds pause) {
+  const int fd = connect_loopback(port);
+  if (fd < 0) return "";
+  for (std::size_t at = 0; at < request.size(); at += piece) {
+    const std::size_t n = std::min(piece, request.size() - at);
+    if (::send(fd, request.data() + at, n, MSG_NOSIGNAL) != static_cast<ssize_t>(n)) break;
+    std::this_thread::sleep_for(pause);
+  }
+  return read_to_close(fd);
 }
 
 // Sends `head`, then one byte ('x') every `pause` up to `bytes` times while the server accepts
 // them, then reads until the server closes (10 s at most); returns what was read.
 inline std::string trickle_exchange(int port, const std::string& head, int bytes,
                                     std::chrono::milliseconds pause) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  const int fd = connect_loopback(port);
   if (fd < 0) return "";
-  timeval timeout{10, 0};
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<std::uint16_t>(port));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   std::string answer;
-  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0 &&
-      ::send(fd, head.data(), head.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(head.size())) {
+  if (::send(fd, head.data(), head.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(head.size())) {
     char buf[4096];
     for (int k = 0; k < bytes; ++k) {
       std::this_thread::sleep_for(pause);
@@ -120,10 +138,8 @@ inline std::string trickle_exchange(int port, const std::string& head, int bytes
       if (got > 0) answer.append(buf, static_cast<std::size_t>(got));
       if (got == 0 || ::send(fd, "x", 1, MSG_NOSIGNAL) != 1) break;
     }
-    for (ssize_t n; (n = ::recv(fd, buf, sizeof buf, 0)) > 0;) answer.append(buf, n);
   }
-  ::close(fd);
-  return answer;
+  return read_to_close(fd, std::move(answer));
 }
 
 // ---- Whole runs compared ----

@@ -477,6 +477,144 @@ TEST(Daemon, TricklingClientsGetAJson408AndOthersAreServed) {
   EXPECT_TRUE(d.alive());
 }
 
+// GET /v1/health whose request line and headers (the blank line included) are `total` bytes, in
+// header lines of at most 4 KiB.
+std::string request_of_total(std::size_t total) {
+  std::string head = "GET /v1/health HTTP/1.1\r\nHost: t\r\nConnection: close\r\n";
+  std::size_t room = total - 2 - head.size();
+  for (int k = 0; room > 0; ++k) {
+    const std::size_t line = room > 8000 ? 4000 : room;
+    const std::string name = "X-Pad-" + std::to_string(k) + ": ";
+    head += name + std::string(line - name.size() - 2, 'a') + "\r\n";
+    room -= line;
+  }
+  return head + "\r\n";
+}
+
+// GET /v1/health with one header line of `bytes` bytes, its CRLF included.
+std::string request_with_line(std::size_t bytes) {
+  const std::string name = "X-Long: ";
+  return "GET /v1/health HTTP/1.1\r\nHost: t\r\nConnection: close\r\n" + name +
+         std::string(bytes - name.size() - 2, 'a') + "\r\n\r\n";
+}
+
+// A request whose request line is `bytes` bytes, its CRLF included: GET of an unknown job.
+std::string request_with_request_line(std::size_t bytes) {
+  const std::size_t target = bytes - std::string("GET  HTTP/1.1\r\n").size();
+  return "GET /v1/jobs/" + std::string(target - 9, 'a') + " HTTP/1.1\r\nHost: t\r\n" +
+         "Authorization: Bearer " + kToken + "\r\nConnection: close\r\n\r\n";
+}
+
+// Each connection limit at its edge, from outside (docs/http-api.md, "Connections", "Errors"):
+// the limit itself accepted, one byte more refused with the documented status and code; every
+// request sent in one write and trickled (1 KiB every 2 ms).
+TEST(Daemon, EachConnectionLimitHoldsAtItsEdge) {
+  const fs::path dir = fresh_dir("fragsimd_limits_");
+  Daemon d(dir);
+  ASSERT_NO_THROW(d.start()) << d.log();
+  struct Case {
+    std::string what;
+    std::string request;
+    int status;
+    std::string code;  // empty: a 200
+  };
+  const std::vector<Case> cases = {
+      {"headers of 64 KiB", request_of_total(65536), 200, ""},
+      {"headers of 64 KiB + 1", request_of_total(65537), 431, "headers_too_large"},
+      {"a header line of 8 KiB", request_with_line(8192), 200, ""},
+      {"a header line of 8 KiB + 1", request_with_line(8193), 400, "bad_request"},
+      {"a request line of 8 KiB", request_with_request_line(8192), 404, "not_found"},
+      {"a request line of 8 KiB + 1", request_with_request_line(8193), 414, "uri_too_long"},
+      {"TRACE on a known path", "TRACE /v1/jobs HTTP/1.1\r\nHost: t\r\nConnection: close\r\n\r\n",
+       405, "method_not_allowed"},
+      {"CONNECT", "CONNECT t:80 HTTP/1.1\r\nHost: t\r\nConnection: close\r\n\r\n", 404,
+       "not_found"},
+  };
+  for (const Case& c : cases) {
+    for (const bool trickled : {false, true}) {
+      SCOPED_TRACE(c.what + (trickled ? ", trickled" : ", in one write") + " (" +
+                   std::to_string(c.request.size()) + " bytes)");
+      const std::string answer =
+          trickled ? pieces_exchange(d.port(), c.request, 1024, std::chrono::milliseconds(2))
+                   : raw_exchange(d.port(), c.request);
+      ASSERT_EQ(answer.substr(0, 12), "HTTP/1.1 " + std::to_string(c.status)) << answer;
+      const std::size_t body = answer.find("\r\n\r\n");
+      ASSERT_NE(body, std::string::npos) << answer;
+      const Json j = Json::parse(answer.substr(body + 4), nullptr, false);
+      if (c.code.empty()) {
+        EXPECT_EQ(j.value("status", ""), "ok") << answer;
+      } else {
+        EXPECT_EQ(j.value("code", ""), c.code) << answer;
+      }
+      if (c.status == 405) {
+        EXPECT_NE(answer.find("\r\nAllow: GET, POST\r\n"), std::string::npos) << answer;
+      }
+    }
+  }
+  EXPECT_TRUE(d.alive());
+}
+
+// docs/operations.md, "Backups": `fragsimd backup` while the daemon runs a job and clients poll;
+// a daemon started on the backup serves the done jobs' results byte for byte and queues again
+// the job that was running. A second backup to the same place is refused.
+TEST(Daemon, ABackupTakenUnderLoadRestoresTheSameResults) {
+  const fs::path dir = fresh_dir("fragsimd_backup_");
+  fs::create_directories(dir / "live");
+  fs::create_directories(dir / "restored");
+  Daemon d(dir / "live");
+  ASSERT_NO_THROW(d.start()) << d.log();
+  auto c = d.client();
+  const std::string site = upload_site(*c, minimal_scenario());
+  std::vector<std::string> done;
+  for (const std::uint64_t seed : {1, 2}) {
+    done.push_back(submit(*c, by_site_id(with_seed(minimal_scenario(), seed), site)));
+    ASSERT_EQ(wait_final(*c, done.back())["state"], "done");
+  }
+  const std::string running = submit(*c, scaled_samples(demo_scenario(), outlasting(50.0)));
+  for (int k = 0; k < 12000 && job_status(*c, running).value("histories_done", 0) == 0; ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_EQ(job_status(*c, running)["state"], "running");
+
+  std::atomic<bool> stop{false};
+  std::thread poller([&] {  // clients at work while the backup runs
+    auto p = d.client();
+    while (!stop) p->Get("/v1/jobs");
+  });
+  const fs::path target = dir / "restored" / "data";
+  const std::vector<std::string> backup = {FRAGSIMD, "backup", target.string(), "--data-dir",
+                                           d.data().string()};
+  const int rc = run_process(backup, dir / "backup.log");
+  stop = true;
+  poller.join();
+  ASSERT_EQ(rc, 0) << read_text(dir / "backup.log");
+  EXPECT_NE(read_text(dir / "backup.log").find("3 jobs (2 done, with their files)"),
+            std::string::npos)
+      << read_text(dir / "backup.log");
+  EXPECT_NE(run_process(backup, dir / "again.log"), 0);  // the target exists
+  EXPECT_NE(read_text(dir / "again.log").find("exists"), std::string::npos);
+  EXPECT_EQ(job_status(*c, running)["state"], "running");  // the live daemon went on
+  ASSERT_EQ(c->Delete("/v1/jobs/" + running)->status, 200);
+
+  Daemon restored(dir / "restored");
+  ASSERT_NO_THROW(restored.start()) << restored.log();
+  auto r = restored.client();
+  for (const std::string& id : done) {
+    SCOPED_TRACE(id);
+    for (const char* part : {"/results.h5", "/summary", "/buildings"}) {
+      auto a = c->Get("/v1/jobs/" + id + part);
+      auto b = r->Get("/v1/jobs/" + id + part);
+      ASSERT_TRUE(a && b);
+      ASSERT_EQ(b->status, 200) << part << " " << b->body;
+      EXPECT_TRUE(a->body == b->body) << part << ": not the same bytes";
+    }
+  }
+  const Json again = job_status(*r, running);
+  EXPECT_TRUE(again["state"] == "queued" || again["state"] == "running") << again;
+  EXPECT_NE(restored.log().find("queued again"), std::string::npos);
+  ASSERT_EQ(r->Delete("/v1/jobs/" + running)->status, 200);
+  EXPECT_EQ(r->Get("/v1/sites/" + site)->status, 200);
+}
+
 TEST(Daemon, CancelStopsARunningJobAndLeavesNoResults) {
   const fs::path dir = fresh_dir("fragsimd_cancel_");
   Daemon d(dir);

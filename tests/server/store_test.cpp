@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "api/test_support.h"
+#include "store_support.h"
 
 namespace fragsim::server {
 namespace {
@@ -673,6 +674,55 @@ TEST(StoreOpen, ADatabaseOfAnEarlierDaemonGetsTheOwnerColumnAndKeepsItsJobs) {
   }
   Store again(path);  // the column is not added twice
   EXPECT_EQ(again.job("j_new")->owner, "tok_fedcba9876543210");
+  EXPECT_EQ(again.upgraded_from(), kStoreSchemaVersion);
+  fs::remove_all(dir);
+}
+
+TEST(StoreOpen, ANewStoreHasTheCurrentSchemaVersion) {
+  const fs::path dir = api::testing::fresh_test_dir("fragsim_store_version_");
+  const std::string path = (dir / "fragsimd.sqlite").string();
+  {
+    Store s(path);
+    EXPECT_EQ(s.upgraded_from(), 0);
+  }
+  EXPECT_EQ(testing::meta_schema_version(path), std::to_string(kStoreSchemaVersion));
+  Store again(path);
+  EXPECT_EQ(again.upgraded_from(), kStoreSchemaVersion);
+  fs::remove_all(dir);
+}
+
+// A store of a later schema (a newer fragsimd wrote it) is refused with a message saying so,
+// and left as it was, byte for byte; so is one whose version cannot be read.
+TEST(StoreOpen, ANewerStoreIsRefusedUntouched) {
+  const fs::path dir = api::testing::fresh_test_dir("fragsim_store_newer_");
+  const std::string path = (dir / "fragsimd.sqlite").string();
+  {
+    Store s(path);
+    s.insert_job(job_row("j_kept"));
+  }
+  for (const std::string& version : {std::to_string(kStoreSchemaVersion + 1), std::string("2b")}) {
+    SCOPED_TRACE(version);
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    const std::string sql = "PRAGMA journal_mode = DELETE; UPDATE meta SET value = '" + version +
+                            "' WHERE key = 'schema_version';";
+    ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+    const std::string before = api::testing::read_text(path);
+    try {
+      Store s(path);
+      FAIL() << "opened a store of schema " << version;
+    } catch (const StoreVersionError& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find("newer fragsimd"), std::string::npos) << m;
+      EXPECT_NE(m.find("reads versions 1 to " + std::to_string(kStoreSchemaVersion)),
+                std::string::npos)
+          << m;
+      EXPECT_NE(m.find("nothing was changed"), std::string::npos) << m;
+    }
+    EXPECT_EQ(api::testing::read_text(path), before);
+    EXPECT_EQ(testing::meta_schema_version(path), version);
+  }
   fs::remove_all(dir);
 }
 

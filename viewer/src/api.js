@@ -112,6 +112,10 @@ export const api = {
   cancelJob: (id) => request(`/v1/jobs/${enc(id)}`, { method: 'DELETE' }),
   // A finished job and all its files (docs/operations.md); 409 while it still runs.
   purgeJob: (id) => request(`/v1/jobs/${enc(id)}?purge=true`, { method: 'DELETE' }),
+  // A failed job queued again (docs/operations.md, "Disk space").
+  retryJob: (id) => request(`/v1/jobs/${enc(id)}/retry`, { method: 'POST' }),
+  // The token's role and owner name (docs/operations.md, "Roles").
+  whoami: () => request('/v1/whoami'),
   summary: (id) => request(`/v1/jobs/${enc(id)}/summary`),
   maps: (id) => request(`/v1/jobs/${enc(id)}/maps`),
   comparison: (id) => request(`/v1/jobs/${enc(id)}/compare`),

@@ -1,5 +1,6 @@
-// Jobs view (#/jobs): the job table (refreshed every second), submission, cancellation and the
-// deletion (purge) of finished jobs.
+// Jobs view (#/jobs): the job table (refreshed every second), submission, cancellation, the
+// retry of failed jobs and the deletion (purge) of finished ones, each offered only where the
+// token's role allows it (GET /v1/whoami; docs/operations.md, "Roles").
 
 import { api, errorText } from './api.js';
 import { el, duration, integer, localTime, showError } from './format.js';
@@ -9,10 +10,28 @@ const ACTIVE = new Set(['queued', 'running']);
 
 let timer = null;
 let wired = false;
+let me = { role: 'admin', owner: null };  // GET /v1/whoami, read on each entry
+
+// What the token may do with job `j` (the daemon enforces it; the page only offers it).
+export function allowed(who, action, j) {
+  if (who.role === 'admin') return true;
+  if (who.role !== 'submit') return false;
+  if (action === 'submit') return true;
+  if (action === 'cancel' || action === 'retry') return j.owner != null && j.owner === who.owner;
+  return false;  // purge
+}
 
 export async function enterJobs(ctx) {
   if (!wired) wireForm();
   showError($('jobs-error'), '');
+  me = await api.whoami();
+  if (!ctx.current()) return;
+  const canSubmit = allowed(me, 'submit');
+  $('submit-form').hidden = !canSubmit;
+  $('jobs-role').hidden = me.role === 'admin';
+  $('jobs-role').textContent = canSubmit
+    ? 'This token may submit jobs and cancel or retry its own (role submit).'
+    : 'This token may only read (role read): no submitting, cancelling or deleting.';
   await refresh(ctx);
   if (!ctx.current()) return;
   ctx.ready('jobs');
@@ -93,32 +112,42 @@ function updateIdCell(cell, j) {
   cell.replaceChildren(want === 'link' ? el('a', { href: `#/jobs/${j.job_id}`, text: j.job_id }) : j.job_id);
 }
 
-// Cancel button for queued/running jobs; for finished ones a Delete button, after an open link
-// (done) or the error (failed).
+// Cancel button for queued/running jobs; for finished ones an open link (done) or the error and
+// a Retry button (failed), then a Delete button. Only the buttons the token's role allows.
 function updateActions(cell, j) {
-  const key = j.state + (j.error ? `:${j.error.code}:${j.error.message}` : '');
+  const key = `${me.role}:${j.state}` + (j.error ? `:${j.error.code}:${j.error.message}` : '');
   if (cell.dataset.key === key) return;
   cell.dataset.key = key;
+  const parts = [];
   if (ACTIVE.has(j.state)) {
-    const b = el('button', { type: 'button', class: 'cancel', text: 'Cancel' });
-    b.addEventListener('click', () => cancel(j.job_id, b));
-    cell.replaceChildren(b);
+    if (allowed(me, 'cancel', j)) parts.push(actionButton('cancel', 'Cancel', j, cancel));
+    cell.replaceChildren(...parts);
     return;
   }
-  const parts = [];
   if (j.state === 'done') {
     parts.push(el('a', { class: 'open', href: `#/jobs/${j.job_id}`, text: 'Open' }));
   } else if (j.state === 'failed') {
     const msg = j.error ? `${j.error.code}: ${j.error.message}` : 'failed';
     parts.push(el('span', { class: 'error job-error', text: msg }));
+    if (j.error?.code !== 'invalid_input' && allowed(me, 'retry', j))
+      parts.push(actionButton('retry', 'Retry', j, retry));
   }
-  const del = el('button', { type: 'button', class: 'purge', text: 'Delete', title: 'Delete this job and all its results' });
-  del.addEventListener('click', () => purge(j.job_id, j.state, del));
-  parts.push(del);
+  if (allowed(me, 'purge', j)) {
+    const del = actionButton('purge', 'Delete', j, (id, b) => purge(id, j.state, b));
+    del.title = 'Delete this job and all its results';
+    parts.push(del);
+  }
   cell.replaceChildren(...parts);
 }
 
-// Cancel (`what` = 'cancel') or delete: the button is disabled while the request is out, and
+// A button of class `cls` for job `j` that calls onClick(job_id, the button) when clicked.
+function actionButton(cls, text, j, onClick) {
+  const b = el('button', { type: 'button', class: cls, text });
+  b.addEventListener('click', () => onClick(j.job_id, b));
+  return b;
+}
+
+// Cancel (`what` = 'cancel'), retry or delete: the button is disabled while the request is out, and
 // enabled again with the error shown if it failed.
 async function act(what, call, id, button) {
   button.disabled = true;
@@ -132,6 +161,7 @@ async function act(what, call, id, button) {
 }
 
 const cancel = (id, button) => act('cancel', api.cancelJob, id, button);
+const retry = (id, button) => act('retry', api.retryJob, id, button);
 
 function purge(id, state, button) {
   const what = state === 'done' ? 'and all its results (files, maps, reports)' : 'and its files';
