@@ -86,8 +86,7 @@ void copy_store(const fs::path& from, const fs::path& to) {
   }
   sqlite3_backup_finish(b);
   if (rc != SQLITE_DONE) {
-    if (sqlite3_errcode(dst.get()) == SQLITE_FULL)
-      throw api::StorageFullError(to, ENOSPC, -1);
+    if (sqlite3_errcode(dst.get()) == SQLITE_FULL) throw api::StorageFullError(to, ENOSPC, -1);
     throw std::runtime_error(std::string("backup of the store: ") + sqlite3_errstr(rc));
   }
   dst.exec("PRAGMA journal_mode = DELETE");  // one file, no -wal beside it

@@ -5,7 +5,7 @@
 namespace fragsim::server {
 
 std::optional<DiskSpace> disk_space(const std::filesystem::path& path) {
-  struct statvfs s{};
+  struct statvfs s {};
   if (::statvfs(path.c_str(), &s) != 0) return std::nullopt;
   DiskSpace d;
   d.free_bytes = static_cast<std::int64_t>(s.f_bavail) * static_cast<std::int64_t>(s.f_frsize);

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
+#include <iostream>
 #include <set>
 #include <thread>
 #include <vector>
@@ -634,7 +635,9 @@ TEST(Daemon, CancelStopsARunningJobAndLeavesNoResults) {
   ASSERT_EQ(r->status, 200) << r->body;
   EXPECT_EQ(Json::parse(r->body)["state"], "cancelled");
   // The contract: a cancelled job stops within a second (DELETE returns once it has stopped).
-  // Checked in Release; a sanitizer build on a busy machine took 1.7 s (TSan, 2026-11-29).
+  // Checked in Release; a sanitizer build on a busy machine took 1.7 s and 3.4 s (TSan, CI,
+  // 2026-11-29) while a cancelled run still computed its figures and sorted its records.
+  std::cout << "DELETE returned after " << seconds << " s\n";
   EXPECT_LT(seconds, kSanitized ? 3.0 : 1.0);
   auto health = c->Get("/v1/health");
   ASSERT_TRUE(health && health->status == 200);

@@ -1566,11 +1566,13 @@ class ServicePurge : public ServiceTest {
   Response purge(const std::string& id, const std::string& value = "true") {
     return call("DELETE", "/v1/jobs/" + id, {{"purge", value}});
   }
-  // Polls until GET /v1/jobs/{id} answers 404; false at the deadline.
+  // Polls until GET /v1/jobs/{id} answers 404 and the job's directory is gone (a purge deletes
+  // the rows first, then the files: the 404 comes first); false at the deadline.
   bool wait_until_gone(const std::string& id) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
     while (std::chrono::steady_clock::now() < deadline) {
-      if (get("/v1/jobs/" + id).status == 404) return true;
+      if (get("/v1/jobs/" + id).status == 404 && !fs::exists(dir_ / "data" / "jobs" / id))
+        return true;
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     return false;
