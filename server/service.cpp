@@ -312,6 +312,28 @@ Role needed_role(RouteId route, const Request& req) {
   return Role::kSubmit;
 }
 
+// Whether `path` matches `pattern` segment by segment ("{id}" and "{name}" take one non-empty
+// segment each, returned in `id` and `name`).
+bool match_route(std::string_view pattern, std::string_view path, std::string& id,
+                 std::string& name) {
+  while (!pattern.empty() || !path.empty()) {
+    if (pattern.empty() || path.empty() || pattern[0] != '/' || path[0] != '/') return false;
+    pattern.remove_prefix(1);
+    path.remove_prefix(1);
+    const std::string_view p = pattern.substr(0, pattern.find('/'));
+    const std::string_view s = path.substr(0, path.find('/'));
+    if (p == "{id}" || p == "{name}") {
+      if (s.empty()) return false;
+      (p == "{id}" ? id : name) = std::string(s);
+    } else if (p != s) {
+      return false;
+    }
+    pattern.remove_prefix(p.size());
+    path.remove_prefix(s.size());
+  }
+  return true;
+}
+
 }  // namespace
 
 std::vector<RouteInfo> route_table() {
@@ -422,92 +444,84 @@ Response Service::route_request(const Request& req) {
     return error_response(413, "payload_too_large",
                           "the request body is larger than this daemon accepts (" +
                               std::to_string(config_.max_body_bytes) + " bytes)");
-  const auto& kRoutes = routes();
-  const std::string& path = req.path;
-  for (const Route& route : kRoutes) {
-    // Match segment by segment; "{id}" and "{name}" take one non-empty segment each.
-    std::string_view pattern = route.pattern;
-    std::string_view rest = path;
+  for (const Route& route : routes()) {
     std::string id, name;
-    bool match = true;
-    while (!pattern.empty() || !rest.empty()) {
-      if (pattern.empty() || rest.empty() || pattern[0] != '/' || rest[0] != '/') {
-        match = false;
-        break;
-      }
-      pattern.remove_prefix(1);
-      rest.remove_prefix(1);
-      const std::string_view p = pattern.substr(0, pattern.find('/'));
-      const std::string_view s = rest.substr(0, rest.find('/'));
-      if (p == "{id}" || p == "{name}") {
-        if (s.empty()) {
-          match = false;
-          break;
-        }
-        (p == "{id}" ? id : name) = std::string(s);
-      } else if (p != s) {
-        match = false;
-        break;
-      }
-      pattern.remove_prefix(p.size());
-      rest.remove_prefix(s.size());
-    }
-    if (!match) continue;
-
-    const std::string method = req.method == "HEAD" ? "GET" : req.method;
-    if (std::find(route.methods.begin(), route.methods.end(), method) == route.methods.end()) {
-      std::string allow;
-      for (const char* m : route.methods) allow += (allow.empty() ? "" : ", ") + std::string(m);
-      Response r = error_response(
-          405, "method_not_allowed",
-          req.method + " is not allowed on " + route.pattern + " (allowed: " + allow + ")");
-      r.headers.emplace_back("Allow", allow);
-      r.route = route.pattern;
-      return r;
-    }
+    if (!match_route(route.pattern, req.path, id, name)) continue;
     Response r;
     const std::optional<Role> role = route.public_route ? Role::kRead : role_of(req);
-    if (!role) {
-      r = error_response(401, "unauthorized",
-                         req.headers.count("authorization")
-                             ? "the bearer token is not valid"
-                             : "this route needs an Authorization: Bearer <token> header");
-      r.headers.emplace_back("WWW-Authenticate", "Bearer realm=\"fragsimd\"");
-    } else if (const Role needed = needed_role(route.id, req); *role < needed) {
-      r = error_response(
-          403, "forbidden",
-          std::string("this token's role (") + role_name(*role) + ") may not " + req.method + " " +
-              route.pattern +
-              (route.id == RouteId::kJob && needed == Role::kAdmin ? "?purge=true" : "") +
-              "; that needs " + role_name(needed) + (needed == Role::kSubmit ? " or admin" : ""));
+    if (auto refused = method_refusal(req, route)) {
+      r = std::move(*refused);
+    } else if (auto denied = access_refusal(req, route, role)) {
+      r = std::move(*denied);
     } else {
-      try {
-        r = dispatch(req, route, id, name, *role);
-      } catch (const api::JsonTooDeepError& e) {
-        r = error_response(400, "too_deep", e.message(), e.field());
-      } catch (const api::MalformedJsonError& e) {
-        r = error_response(400, "malformed_json", e.message());
-      } catch (const InputError& e) {
-        // An empty path is the body as a whole (e.g. an array where an object belongs).
-        r = error_response(422, "invalid_input", e.message(),
-                           e.field().empty() ? std::nullopt : std::optional(e.field()));
-      } catch (const LimitError& e) {
-        r = error_response(422, "limit_exceeded", e.what(),
-                           e.field().empty() ? std::nullopt : std::optional(e.field()));
-      } catch (const api::StorageFullError& e) {
-        log(LogLevel::kError, "storage full", {{"path", path}, {"error", e.what()}});
-        r = error_response(507, "storage_full", e.what());
-      } catch (const std::bad_alloc&) {
-        r = error_response(500, "internal", "out of memory while handling the request");
-      } catch (const std::exception& e) {
-        log(LogLevel::kError, "internal error", {{"path", path}, {"error", e.what()}});
-        r = error_response(500, "internal", std::string("internal error: ") + e.what());
-      }
+      r = guarded_dispatch(req, route, id, name, *role);
     }
     r.route = route.pattern;
     return r;
   }
-  return error_response(404, "not_found", "no route " + path);
+  return error_response(404, "not_found", "no route " + req.path);
+}
+
+// 405 for a method the route does not serve, with the Allow header.
+std::optional<Response> Service::method_refusal(const Request& req, const Route& route) {
+  const std::string method = req.method == "HEAD" ? "GET" : req.method;
+  if (std::find(route.methods.begin(), route.methods.end(), method) != route.methods.end())
+    return std::nullopt;
+  std::string allow;
+  for (const char* m : route.methods) allow += (allow.empty() ? "" : ", ") + std::string(m);
+  Response r = error_response(
+      405, "method_not_allowed",
+      req.method + " is not allowed on " + route.pattern + " (allowed: " + allow + ")");
+  r.headers.emplace_back("Allow", allow);
+  return r;
+}
+
+// 401 without a valid token; 403 when the token's role may not do this (docs/operations.md).
+std::optional<Response> Service::access_refusal(const Request& req, const Route& route,
+                                                std::optional<Role> role) {
+  if (!role) {
+    Response r = error_response(401, "unauthorized",
+                                req.headers.count("authorization")
+                                    ? "the bearer token is not valid"
+                                    : "this route needs an Authorization: Bearer <token> header");
+    r.headers.emplace_back("WWW-Authenticate", "Bearer realm=\"fragsimd\"");
+    return r;
+  }
+  const Role needed = needed_role(route.id, req);
+  if (*role >= needed) return std::nullopt;
+  return error_response(
+      403, "forbidden",
+      std::string("this token's role (") + role_name(*role) + ") may not " + req.method + " " +
+          route.pattern +
+          (route.id == RouteId::kJob && needed == Role::kAdmin ? "?purge=true" : "") +
+          "; that needs " + role_name(needed) + (needed == Role::kSubmit ? " or admin" : ""));
+}
+
+// The route's handler, its exceptions turned into their error answers.
+Response Service::guarded_dispatch(const Request& req, const Route& route, const std::string& id,
+                                   const std::string& name, Role role) {
+  try {
+    return dispatch(req, route, id, name, role);
+  } catch (const api::JsonTooDeepError& e) {
+    return error_response(400, "too_deep", e.message(), e.field());
+  } catch (const api::MalformedJsonError& e) {
+    return error_response(400, "malformed_json", e.message());
+  } catch (const InputError& e) {
+    // An empty path is the body as a whole (e.g. an array where an object belongs).
+    return error_response(422, "invalid_input", e.message(),
+                          e.field().empty() ? std::nullopt : std::optional(e.field()));
+  } catch (const LimitError& e) {
+    return error_response(422, "limit_exceeded", e.what(),
+                          e.field().empty() ? std::nullopt : std::optional(e.field()));
+  } catch (const api::StorageFullError& e) {
+    log(LogLevel::kError, "storage full", {{"path", req.path}, {"error", e.what()}});
+    return error_response(507, "storage_full", e.what());
+  } catch (const std::bad_alloc&) {
+    return error_response(500, "internal", "out of memory while handling the request");
+  } catch (const std::exception& e) {
+    log(LogLevel::kError, "internal error", {{"path", req.path}, {"error", e.what()}});
+    return error_response(500, "internal", std::string("internal error: ") + e.what());
+  }
 }
 
 Response Service::dispatch(const Request& req, const Route& route, const std::string& id,

@@ -89,6 +89,11 @@ class Service {
   Response route_request(const Request& req);
   Response dispatch(const Request& req, const Route& route, const std::string& id,
                     const std::string& name, Role role);
+  static std::optional<Response> method_refusal(const Request& req, const Route& route);
+  static std::optional<Response> access_refusal(const Request& req, const Route& route,
+                                                std::optional<Role> role);
+  Response guarded_dispatch(const Request& req, const Route& route, const std::string& id,
+                            const std::string& name, Role role);
   // The web viewer's files at /ui/ ("/" and "/ui" redirect there).
   static bool is_ui_path(const std::string& path);
   Response ui_file(const Request& req);
