@@ -189,14 +189,20 @@ Store::Store(const std::string& path) {
     migrate();
     upgraded_from_ = before;
   } catch (...) {
-    sqlite3_close(db_);
+    close();  // a refused or failed store: its cached statements too, or the close fails
     throw;
   }
 }
 
 Store::~Store() {
+  close();
+}
+
+void Store::close() noexcept {
   for (auto& [sql, stmt] : statements_) sqlite3_finalize(stmt);
+  statements_.clear();
   sqlite3_close(db_);
+  db_ = nullptr;
 }
 
 void Store::exec(const char* sql, const char* what) {

@@ -163,6 +163,7 @@ class Store {
  private:
   class Statement;
   void exec(const char* sql, const char* what);
+  void close() noexcept;
   int schema_version();
   void refuse_newer(const std::string& path);
   void migrate();
