@@ -78,6 +78,14 @@ std::string Metrics::render(const Gauges& g) const {
   for (std::size_t k = 0; k < kReasons.size(); ++k)
     o << "fragsimd_purged_bytes_total{reason=\"" << kReasons[k] << "\"} " << g.purged_bytes[k]
       << "\n";
+  if (g.data_free_bytes >= 0)
+    o << "# HELP fragsimd_data_free_bytes Bytes available on the data directory's file system.\n"
+      << "# TYPE fragsimd_data_free_bytes gauge\nfragsimd_data_free_bytes " << g.data_free_bytes
+      << "\n";
+  o << "# HELP fragsimd_data_min_free_bytes The free space below which new jobs are refused "
+       "(--min-free-bytes; 0: no guard).\n"
+    << "# TYPE fragsimd_data_min_free_bytes gauge\nfragsimd_data_min_free_bytes "
+    << g.data_min_free_bytes << "\n";
   o << "# HELP fragsimd_sites Sites held in memory.\n# TYPE fragsimd_sites gauge\nfragsimd_sites "
     << g.sites << "\n";
   o << "# HELP fragsimd_uptime_seconds Seconds since the daemon started.\n"

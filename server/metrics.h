@@ -31,6 +31,9 @@ class Metrics {
     // bytes: server/purge.h, PurgeReason order).
     std::array<std::uint64_t, 3> purged_jobs{};
     std::array<std::uint64_t, 3> purged_bytes{};
+    // The data directory's file system (server/disk_guard.h); -1: it could not be asked.
+    std::int64_t data_free_bytes = -1;
+    std::int64_t data_min_free_bytes = 0;
     // From the connection layer (zeros without one, e.g. in tests without sockets).
     std::int64_t connections_open = 0;
     std::int64_t requests_queued = 0;       // headers in, waiting for a worker

@@ -620,6 +620,8 @@ Response Service::metrics_page() {
   const auto purged = purger_.counters();
   g.purged_jobs = purged.jobs;
   g.purged_bytes = purged.bytes;
+  if (const auto space = disk_space(data_dir_)) g.data_free_bytes = space->free_bytes;
+  g.data_min_free_bytes = disk_.min_free_bytes();
   metrics_.fill_connection_gauges(g);
   Response r;
   r.content_type = "text/plain; version=0.0.4";

@@ -2043,6 +2043,9 @@ TEST_F(ServiceTest, AGuardAboveTheDiskRefusesNewJobsAndSitesWith507) {
   EXPECT_TRUE(h["storage"]["short"].get<bool>()) << h;
   EXPECT_EQ(h["storage"]["min_free_bytes"], std::int64_t{1} << 62);
   EXPECT_GT(h["storage"]["free_bytes"].get<std::int64_t>(), 0);
+  const std::string m = metrics_text();
+  EXPECT_NE(m.find("\nfragsimd_data_free_bytes "), std::string::npos) << m;
+  EXPECT_NE(m.find("\nfragsimd_data_min_free_bytes 4611686018427387904\n"), std::string::npos);
   const Response r = post("/v1/jobs", job_on(site, 100));
   expect_error(r, 507, "storage_full");
   EXPECT_NE(body_of(r)["message"].get<std::string>().find("--min-free-bytes"), std::string::npos);
