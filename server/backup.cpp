@@ -5,8 +5,6 @@
 #include <cerrno>
 #include <chrono>
 #include <cstdlib>
-#include <fstream>
-#include <iterator>
 #include <stdexcept>
 #include <system_error>
 #include <thread>
@@ -118,19 +116,21 @@ std::vector<fs::path> job_files(const fs::path& dir) {
   return out;
 }
 
-// Copies `from` to `to` (a new file), fsynced; ENOENT is returned as false (purged meanwhile).
+// Copies `from` to `to` (a new file), fsynced; false when `from` is gone (purged meanwhile). The
+// kernel copies (copy_file_range): a results.h5 of gigabytes is never held in memory.
 bool copy_file(const fs::path& from, const fs::path& to, std::int64_t& bytes) {
-  std::ifstream in(from, std::ios::binary);
-  if (!in) {
-    std::error_code ec;
-    if (!fs::exists(from, ec)) return false;
-    throw std::runtime_error("backup: cannot read " + from.string());
-  }
-  const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::error_code ec;
   fs::create_directories(to.parent_path());
-  api::write_new_file(to, data);
+  fs::copy_file(from, to, fs::copy_options::none, ec);
+  if (ec == std::errc::no_such_file_or_directory) return false;
+  if (ec) {
+    const std::error_code failed = ec;
+    fs::remove(to, ec);
+    if (api::is_no_space(failed.value())) throw api::StorageFullError(to, failed.value(), -1);
+    throw std::runtime_error("backup: cannot copy " + from.string() + ": " + failed.message());
+  }
   api::fsync_path(to);
-  bytes += static_cast<std::int64_t>(data.size());
+  bytes += static_cast<std::int64_t>(fs::file_size(to));
   return true;
 }
 
