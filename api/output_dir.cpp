@@ -36,10 +36,6 @@ std::string random_tag() {
   return buf;
 }
 
-bool is_temporary_name(const std::string& name) {
-  return name.size() > 1 && name[0] == '.' && name.find(".tmp.", 1) != std::string::npos;
-}
-
 }  // namespace
 
 StorageFullError::StorageFullError(const std::filesystem::path& path, int err,
@@ -51,6 +47,10 @@ StorageFullError::StorageFullError(const std::filesystem::path& path, int err,
 
 bool is_no_space(int err) {
   return err == ENOSPC || err == EDQUOT;
+}
+
+bool is_temporary_name(const std::string& name) {
+  return name.size() > 1 && name[0] == '.' && name.find(".tmp.", 1) != std::string::npos;
 }
 
 void write_new_file(const std::filesystem::path& path, std::string_view bytes) {

@@ -82,6 +82,10 @@ class OutputDir {
   std::string unique_;  // random, per object: temporaries of different runs never collide
 };
 
+// Whether `name` is an OutputDir temporary (".<name>.tmp.<...>"): a write in progress, or one a
+// killed process left.
+bool is_temporary_name(const std::string& name);
+
 // Removes the temporaries an OutputDir left in `dir` (files named ".<name>.tmp.<...>") when its
 // process was killed while staging. Only for a directory no other process writes to (fragsimd
 // holds its data directory's lock). Returns how many it removed; errors are ignored.

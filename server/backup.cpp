@@ -90,10 +90,6 @@ void copy_store(const fs::path& from, const fs::path& to) {
   dst.exec("PRAGMA journal_mode = DELETE");  // one file, no -wal beside it
 }
 
-bool is_temporary(const std::string& name) {
-  return name.size() > 1 && name[0] == '.' && name.find(".tmp.", 1) != std::string::npos;
-}
-
 // A job directory's own files: not temporaries, not caches (maps, report, scene: remade on
 // request), not a backend run's work directory. Relative paths.
 std::vector<fs::path> job_files(const fs::path& dir) {
@@ -107,7 +103,7 @@ std::vector<fs::path> job_files(const fs::path& dir) {
         it.disable_recursion_pending();
       continue;
     }
-    if (!it->is_regular_file() || is_temporary(name)) continue;
+    if (!it->is_regular_file() || api::is_temporary_name(name)) continue;
     if (top && name.rfind("scene", 0) == 0 && name.size() > 4 &&
         name.compare(name.size() - 4, 4, ".bin") == 0)
       continue;
