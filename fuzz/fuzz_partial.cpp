@@ -73,13 +73,20 @@ const Tiny& tiny() {
   return *t;
 }
 
-// finish() either refuses or gives figures of the site's shape, every one finite.
+// finish() either refuses, or gives figures of the site's shape, every one finite; a cancelled
+// partial gives its counts only (no caller writes a cancelled run's figures).
 void finish_checked(run::PartialRun&& p) {
   const Tiny& t = tiny();
   run::RunResult r;
   try {
     r = run::finish(t.scenario, *t.site, std::move(p));
   } catch (const InputError&) {
+    return;
+  }
+  if (r.cancelled) {
+    if (!r.ptn_density_per_m2.empty() || !r.buildings.empty() || !r.fragments.empty())
+      fuzz::fail("finish: figures of a cancelled run");
+    if (r.histories_done < 0) fuzz::fail("finish: a cancelled run's count negative");
     return;
   }
   if (r.ptn_density_per_m2.size() != t.site->terrain_triangle_count() ||

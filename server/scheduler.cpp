@@ -73,6 +73,9 @@ run::RunResult merge_partials(const run::Scenario& scenario, const scene::Site& 
     const auto file = job.partial_file(k);
     api::PartialIdentity identity;
     run::PartialRun part = api::read_partial_file(file, bins, identity);
+    if (part.cancelled)  // a worker writes nothing when cancelled
+      throw std::runtime_error("shard " + std::to_string(k) + ": " + file.string() +
+                               " is the partial of a cancelled shard: nothing to merge");
     if (!(identity == expected))
       throw std::runtime_error("shard " + std::to_string(k) + ": " + file.string() +
                                " is the partial of another scenario (its digest " +

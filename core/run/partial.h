@@ -132,7 +132,8 @@ PartialRun run_partial(const Scenario& scenario, std::shared_ptr<const scene::Si
 void merge(PartialRun& into, PartialRun&& other);
 
 // The result of the merged shards (taken by value: their memory is freed on return). Throws
-// InputError when a shard is missing (unless cancelled).
+// InputError when a shard is missing (unless cancelled). A cancelled partial gives the counts,
+// stop reason and timing only: no figures (its callers write nothing).
 // With settings.ground_bracket it then runs the bracket (core/run/bracket.h; `control.cancel`
 // stops it).
 RunResult finish(const Scenario& scenario, const scene::Site& site, PartialRun partial,

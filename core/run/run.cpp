@@ -1031,8 +1031,8 @@ RunResult finish_tally(const Scenario& sc, const scene::Site& site, PartialRun p
     r.timing.fragments_per_s = static_cast<double>(r.histories_done) / r.timing.wall_s;
     r.timing.fragments_per_s_per_thread = r.timing.fragments_per_s / r.timing.threads;
   }
-  // A cancelled run's figures are never shown (no caller writes or serves them): its counts
-  // are enough, and a cancel returns without the figures' work or sorting millions of records
+  // A cancelled run's figures are never shown (callers write nothing for it, and `fragsim
+  // merge` and fragsimd refuse a cancelled shard's partial): its counts are enough, and a cancel returns without the figures' work or sorting millions of records
   // (seconds under TSan: a cancel must end within a second, docs/http-api.md).
   if (r.cancelled) return r;
   fill_figures(sc, site, p, p.tallied_batches, r);

@@ -325,6 +325,14 @@ TEST_F(ShardMerge, ForgedPartialsWithAValidChecksumAreRefused) {
     const fs::path a = forge(1, "huge-1.fsp", huge), b = forge(2, "huge-2.fsp", huge);
     expect_merge_refused(kDemo, {p[0], a, b}, {".fsp: "});
   }
+  {  // a cancelled shard (`fragsim run --shard` writes nothing when cancelled): its figures
+     // were never computed, so a merge would have written empty maps as a result
+    const fs::path a = forge(1, "cancelled.fsp", [](run::PartialRun& q) {
+      q.cancelled = true;
+      q.stop_reason = run::StopReason::kCancelled;
+    });
+    expect_merge_refused(kDemo, {p[0], a, p[2]}, {a.string() + ": ", "cancelled shard"});
+  }
   {  // a negative outcome count
     const fs::path a =
         forge(1, "negative.fsp", [](run::PartialRun& q) { q.outcome_histories[0] = -1000; });
