@@ -255,8 +255,9 @@ int merge_command(const Options& o, const std::atomic<bool>& cancel) {
     if (id.samples_scale != expected.samples_scale)
       throw InputError(path, "a shard run with another --samples-scale");
     if (part.cancelled)  // `fragsim run --shard` writes nothing when cancelled
-      throw InputError(path, "the partial of a cancelled shard, which fragsim never writes "
-                             "(a damaged or forged file): nothing to merge");
+      throw InputError(path,
+                       "the partial of a cancelled shard, which fragsim never writes "
+                       "(a damaged or forged file): nothing to merge");
     if (!merged) {
       merged = std::move(part);
       continue;

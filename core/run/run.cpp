@@ -1032,8 +1032,9 @@ RunResult finish_tally(const Scenario& sc, const scene::Site& site, PartialRun p
     r.timing.fragments_per_s_per_thread = r.timing.fragments_per_s / r.timing.threads;
   }
   // A cancelled run's figures are never shown (callers write nothing for it, and `fragsim
-  // merge` and fragsimd refuse a cancelled shard's partial): its counts are enough, and a cancel returns without the figures' work or sorting millions of records
-  // (seconds under TSan: a cancel must end within a second, docs/http-api.md).
+  // merge` and fragsimd refuse a cancelled shard's partial): its counts are enough, and a cancel
+  // returns without the figures' work or sorting millions of records (seconds under TSan: a cancel
+  // must end within a second, docs/http-api.md).
   if (r.cancelled) return r;
   fill_figures(sc, site, p, p.tallied_batches, r);
   auto by_history = [](const auto& a, const auto& b) {
