@@ -12,9 +12,9 @@
 #include <optional>
 #include <vector>
 
+#include "core/run/control.h"
 #include "core/run/importance.h"
 #include "core/run/result.h"
-#include "core/run/run.h"
 #include "core/run/scenario.h"
 #include "core/scene/site.h"
 #include "core/tally/stratified_tally.h"

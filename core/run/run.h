@@ -2,42 +2,14 @@
 // One Monte Carlo run: sample histories, fly them, tally. Thread pool over chunks of histories.
 // Results are bit-identical for any thread count, chunk size and shard split (exact sums:
 // tally/exact_sum.h; shards: run/partial.h).
-#include <atomic>
-#include <functional>
 #include <memory>
 
+#include "core/run/control.h"
 #include "core/run/result.h"
 #include "core/run/scenario.h"
 #include "core/scene/site.h"
 
 namespace fragsim::run {
-
-struct ChunkOutput;       // core/run/history.h
-class BatchSynchronizer;  // core/run/partial.h
-
-struct Progress {
-  std::int64_t histories_done = 0;
-  std::int64_t histories_total = 0;
-  double elapsed_s = 0.0;
-  // settings.precision: the last batch boundary's check of the targets (null before the first).
-  std::shared_ptr<const PrecisionReport> precision;
-};
-
-struct RunControl {
-  // Called from a worker thread at most every `progress_interval_s` and at the end.
-  std::function<void(const Progress&)> on_progress;
-  double progress_interval_s = 0.5;
-  // Set to true from any thread to stop; the result comes back with cancelled = true.
-  const std::atomic<bool>* cancel = nullptr;
-  // Sees every tallied chunk of histories before it is tallied: in chunk order, under the fold's
-  // lock, so a slow observer slows the run (the paired fold of a comparison: core/run/paired.h).
-  std::function<void(const ChunkOutput&)> on_chunk;
-  // A settings.precision run divided into shards that run each batch together: at every batch
-  // boundary the shard's batch is merged exactly with the other shards' here, and the stop and
-  // the next batch's launch densities are decided from the merge (core/run/partial.h). Null: the
-  // shard decides alone (one shard: the whole run).
-  BatchSynchronizer* synchronizer = nullptr;
-};
 
 // Runs the scenario on an already built site (the daemon shares one Site between jobs).
 RunResult run(const Scenario& scenario, std::shared_ptr<const scene::Site> site,
