@@ -73,6 +73,9 @@ struct ResolvedBackend {
 
 // Throws InputError naming the config key ("backend.submit[2]: unknown placeholder {shrad}").
 ResolvedBackend resolve_backend(const BackendConfig& config);
+// resolve_backend() as a check of the daemon's configuration at start: ConfigError naming the
+// key (server/config.h's check_config() checks the rest).
+void check_backend_config(const BackendConfig& config);
 
 // The backend a settings.precision job is submitted to: one shard (its stop rule needs every
 // history of a batch; independent shards cannot exchange them). With `precision_run` (mpi),

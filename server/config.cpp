@@ -18,7 +18,6 @@
 
 #include "api/json_fields.h"
 #include "api/scenario_json.h"
-#include "server/backend.h"
 
 namespace fragsim::server {
 
@@ -491,11 +490,6 @@ void check_config(const Config& c) {
                       " (authentication may only be off on a loopback address)");
   if (!c.ui_dir.empty() && !std::filesystem::is_regular_file(c.ui_dir + "/index.html"))
     throw ConfigError("--ui-dir: " + c.ui_dir + " holds no index.html (give the viewer/ folder)");
-  try {
-    (void)resolve_backend(c.backend);
-  } catch (const InputError& e) {
-    throw ConfigError(e.what());
-  }
   if (c.auth) {
     if (c.token_file.empty())
       throw ConfigError("--token-file: required (or --no-auth on a loopback address)");

@@ -2,6 +2,10 @@
 
 #include <sys/statvfs.h>
 
+#include <string>
+
+#include "server/log.h"
+
 namespace fragsim::server {
 
 std::optional<DiskSpace> disk_space(const std::filesystem::path& path) {
@@ -25,6 +29,20 @@ std::string DiskGuard::refusal(const DiskSpace& found) const {
          " bytes free, less than the " + std::to_string(min_free_bytes_) +
          " this daemon keeps free (--min-free-bytes); free space (purge finished jobs: DELETE "
          "/v1/jobs/{id}?purge=true, or --retain-bytes) and try again";
+}
+
+bool StartGate::room() {
+  const auto found = disk_ != nullptr ? disk_->short_of_space() : std::nullopt;
+  if (found.has_value() != short_) {
+    short_ = found.has_value();
+    if (found)
+      log(LogLevel::kWarn, "queued jobs wait for disk space",
+          {{"free_bytes", std::to_string(found->free_bytes)},
+           {"min_free_bytes", std::to_string(disk_->min_free_bytes())}});
+    else
+      log(LogLevel::kInfo, "disk space back; queued jobs start");
+  }
+  return !found;
 }
 
 }  // namespace fragsim::server

@@ -39,4 +39,17 @@ class DiskGuard {
   std::int64_t min_free_bytes_;
 };
 
+// Whether a queued job may start: not while the guard finds the data directory short of space
+// (queued jobs wait). Logged once when the wait starts and once when it ends. Called by one
+// thread only (the scheduler's worker, or the backend runner's monitor).
+class StartGate {
+ public:
+  explicit StartGate(const DiskGuard* disk) : disk_(disk) {}  // null: always room
+  bool room();
+
+ private:
+  const DiskGuard* disk_;
+  bool short_ = false;  // at the last call
+};
+
 }  // namespace fragsim::server

@@ -204,33 +204,7 @@ HttpServer::HttpServer(Service& service) : service_(service) {
   s.set_keep_alive_timeout(static_cast<time_t>(limits.keep_alive_s));
 
   const auto handler = [this](const httplib::Request& req, httplib::Response& res) {
-    const auto t0 = std::chrono::steady_clock::now();
-    // No byte ranges (the contract has no 206): cpp-httplib 0.11 would cut the body to a Range
-    // header's bytes under our 200 (`Range: bytes=0-10` got 11 bytes of JSON). The request is
-    // cpp-httplib's own, non-const object, handed to handlers as const.
-    const_cast<httplib::Request&>(req).ranges.clear();
-    Response r = service_.handle(to_request(req));
-    res.status = r.status;
-    for (const auto& [k, v] : r.headers) res.set_header(k, v);
-    if (r.file) {
-      if (!send_file(*r.file, r.content_type.empty() ? "application/json" : r.content_type, res)) {
-        log(LogLevel::kError, "result file unreadable", {{"file", r.file->string()}});
-        set_error_body(res, error_response(500, "internal", "a result file cannot be read"));
-      }
-    } else if (r.stream) {
-      send_stream(r.stream, r.content_type, res);
-    } else if (r.status != 204 && r.status != 304) {
-      send_body(req, r, res);
-    }
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    service_.metrics().record_request(req.method, r.route, res.status, seconds);
-    log(res.status >= 500 ? LogLevel::kError : LogLevel::kDebug, "request",
-        {{"method", req.method},
-         {"path", req.path},
-         {"status", std::to_string(res.status)},
-         {"duration_ms", format_double(seconds * 1e3)},
-         {"remote", req.remote_addr}});
+    serve(req, res);
   };
   s.Get(".*", handler);
   s.Post(".*", handler);
@@ -238,87 +212,129 @@ HttpServer::HttpServer(Service& service) : service_(service) {
   s.Patch(".*", handler);
   s.Delete(".*", handler);
   s.Options(".*", handler);
-
-  // Refused before their body is read, from the headers alone, and the connection closed:
-  // a chunked body (cpp-httplib 0.11 enforces --max-body-bytes from Content-Length only: a chunked
-  // body would be read whole whatever its size), and a Content-Length above the limit (cpp-httplib
-  // would read and discard the whole body first: 300 MiB announced, the 413 came after the
-  // request timeout).
-  s.set_pre_routing_handler([this, handler](const httplib::Request& req, httplib::Response& res) {
-    // Methods cpp-httplib routes nowhere (it would answer 400): the service answers them as any
-    // other method it does not serve, 405 with Allow on a known path, 404 elsewhere.
-    if (req.method == "TRACE" || req.method == "CONNECT") {
-      handler(req, res);
-      return httplib::Server::HandlerResponse::Handled;
-    }
-    std::optional<Response> refusal;
-    const auto max = static_cast<std::uint64_t>(service_.config().max_body_bytes);
-    if (req.has_header("Transfer-Encoding")) {
-      refusal = error_response(411, "length_required",
-                               "send the body with a Content-Length header (chunked transfer "
-                               "encoding is not accepted)");
-    } else if (const auto n = announced_length(req); n && *n > max) {
-      refusal = error_response(413, "payload_too_large",
-                               "the request body is larger than this daemon accepts (" +
-                                   std::to_string(*n) + " bytes announced, limit " +
-                                   std::to_string(max) + ")");
-    }
-    if (!refusal) return httplib::Server::HandlerResponse::Unhandled;
-    refuse_unread(res, *refusal);
-    service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
-    log(LogLevel::kInfo, "request refused before its body",
-        {{"method", req.method}, {"path", req.path}, {"status", std::to_string(res.status)}});
-    return httplib::Server::HandlerResponse::Handled;
+  using Handled = httplib::Server::HandlerResponse;
+  s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    return pre_route(req, res) ? Handled::Handled : Handled::Unhandled;
   });
-
-  // Errors cpp-httplib answers itself (413 before the body is read, 400 for a malformed request
-  // line) get the same JSON body as every other error.
   s.set_error_handler(httplib::Server::HandlerWithResponse(
       [this](const httplib::Request& req, httplib::Response& res) {
-        // A body already there, or a refusal of ours (Connection: close, its body streamed).
-        if (!res.body.empty() || res.has_header("Connection"))
-          return httplib::Server::HandlerResponse::Unhandled;
-        Response r;
-        if (ConnectionServer::request_timed_out()) {
-          r = error_response(408, "request_timeout",
-                             "the request's body did not arrive within " +
-                                 format_double(service_.config().request_timeout_s) +
-                                 " s of its first byte");
-          res.set_header("Connection", "close");
-        } else if (res.status == 413) {
-          r = error_response(413, "payload_too_large",
-                             "the request body is larger than this daemon accepts (" +
-                                 std::to_string(service_.config().max_body_bytes) + " bytes)");
-        } else if (res.status >= 500) {
-          r = error_response(res.status, "internal", "internal error");
-        } else {
-          r = error_response(res.status,
-                             res.status == 404   ? "not_found"
-                             : res.status == 414 ? "uri_too_long"
-                                                 : "bad_request",
-                             std::string("the request could not be handled (HTTP ") +
-                                 std::to_string(res.status) + ")");
-        }
-        res.status = r.status;
-        res.set_content(r.body, r.content_type);
-        service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
-        log(LogLevel::kInfo, "request refused",
-            {{"method", req.method}, {"path", req.path}, {"status", std::to_string(res.status)}});
-        return httplib::Server::HandlerResponse::Handled;
+        return on_error(req, res) ? Handled::Handled : Handled::Unhandled;
       }));
-  s.set_exception_handler(
-      [this](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
-        std::string what = "unknown exception";
-        try {
-          std::rethrow_exception(ep);
-        } catch (const std::exception& e) {
-          what = e.what();
-        } catch (...) {
-        }
-        log(LogLevel::kError, "internal error", {{"path", req.path}, {"error", what}});
-        set_error_body(res, error_response(500, "internal", "internal error: " + what));
-        service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
-      });
+  s.set_exception_handler([this](const httplib::Request& req, httplib::Response& res,
+                                 std::exception_ptr ep) { on_exception(req, res, ep); });
+}
+
+// Every request cpp-httplib routes: the Service answers it; the answer is sent as a file, a
+// stream or a body, then counted and logged.
+void HttpServer::serve(const httplib::Request& req, httplib::Response& res) {
+  const auto t0 = std::chrono::steady_clock::now();
+  // No byte ranges (the contract has no 206): cpp-httplib 0.11 would cut the body to a Range
+  // header's bytes under our 200 (`Range: bytes=0-10` got 11 bytes of JSON). The request is
+  // cpp-httplib's own, non-const object, handed to handlers as const.
+  const_cast<httplib::Request&>(req).ranges.clear();
+  Response r = service_.handle(to_request(req));
+  res.status = r.status;
+  for (const auto& [k, v] : r.headers) res.set_header(k, v);
+  if (r.file) {
+    if (!send_file(*r.file, r.content_type.empty() ? "application/json" : r.content_type, res)) {
+      log(LogLevel::kError, "result file unreadable", {{"file", r.file->string()}});
+      set_error_body(res, error_response(500, "internal", "a result file cannot be read"));
+    }
+  } else if (r.stream) {
+    send_stream(r.stream, r.content_type, res);
+  } else if (r.status != 204 && r.status != 304) {
+    send_body(req, r, res);
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  service_.metrics().record_request(req.method, r.route, res.status, seconds);
+  log(res.status >= 500 ? LogLevel::kError : LogLevel::kDebug, "request",
+      {{"method", req.method},
+       {"path", req.path},
+       {"status", std::to_string(res.status)},
+       {"duration_ms", format_double(seconds * 1e3)},
+       {"remote", req.remote_addr}});
+}
+
+// Refused before their body is read, from the headers alone, and the connection closed:
+// a chunked body (cpp-httplib 0.11 enforces --max-body-bytes from Content-Length only: a chunked
+// body would be read whole whatever its size), and a Content-Length above the limit (cpp-httplib
+// would read and discard the whole body first: 300 MiB announced, the 413 came after the
+// request timeout).
+bool HttpServer::pre_route(const httplib::Request& req, httplib::Response& res) {
+  // Methods cpp-httplib routes nowhere (it would answer 400): the service answers them as any
+  // other method it does not serve, 405 with Allow on a known path, 404 elsewhere.
+  if (req.method == "TRACE" || req.method == "CONNECT") {
+    serve(req, res);
+    return true;
+  }
+  std::optional<Response> refusal;
+  const auto max = static_cast<std::uint64_t>(service_.config().max_body_bytes);
+  if (req.has_header("Transfer-Encoding")) {
+    refusal = error_response(411, "length_required",
+                             "send the body with a Content-Length header (chunked transfer "
+                             "encoding is not accepted)");
+  } else if (const auto n = announced_length(req); n && *n > max) {
+    refusal = error_response(413, "payload_too_large",
+                             "the request body is larger than this daemon accepts (" +
+                                 std::to_string(*n) + " bytes announced, limit " +
+                                 std::to_string(max) + ")");
+  }
+  if (!refusal) return false;
+  refuse_unread(res, *refusal);
+  service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
+  log(LogLevel::kInfo, "request refused before its body",
+      {{"method", req.method}, {"path", req.path}, {"status", std::to_string(res.status)}});
+  return true;
+}
+
+// Errors cpp-httplib answers itself (413 before the body is read, 400 for a malformed request
+// line) get the same JSON body as every other error.
+bool HttpServer::on_error(const httplib::Request& req, httplib::Response& res) {
+  // A body already there, or a refusal of ours (Connection: close, its body streamed).
+  if (!res.body.empty() || res.has_header("Connection")) return false;
+  Response r;
+  if (ConnectionServer::request_timed_out()) {
+    r = error_response(408, "request_timeout",
+                       "the request's body did not arrive within " +
+                           format_double(service_.config().request_timeout_s) +
+                           " s of its first byte");
+    res.set_header("Connection", "close");
+  } else if (res.status == 413) {
+    r = error_response(413, "payload_too_large",
+                       "the request body is larger than this daemon accepts (" +
+                           std::to_string(service_.config().max_body_bytes) + " bytes)");
+  } else if (res.status >= 500) {
+    r = error_response(res.status, "internal", "internal error");
+  } else {
+    r = error_response(
+        res.status,
+        res.status == 404   ? "not_found"
+        : res.status == 414 ? "uri_too_long"
+                            : "bad_request",
+        std::string("the request could not be handled (HTTP ") + std::to_string(res.status) + ")");
+  }
+  res.status = r.status;
+  res.set_content(r.body, r.content_type);
+  service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
+  log(LogLevel::kInfo, "request refused",
+      {{"method", req.method}, {"path", req.path}, {"status", std::to_string(res.status)}});
+  return true;
+}
+
+// A handler's exception: 500 with what it said (the service turns its own into error bodies).
+void HttpServer::on_exception(const httplib::Request& req, httplib::Response& res,
+                              std::exception_ptr ep) {
+  std::string what = "unknown exception";
+  try {
+    std::rethrow_exception(ep);
+  } catch (const std::exception& e) {
+    what = e.what();
+  } catch (...) {
+  }
+  log(LogLevel::kError, "internal error", {{"path", req.path}, {"error", what}});
+  set_error_body(res, error_response(500, "internal", "internal error: " + what));
+  service_.metrics().record_request(req.method, "unmatched", res.status, 0.0);
 }
 
 HttpServer::~HttpServer() {

@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "fragsim/version.h"
+#include "server/backend.h"
 #include "server/backup.h"
 #include "server/config.h"
 #include "server/http_server.h"
@@ -87,6 +88,7 @@ int main(int argc, char** argv) {
     }
     if (inv.backup_target) return backup(inv.config.data_dir, *inv.backup_target);
     check_config(inv.config);
+    check_backend_config(inv.config.backend);
   } catch (const ConfigError& e) {
     std::cerr << "fragsimd: error: " << e.what() << "\n(see fragsimd --help)\n";
     return 2;

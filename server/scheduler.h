@@ -2,7 +2,8 @@
 // Runs queued jobs, highest priority then oldest: with the local backend one at a time on all of
 // the daemon's Monte Carlo threads (core::run's pool; results do not depend on the thread count);
 // with an external backend (server/backend.h) up to backend.max_jobs at once, each submitted as
-// shards and followed through its work directory, then merged here.
+// shards, followed and merged by the BackendRunner (server/backend_runner.h). Either way the
+// results are committed, or the failure recorded, by JobResults (server/job_results.h).
 //
 // A job's life: queued -> running (mark_running) -> run (local), or submit, follow, merge the
 // shards' partials (backend) -> files staged and renamed into <data>/jobs/<job_id>/ -> one
@@ -28,21 +29,13 @@
 #include "core/run/result.h"
 #include "core/run/run.h"
 #include "server/backend.h"
+#include "server/backend_runner.h"
 #include "server/disk_guard.h"
+#include "server/job_results.h"
 #include "server/site_registry.h"
 #include "server/store.h"
 
 namespace fragsim::server {
-
-struct LiveProgress {
-  std::string job_id;
-  std::int64_t histories_done = 0;
-  std::int64_t histories_total = 0;
-  double elapsed_s = 0.0;
-  double histories_per_s = 0.0;
-  // settings.precision: the last batch boundary's check of the targets (null before it).
-  std::shared_ptr<const run::PrecisionReport> precision;
-};
 
 class Scheduler {
  public:
@@ -81,19 +74,18 @@ class Scheduler {
   // The speed of every running job, summed (histories per second).
   double histories_per_s() const;
   // Histories of the jobs finished (done) since start: a counter, it never goes down.
-  std::int64_t histories_completed() const;
+  std::int64_t histories_completed() const { return results_.histories_completed(); }
 
-  std::filesystem::path job_dir(const std::string& job_id) const { return jobs_dir_ / job_id; }
+  std::filesystem::path job_dir(const std::string& job_id) const {
+    return results_.job_dir(job_id);
+  }
   // A backend attempt's work directory (server/backend.h).
-  std::filesystem::path backend_dir(const std::string& job_id, int attempt) const;
+  std::filesystem::path backend_dir(const std::string& job_id, int attempt) const {
+    return backends_.workdir(job_id, attempt);
+  }
 
  private:
-  struct Tracked;   // a backend job being followed
-  struct Stopping;  // a cancelled or failed backend job whose processes may still be at work
-
   void loop();
-  bool room_to_start();
-  void fail_job(const std::string& id, const std::string& code, const std::string& message);
   void run_job(const JobRow& job);
   // The run's progress (from its worker threads): the live figures GET /jobs/{id} shows, and
   // the stored count at most once a second (`last_flush`, guarded by mutex_).
@@ -112,26 +104,14 @@ class Scheduler {
   LoadedJob load(const JobRow& job);
   void run_comparison(const JobRow& job, const LoadedJob& variant, const run::RunControl& control,
                       std::chrono::steady_clock::time_point started);
-  // Stages and commits the job's results (and what `stage_more` stages beside them), then marks
-  // it done. False: cancelled meanwhile.
-  bool persist(const JobRow& job, const api::ScenarioDocument& doc, const scene::Site& site,
-               const run::RunResult& result, std::chrono::steady_clock::time_point started,
-               const std::function<void(api::OutputDir&)>& stage_more = {});
-  // The job's scenario as a stand-alone file would hold it: a site_id replaced by the site.
-  std::string stand_alone_scenario(const JobRow& job);
-
-  void monitor_loop();
-  void submit_queued();
-  void follow_backend_jobs();
-  void finish_backend_job(Tracked& t);
-  void stop_backend_job(const BackendJob& job, bool remove_workdir);
-  void sweep_stopping();
-
   Store& store_;
   SiteRegistry& sites_;
-  std::filesystem::path jobs_dir_;
   int threads_;
   int job_nice_;
+  bool local_;  // the local backend: queued jobs run here
+  JobResults results_;
+  BackendRunner backends_;
+  StartGate gate_;
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;      // worker: a job queued or shutdown
@@ -141,17 +121,7 @@ class Scheduler {
   std::optional<LiveProgress> live_;
   std::atomic<bool> cancel_run_{false};
   std::set<std::string> cancel_pending_;  // cancelled between mark_running and run_job
-  std::int64_t completed_ = 0;
   std::thread worker_;
-
-  ResolvedBackend backend_;
-  int max_crashes_;
-  const DiskGuard* disk_;
-  bool disk_short_ = false;  // last seen by room_to_start() (logged on each change)
-  std::condition_variable monitor_wake_;
-  std::map<std::string, std::shared_ptr<Tracked>> tracked_;  // backend jobs, by id
-  std::vector<std::shared_ptr<Stopping>> stopping_jobs_;
-  std::thread monitor_;
 };
 
 }  // namespace fragsim::server
