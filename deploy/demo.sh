@@ -14,7 +14,8 @@ for arg in "$@"; do
     *) echo "usage: deploy/demo.sh [--keep-running]" >&2; exit 2 ;;
   esac
 done
-"$root/deploy/build.sh"
+# Only what the demo runs: the tests and benchmarks are built by deploy/test.sh.
+"$root/deploy/build.sh" --target fragsim --target fragsimd
 cd "$root"
 
 data="out/fragsimd"
