@@ -1,42 +1,8 @@
-// Impulse-based rigid-body collision (paper eqs. 6-36; Mirtich 1996, ch. 4; docs/physics.md,
-// "Bounce").
-//
-// Variables. The normal impulse s = p_z grows monotonically through the whole impact. In the
-// contact frame u = u0 + K_hat p (eq. 21); while sliding dp = zeta ds (eqs. 29-30) and the work
-// of the normal and tangential impulse is dW_z = u_z ds, dW_t = u_t . dp_t = -mu |u_t| ds.
-// Mirtich integrates in u_z during compression and in W_z during restitution because those end
-// at known values; both are singular somewhere (u_z when (K_hat zeta)_z = 0, the jam; W_z at
-// u_z = 0, the start of restitution). s never is, and the ends become events located on the
-// solution.
-//
-// Sliding is integrated in sigma with ds = |u_t| dsigma. Then
-//   dp_t/dsigma = -mu u_t,  ds/dsigma = |u_t|,  dW_t/dsigma = -mu |u_t|^2
-// with u_t linear in (p_t, s): linear but for the norm. In s the slip's direction turns at rate
-// g/|u_t| and u_t = 0 is reached at finite s - a branch point that caps any polynomial method's
-// step near sticking; in sigma it is reached only as sigma -> infinity and the slip decays like
-// exp(h sigma), an entire function. The ODE is solved by its Taylor series (order 14,
-// coefficients by the recurrences for products and square roots of series; step size from the
-// last two terms, Jorba & Zou 2005, Experiment. Math. 14): a step spans ~1/5 of the radius of
-// convergence at 1e-10 |u0|, and the events are roots of the step's polynomials. The normal
-// work needs no integration: W_z = u0.p + p.K_hat p / 2 - W_t (below).
-//
-// Accuracy against the same solver at 1e-14 (20,000 tumbling cuboids): worst ~10 kStepTol |u0|,
-// mean ~0.2 kStepTol |u0|. (A first version used DOPRI5 in s: a tumbling corner contact whose
-// slip spirals into 0 took ~90 steps at 1e-10 against ~11 Taylor steps here.)
-//
-// Whenever zeta is constant the solution is a straight line in s and is taken exactly:
-//   - stable sticking: u_t stays 0, dp = K_hat^-1 du with du = (0, 0, du_z), i.e. zeta =
-//     K_hat^-1 e_z / (K_hat^-1)_33 and du_z/ds = 1/(K_hat^-1)_33;
-//   - unstable sticking: sliding resumes along the diverging ray (diverging_slip_direction);
-//   - sliding close to an invariant ray (ray_segment()): the last approach to u_t = 0, so the
-//     slip never overshoots through 0, or the departure from near 0 along the diverging ray.
-// Work is closed-form on a straight segment (u_z linear in s, W_z quadratic), so the end of
-// compression and Stronge's end of restitution are solved exactly there.
-//
-// Stronge's hypothesis with several compression periods (u_z can turn negative again during
-// restitution after a jam): W_c is the total normal work done while u_z < 0 and the impact ends
-// when the total normal work reaches (1 - e^2) W_c. The kinetic energy changes by W_z + W_t
-// (u0.p + p.K_hat p / 2, path-independent since K_hat is symmetric), so it can never rise.
+// Impulse-based rigid-body collision (paper eqs. 6-36; Mirtich 1996, ch. 4, with Stronge's
+// energetic restitution). The solver follows the impact along the normal impulse; its derivation
+// (C1-C10: the variable, work, several compression periods, sliding in sigma, Taylor steps, events,
+// straight segments, invariant rays, the diverging ray) is in docs/physics.md, "Solving the
+// impulse". Each function below names the step it implements.
 #include "core/impact/collision.h"
 
 #include <algorithm>
@@ -60,7 +26,7 @@ constexpr double kStuckTol = 10.0 * kStepTol;  // |u_t| below this counts as 0: 
 constexpr double kEndStickTol = 1e-9;          // ended_sticking
 constexpr int kMaxSteps = 500;                 // then finish with a normal-only impulse
 
-// Taylor coefficients of the sliding solution in tau = sigma - sigma_0.
+// Taylor coefficients of the sliding solution in tau = sigma - sigma_0 (docs/physics.md C5).
 struct Series {
   using C = std::array<double, kOrder + 1>;
   C px, py, s, wt;    // state: tangential and normal impulse, friction work
@@ -113,14 +79,13 @@ Mat3 cross_matrix(const Vec3& r) {
   return m;
 }
 
+// The impulse of one impact in the contact frame (docs/physics.md C1-C10).
 class Solver {
  public:
   Solver(const Mat3& k_hat, const Vec3& u0, double e, double mu, CollisionResult& res)
       : k_(k_hat), u0_(u0), e2_(e * e), mu_(mu), res_(res) {
     scale_u_ = u0.norm();
-    // sigma is measured in units of 1 / (|K_hat| (1 + mu)), which bounds |du/dsigma| / |u|:
-    // the Taylor coefficients then stay O(|u0|) whatever the body (no overflow for a 1e-6 kg
-    // chip at 1e6 rad/s).
+    // The unit of sigma, 1 / (|K_hat| (1 + mu)): Taylor coefficients O(|u0|) (docs/physics.md C4).
     time_unit_ = 1.0 / (k_.norm() * (1.0 + mu));
   }
 
@@ -140,9 +105,8 @@ class Solver {
  private:
   Vec3 u() const { return u0_ + k_ * p_; }
 
-  // Taylor coefficients of the sliding solution from the current state (see the top). Order n
-  // is a template parameter so that the convolutions unroll into straight-line code; each is
-  // symmetric and summed over half its terms.
+  // Taylor coefficients of the sliding solution from the current state (docs/physics.md C5).
+  // Order n is a template parameter so that the convolutions unroll into straight-line code.
   template <std::size_t n>
   void expand_order(Series& c, double& half_inv_rho0) const {
     c.ux[n] = k_(0, 0) * c.px[n] + k_(0, 1) * c.py[n] + k_(0, 2) * c.s[n];
@@ -187,10 +151,8 @@ class Solver {
     (std::make_index_sequence<kOrder + 1>{});
   }
 
-  // Step in sigma from the last two Taylor terms (Jorba & Zou 2005, sec. 3.2): those of the
-  // contact velocity below kStepTol |u0|, and those of the friction work below kStepTol |u0| |p|
-  // (|p| over the step): W_t sets W_z = u0.p + p.K_hat p / 2 - W_t (normal_work()) and so the
-  // end of restitution, and its series, products of velocity series, converges more slowly.
+  // Step in sigma from the last two Taylor terms of the contact velocity and of the friction work
+  // (docs/physics.md C6; Jorba & Zou 2005, sec. 3.2).
   double step_size(const Series& c) const {
     const double tol = kStepTol * scale_u_;
     double log_h = kInf;  // min over the terms of ln((tol / |term_n|)^(1/n))
@@ -209,8 +171,7 @@ class Solver {
     return 0.95 * std::exp(log_h);
   }
 
-  // Total work of the contact impulse p is u0.p + p.K_hat p / 2 (= kinetic energy change, K_hat
-  // symmetric); minus the friction work it is the normal work W_z.
+  // W_z = u0.p + p.K_hat p / 2 - W_t (docs/physics.md C2).
   double normal_work(const Vec3& p, double wt) const {
     return u0_.dot(p) + 0.5 * p.dot(k_ * p) - wt;
   }
@@ -235,7 +196,8 @@ class Solver {
     res_.recompressed = true;
   }
 
-  // Advance by ds along a constant zeta (w = K_hat zeta): u is linear in s, the work quadratic.
+  // Advance by ds along a constant zeta (w = K_hat zeta): u is linear in s, the work quadratic
+  // (docs/physics.md C8).
   void advance(const Vec3& zeta, const Vec3& w, double ds) {
     const Vec3 u0 = u();
     wz_ += ds * (u0.z() + 0.5 * w.z() * ds);
@@ -244,8 +206,8 @@ class Solver {
   }
 
   // Straight segment with constant zeta for at most ds_max of normal impulse, through the end of
-  // compression and up to the end of restitution (closed form). Returns true when ds_max was
-  // used up before the impact ended.
+  // compression and up to the end of restitution (closed form: docs/physics.md C8, C3). Returns
+  // true when ds_max was used up before the impact ended.
   bool straight(const Vec3& zeta_in, double ds_max) {
     Vec3 zeta = zeta_in;
     Vec3 w = k_ * zeta;
@@ -313,7 +275,7 @@ class Solver {
   }
 
   // u_t = 0 reached: stable sticking keeps it 0, otherwise sliding resumes along the diverging
-  // ray. Either way zeta is constant for the rest of the impact.
+  // ray. Either way zeta is constant for the rest of the impact (docs/physics.md C8, C10).
   void stick() {
     res_.stuck = true;
     const Mat3 kinv = k_.inverse();
@@ -326,10 +288,7 @@ class Solver {
     }
   }
 
-  // Slip rates for slip direction d (unit, contact frame): w_t = (K_hat zeta)_t with zeta =
-  // (-mu d, 1) split into radial h = d.w_t and swirl g = t.w_t (t = d rotated by +90 deg), and
-  // dg/dphi = -h - mu t^T A t (A = K_hat_tt). In polar form d|u_t|/ds = h, dphi/ds = g/|u_t|:
-  // both depend on the direction only, and invariant rays are the zeros of g.
+  // Radial rate h, swirl g and dg/dphi of the slip for unit slip direction d (docs/physics.md C9).
   void slip_rates(const Vec2& d, double& h, double& g, double& dg) const {
     const Vec2 t(-d.y(), d.x());
     const double wx = -mu_ * (k_(0, 0) * d.x() + k_(0, 1) * d.y()) + k_(0, 2);
@@ -340,19 +299,9 @@ class Solver {
                      t.y() * (k_(1, 0) * t.x() + k_(1, 1) * t.y()));
   }
 
-  // Straight segment along an invariant ray, when the slip is within kSnapTol |u0| of one (or,
-  // heading at u_t = 0, when its direction barely turns: |u_t| |g| / |h| within kSnapTol |u0|;
-  // a sphere, a point mass). The nearest ray phi* comes from Newton on g(phi).
-  //   - converging ray (h < 0): the last approach to u_t = 0, ending in sticking; the slip never
-  //     overshoots through 0. Near the ray the angular offset scales like |u_t|^beta with
-  //     beta = dg/h = -1 + mu t^T A t / |h| >= -1 for any K_hat, mu, so the miss distance
-  //     |u_t| x offset never grows on the way in.
-  //   - diverging ray (h > 0, after passing close to 0 when sticking is unstable): beta <= -1,
-  //     the ray attracts and the slip follows it to the end of the impact.
-  // Either way the straight segment errs by at most the offset it starts with. It also avoids
-  // the two slow cases of the sigma integration: a strongly attracting converging ray is stiff
-  // (angular rate |dg| >> |h|), and leaving 0 along a ray with a small h takes many e-folds.
-  // Returns the ray direction and the segment length in p_z (infinite: to the end).
+  // Straight segment along an invariant ray near the slip (docs/physics.md C9): false when the
+  // slip is far from one; else the ray direction and the segment length in p_z (infinite: to
+  // the end of the impact).
   bool ray_segment(const Vec2& d0, double rho, Vec2& ray, double& ds) const {
     double h, g, dg;
     slip_rates(d0, h, g, dg);
@@ -379,7 +328,8 @@ class Solver {
     return true;
   }
 
-  // The impact ends inside this step, in (t0, t_end]: W_z reaches (1 - e^2) W_c.
+  // The impact ends inside this step, in (t0, t_end]: W_z reaches (1 - e^2) W_c (docs/physics.md
+  // C3, C7).
   void end_restitution(const Series& c, double w_start, double t0, double t_end) {
     // W_z(tau): dW_z/dsigma = u_z |u_t|, a product of the step's series.
     Series::C work;
@@ -411,6 +361,7 @@ class Solver {
     done_ = true;
   }
 
+  // Sliding: Taylor steps in sigma and the events inside them (docs/physics.md C4-C7).
   void slide() {
     Series c;
     // Step cap for an exactly polynomial solution (no last Taylor terms): 50 e-folds of the
@@ -528,21 +479,14 @@ Mat3 contact_frame(const Vec3& normal) {
   return R;
 }
 
+// docs/physics.md C8 (Mirtich 1996, sec. 4.4).
 bool sticking_is_stable(const Mat3& k_hat, double mu) {
   const Mat3 kinv = k_hat.inverse();
   return std::sqrt(kinv(0, 2) * kinv(0, 2) + kinv(1, 2) * kinv(1, 2)) <= mu * kinv(2, 2);
 }
 
-// An invariant ray of the sliding flow has (K_hat zeta)_t parallel to the slip direction d:
-//   -mu A d + k = lambda d,   A = K_hat_tt (2x2, SPD), k = K_hat_tz.
-// Written in tan(phi/2) this is Mirtich's quartic (thesis sec. 4.4); the diverging ray is its
-// root with lambda > 0. For lambda > 0 the matrix lambda 1 + mu A is SPD, so
-// d(lambda) = (lambda 1 + mu A)^-1 k and |d(lambda)| falls strictly from |(mu A)^-1 k| at 0 to
-// below 1 at lambda = |k|. Hence a diverging ray exists iff |(mu A)^-1 k| > 1 - which is exactly
-// unstable sticking (block inverse of K_hat: K_hat^-1_t3 = -A^-1 k K_hat^-1_33) - and it is
-// unique. We solve |d(lambda)| = 1 on (0, |k|] by safeguarded Newton on 1/|d| - 1 (the
-// trust-region secular equation, More & Sorensen 1983): no spurious quartic roots to sort out,
-// no special case at phi = pi where tan(phi/2) is infinite.
+// The diverging ray: |d(lambda)| = 1 on (0, |k|] with d(lambda) = (lambda 1 + mu A)^-1 k, by
+// safeguarded Newton on 1/|d| - 1 (docs/physics.md C10; More & Sorensen 1983).
 Vec2 diverging_slip_direction(const Mat3& k_hat, double mu) {
   const Vec2 k(k_hat(0, 2), k_hat(1, 2));
   const double kn = k.norm();
@@ -573,6 +517,7 @@ Vec2 diverging_slip_direction(const Mat3& k_hat, double mu) {
   return d;
 }
 
+// docs/physics.md, "Bounce": eqs. 16, 20-21, 26, 33-34; the impulse: C1-C10.
 CollisionResult resolve_collision(const CollisionInput& in) {
   CollisionResult res;
   res.velocity_mps = in.velocity_mps;
