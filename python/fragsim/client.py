@@ -247,6 +247,11 @@ class Client:
         """``GET /v1/health`` (no token needed): status, version, git_sha, uptime_s, jobs."""
         return self._obj("GET", "/v1/health")
 
+    def whoami(self) -> Dict[str, Any]:
+        """``GET /v1/whoami``: this client's token as the daemon sees it: ``role`` (read, submit
+        or admin), ``owner`` (the token's id, the owner of the jobs it submits) and ``auth``."""
+        return self._obj("GET", "/v1/whoami")
+
     def openapi(self) -> str:
         """``GET /v1/openapi.yaml``: the daemon's HTTP contract (YAML text)."""
         return self._text("/v1/openapi.yaml")

@@ -88,6 +88,10 @@ class ClientTest(unittest.TestCase):
         self.assertEqual(self.c.api_version(), fragsim.API_VERSION)
         self.assertIn("paths:", self.c.openapi())
         self.assertIn("fragsimd_jobs", self.c.metrics())
+        me = self.c.whoami()
+        self.assertEqual(me["role"], "admin")  # a token without a role (docs/operations.md)
+        self.assertTrue(me["auth"])
+        self.assertTrue(me["owner"].startswith("tok_"), me)
 
     # -- sites ----------------------------------------------------------------------------
 
