@@ -5,10 +5,10 @@
 #include <sstream>
 #include <utility>
 
-#include "api/h5_writer.h"
 #include "api/units.h"
 #include "core/common/error.h"
 #include "core/run/paired.h"
+#include "formats/h5_writer.h"
 
 namespace fragsim::api {
 
@@ -257,8 +257,8 @@ Json compare_to_json(const CompareInputs& in) {
 
 void write_compare_h5(const std::filesystem::path& path, const run::PairedRun& p,
                       const scene::Site& base_site, const Json& compare) {
-  const std::lock_guard<std::mutex> lock(h5::hdf5_mutex());
-  h5::Writer w(path);
+  const std::lock_guard<std::mutex> lock(formats::h5::hdf5_mutex());
+  formats::h5::Writer w(path);
   w.attribute(w.file(), "format", "fragsim-compare");
   w.attribute(w.file(), "format_version", static_cast<std::int64_t>(kCompareFormatVersion));
   w.attribute(w.file(), "compare_json", compare.dump());

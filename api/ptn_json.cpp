@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "api/results_h5.h"
+#include "formats/results_h5.h"
 
 namespace fragsim::api {
 
@@ -22,9 +22,9 @@ struct PtnField {
 
 PtnField read_field(const std::filesystem::path& h5) {
   PtnField f;
-  f.density = read_dataset_double(h5, "/ptn/density_per_m2");
-  f.std_error = read_dataset_double(h5, "/ptn/std_error_per_m2");
-  const auto threshold = read_dataset_double(h5, "/hfd/threshold_per_m2");
+  f.density = formats::read_dataset_double(h5, "/ptn/density_per_m2");
+  f.std_error = formats::read_dataset_double(h5, "/ptn/std_error_per_m2");
+  const auto threshold = formats::read_dataset_double(h5, "/hfd/threshold_per_m2");
   if (f.density.size() != f.std_error.size() || threshold.size() != 1)
     throw std::runtime_error(h5.string() + ": inconsistent /ptn datasets");
   f.threshold = threshold[0];
@@ -68,8 +68,8 @@ PtnGeoJsonWriter::PtnGeoJsonWriter(const std::filesystem::path& results_h5,
   PtnField f = read_field(results_h5);
   density_ = std::move(f.density);
   std_error_ = std::move(f.std_error);
-  vertices_ = read_dataset_double(results_h5, "/terrain/vertices_m");
-  triangles_ = read_dataset_int64(results_h5, "/terrain/triangles");
+  vertices_ = formats::read_dataset_double(results_h5, "/terrain/vertices_m");
+  triangles_ = formats::read_dataset_int64(results_h5, "/terrain/triangles");
   if (triangles_.size() != 3 * density_.size() || vertices_.size() % 3 != 0)
     throw std::runtime_error(results_h5.string() + ": terrain does not match the PTN field");
   const auto vertex_count = static_cast<std::int64_t>(vertices_.size() / 3);
@@ -83,7 +83,7 @@ PtnGeoJsonWriter::PtnGeoJsonWriter(const std::filesystem::path& results_h5,
   head["fragsim_job_id"] = job_id;
   head["fragsim_threshold_per_m2"] = f.threshold;
   const nlohmann::json scenario =
-      nlohmann::json::parse(read_attribute_string(results_h5, "/", "scenario_json"));
+      nlohmann::json::parse(formats::read_attribute_string(results_h5, "/", "scenario_json"));
   nlohmann::json origin;
   if (const auto site = scenario.find("site"); site != scenario.end()) {
     if (const auto o = site->find("origin"); o != site->end()) origin = *o;
@@ -96,10 +96,10 @@ PtnGeoJsonWriter::PtnGeoJsonWriter(const std::filesystem::path& results_h5,
 }
 
 void PtnGeoJsonWriter::read_materials(const std::filesystem::path& h5) {
-  const auto names = list_datasets(h5);
+  const auto names = formats::list_datasets(h5);
   if (!std::binary_search(names.begin(), names.end(), std::string("/terrain/material"))) return;
-  material_ = read_dataset_int64(h5, "/terrain/material");
-  for (const std::string& name : read_dataset_strings(h5, "/terrain/material_names"))
+  material_ = formats::read_dataset_int64(h5, "/terrain/material");
+  for (const std::string& name : formats::read_dataset_strings(h5, "/terrain/material_names"))
     material_names_json_.push_back(nlohmann::json(name).dump());
   if (material_.size() != density_.size())
     throw std::runtime_error(h5.string() + ": /terrain/material does not match the PTN field");

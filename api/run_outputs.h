@@ -4,11 +4,11 @@
 //   results.h5    (write_results_h5, with the normalised scenario as provenance)
 #include <nlohmann/json.hpp>
 
-#include "api/output_dir.h"
 #include "api/scenario_json.h"
 #include "api/summary_json.h"
 #include "core/run/result.h"
 #include "core/scene/site.h"
+#include "formats/output_dir.h"
 
 namespace fragsim::api {
 
@@ -16,7 +16,7 @@ inline constexpr const char* kSummaryFileName = "summary.json";
 inline constexpr const char* kResultsFileName = "results.h5";
 
 // Stages both files in `out` (nothing is visible until out.commit()); returns the summary.
-nlohmann::ordered_json stage_run_outputs(OutputDir& out, const run::RunResult& result,
+nlohmann::ordered_json stage_run_outputs(formats::OutputDir& out, const run::RunResult& result,
                                          const scene::Site& site, const ScenarioDocument& doc,
                                          const Provenance& provenance);
 

@@ -16,9 +16,9 @@
 #include <sstream>
 #include <string>
 
-#include "api/partial_file.h"
 #include "api/scenario_json.h"
 #include "core/run/partial.h"
+#include "formats/partial_file.h"
 
 using namespace fragsim;
 using Clock = std::chrono::steady_clock;
@@ -65,16 +65,17 @@ int main(int argc, char** argv) {
               site->terrain_triangle_count(), static_cast<long long>(shards));
 
   std::vector<std::string> bytes;
-  const api::PartialIdentity id{"bench", scale};
+  const formats::PartialIdentity id{"bench", scale};
   double encode_s = 0.0, decode_s = 0.0, merge_s = 0.0;
   std::size_t total_bytes = 0;
   std::vector<run::PartialRun> parts;
   for (std::int64_t i = 0; i < shards; ++i) {
     run::PartialRun p = run::run_partial(sc, site, {i, shards});
     std::string b;
-    encode_s += best_of_3([&] { b = api::encode_partial(p, id); });
-    api::PartialIdentity got;
-    decode_s += best_of_3([&] { parts.push_back(api::decode_partial(b, bins.total, got, "x")); });
+    encode_s += best_of_3([&] { b = formats::encode_partial(p, id); });
+    formats::PartialIdentity got;
+    decode_s +=
+        best_of_3([&] { parts.push_back(formats::decode_partial(b, bins.total, got, "x")); });
     parts.resize(static_cast<std::size_t>(i) + 1);
     total_bytes += b.size();
     bytes.push_back(std::move(b));
@@ -83,17 +84,17 @@ int main(int argc, char** argv) {
   // each timing starts from the same state.
   run::PartialRun whole;
   merge_s = best_of_3([&] {
-    api::PartialIdentity got;
-    whole = api::decode_partial(bytes[0], bins.total, got, "x");
+    formats::PartialIdentity got;
+    whole = formats::decode_partial(bytes[0], bins.total, got, "x");
     for (std::size_t k = 1; k < bytes.size(); ++k)
-      run::merge(whole, api::decode_partial(bytes[k], bins.total, got, "x"));
+      run::merge(whole, formats::decode_partial(bytes[k], bins.total, got, "x"));
   });
   const double merge_only_s = merge_s - decode_s;
   // finish() consumes its partial: each timing decodes a copy of the whole first.
-  const std::string whole_bytes = api::encode_partial(whole, id);
+  const std::string whole_bytes = formats::encode_partial(whole, id);
   auto copy_of_whole = [&] {
-    api::PartialIdentity got;
-    return api::decode_partial(whole_bytes, bins.total, got, "x");
+    formats::PartialIdentity got;
+    return formats::decode_partial(whole_bytes, bins.total, got, "x");
   };
   const double copy_s = best_of_3([&] { copy_of_whole(); });
   const double finish_s = best_of_3([&] { run::finish(sc, *site, copy_of_whole()); }) - copy_s;

@@ -17,8 +17,6 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "api/output_dir.h"
-#include "api/partial_file.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
 #include "api/sha256.h"
@@ -29,6 +27,8 @@
 #include "core/run/precision.h"
 #include "core/run/reach.h"
 #include "core/run/run.h"
+#include "formats/output_dir.h"
+#include "formats/partial_file.h"
 
 namespace fragsim::cli {
 
@@ -119,7 +119,7 @@ std::string input_notes(const PreparedRun& p) {
   return illustrative_note(p.doc) + reach_warnings(p.doc.scenario, *p.site);
 }
 
-api::PartialIdentity identity_of(const Options& o, const PreparedRun& p) {
+formats::PartialIdentity identity_of(const Options& o, const PreparedRun& p) {
   return {api::sha256_hex(p.text), o.samples_scale.value_or(1.0)};
 }
 
@@ -144,16 +144,16 @@ PreparedRun prepare_text(const Options& o, std::string text) {
   return p;
 }
 
-std::unique_ptr<api::OutputDir> open_out(const Options& o) {
+std::unique_ptr<formats::OutputDir> open_out(const Options& o) {
   try {
-    return std::make_unique<api::OutputDir>(o.out);
+    return std::make_unique<formats::OutputDir>(o.out);
   } catch (const std::runtime_error& e) {
     throw InputError("--out", e.what());
   }
 }
 
 int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result,
-                  const std::atomic<bool>& cancel, api::OutputDir& out) {
+                  const std::atomic<bool>& cancel, formats::OutputDir& out) {
   result.timing.parse_s = p.parse_s;
   result.timing.build_s = p.build_s;
   api::Provenance provenance = api::build_provenance();
@@ -174,9 +174,9 @@ int write_outputs(const Options& o, const PreparedRun& p, run::RunResult& result
 }
 
 int write_partial(const Options& o, const PreparedRun& p, const run::PartialRun& part,
-                  api::OutputDir& out) {
+                  formats::OutputDir& out) {
   out.stage("partial.fsp", [&](const std::filesystem::path& tmp) {
-    api::write_partial_file(tmp, part, identity_of(o, p));
+    formats::write_partial_file(tmp, part, identity_of(o, p));
   });
   out.commit();
   if (!o.quiet)
@@ -199,7 +199,7 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
     if (!o.quiet) std::cerr << input_notes(p);
     // Created before the run, so that an --out that cannot be made fails now, not after it; it
     // is removed again (if created here) unless the outputs are committed.
-    const std::unique_ptr<api::OutputDir> out = open_out(o);
+    const std::unique_ptr<formats::OutputDir> out = open_out(o);
     ProgressLine progress(!o.quiet && ::isatty(STDERR_FILENO) == 1, !o.quiet);
     run::RunControl control;
     control.cancel = &cancel;
@@ -242,12 +242,12 @@ int run_command(const Options& o, const std::atomic<bool>& cancel) {
 
 int merge_command(const Options& o, const std::atomic<bool>& cancel) {
   const PreparedRun p = prepare(o);
-  const api::PartialIdentity expected = identity_of(o, p);
+  const formats::PartialIdentity expected = identity_of(o, p);
   const std::size_t bins = run::tally_bins(p.doc.scenario, *p.site).total;
   std::optional<run::PartialRun> merged;
   for (const std::string& path : o.parts) {
-    api::PartialIdentity id;
-    run::PartialRun part = api::read_partial_file(path, bins, id);
+    formats::PartialIdentity id;
+    run::PartialRun part = formats::read_partial_file(path, bins, id);
     if (id.scenario_sha256 != expected.scenario_sha256)
       throw InputError(path, "a shard of another scenario file (its SHA-256 is " +
                                  id.scenario_sha256 + ", " + o.scenario + "'s " +

@@ -5,12 +5,12 @@
 #include <memory>
 #include <string>
 
-#include "api/output_dir.h"
-#include "api/partial_file.h"
 #include "api/scenario_json.h"
 #include "cli/args.h"
 #include "core/run/result.h"
 #include "core/scene/site.h"
+#include "formats/output_dir.h"
+#include "formats/partial_file.h"
 
 namespace fragsim::cli {
 
@@ -38,17 +38,17 @@ PreparedRun prepare_text(const Options& options, std::string text);
 // materials marked illustrative, the groups that can land beyond the terrain (core/run/reach.h).
 std::string input_notes(const PreparedRun& prepared);
 // What a partial of this run must share with the others it is merged with.
-api::PartialIdentity identity_of(const Options& options, const PreparedRun& prepared);
+formats::PartialIdentity identity_of(const Options& options, const PreparedRun& prepared);
 // --out, created if missing (and removed again unless committed). A directory that cannot be
 // made is invalid input: InputError("--out", "cannot create directory ...: reason").
-std::unique_ptr<api::OutputDir> open_out(const Options& options);
+std::unique_ptr<formats::OutputDir> open_out(const Options& options);
 // summary.json, results.h5, ... into --out, all at once; the report on stdout unless --quiet.
 int write_outputs(const Options& options, const PreparedRun& prepared, run::RunResult& result,
-                  const std::atomic<bool>& cancel, api::OutputDir& out);
+                  const std::atomic<bool>& cancel, formats::OutputDir& out);
 // --shard I/N: `part` as DIR/partial.fsp, staged and committed (temporary and rename: a killed
 // process leaves no partial.fsp); "Shard I of N: ..." on stdout unless --quiet.
 int write_partial(const Options& options, const PreparedRun& prepared, const run::PartialRun& part,
-                  api::OutputDir& out);
+                  formats::OutputDir& out);
 // `fragsim site import`: GIS files to a site document (gis/site_import.h).
 int site_import_command(const Options& options);
 // `fragsim site export-gis`: a site document to GIS files (gis/site_to_gis.h).

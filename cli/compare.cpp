@@ -29,9 +29,9 @@ PreparedRun prepare_variant(const Options& o) {
   }
 }
 
-std::unique_ptr<api::OutputDir> open_dir(const std::filesystem::path& dir) {
+std::unique_ptr<formats::OutputDir> open_dir(const std::filesystem::path& dir) {
   try {
-    return std::make_unique<api::OutputDir>(dir);
+    return std::make_unique<formats::OutputDir>(dir);
   } catch (const std::runtime_error& e) {
     throw InputError("--out", e.what());
   }
@@ -43,7 +43,7 @@ api::Provenance provenance_of(const PreparedRun& p) {
   return provenance;
 }
 
-void stage_run(api::OutputDir& dir, run::RunResult& r, const PreparedRun& p) {
+void stage_run(formats::OutputDir& dir, run::RunResult& r, const PreparedRun& p) {
   r.timing.parse_s = p.parse_s;
   r.timing.build_s = p.build_s;
   api::stage_run_outputs(dir, r, *p.site, p.doc, provenance_of(p));
@@ -106,7 +106,7 @@ int compare_command(const Options& o, const std::atomic<bool>& cancel) {
   const bool map =
       gis::write_difference_map(dir / "base" / api::kResultsFileName, dir / api::kCompareH5FileName,
                                 dir / gis::kDifferenceMapName);
-  api::OutputDir last(dir);
+  formats::OutputDir last(dir);
   last.stage_text(api::kCompareFileName, compare.dump(2) + "\n");
   last.commit();
   if (!o.quiet)

@@ -3,12 +3,12 @@
 #include <filesystem>
 #include <iostream>
 
-#include "api/output_dir.h"
 #include "api/scenario_json.h"
 #include "api/site_document.h"
 #include "cli/commands.h"
 #include "core/common/error.h"
 #include "core/scene/site.h"
+#include "formats/output_dir.h"
 #include "gis/gdal_support.h"
 #include "gis/results_export.h"
 #include "gis/site_import.h"
@@ -44,7 +44,7 @@ void write_atomically(const fs::path& out, const std::string& text) {
   const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError("--out", dir.string() + " is not a directory");
-  api::OutputDir staged(dir);
+  formats::OutputDir staged(dir);
   staged.stage_text(out.filename().string(), text);
   staged.commit();
 }

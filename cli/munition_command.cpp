@@ -5,10 +5,10 @@
 #include <iostream>
 
 #include "api/munition_json.h"
-#include "api/output_dir.h"
 #include "api/scenario_json.h"
 #include "cli/commands.h"
 #include "core/common/error.h"
+#include "formats/output_dir.h"
 
 namespace fragsim::cli {
 
@@ -21,7 +21,7 @@ void write_whole(const fs::path& out, const std::string& text) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError("--out", dir.string() + " is not a directory");
   if (fs::is_directory(out, ec)) throw InputError("--out", out.string() + " is a directory");
-  api::OutputDir staged(dir);
+  formats::OutputDir staged(dir);
   staged.stage_text(out.filename().string(), text);
   staged.commit();
 }

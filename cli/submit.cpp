@@ -11,12 +11,12 @@
 #include <utility>
 
 #include "api/compare_json.h"
-#include "api/output_dir.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
 #include "api/summary_json.h"
 #include "cli/commands.h"
 #include "core/common/error.h"
+#include "formats/output_dir.h"
 
 // After Eigen (through the api headers): httplib.h pulls in <resolv.h>, whose `_res` macro breaks
 // Eigen's parameter names.
@@ -92,11 +92,11 @@ class Client {
 };
 
 // The job's GIS maps (made by the server on this first request), each file as listed, into
-// `dir`; the set appears at once (api::OutputDir). Only plain file names from the listing.
+// `dir`; the set appears at once (formats::OutputDir). Only plain file names from the listing.
 void download_maps(Client& client, const std::string& job_id, const std::filesystem::path& dir) {
   const std::string base = "/v1/jobs/" + job_id + "/maps";
   const Json listing = Json::parse(client.request("GET", base).second);
-  api::OutputDir out(dir);
+  formats::OutputDir out(dir);
   for (const auto& f : listing.at("files")) {
     const std::string name = f.at("name").get<std::string>();
     if (name.empty() || name.find('/') != std::string::npos || name[0] == '.')
@@ -197,7 +197,7 @@ void fetch_results(Client& client, const std::string& job_id, const Options& o) 
   const std::filesystem::path dir(o.out);
   if (!o.out.empty()) {
     const std::string h5 = client.request("GET", base + "/results.h5").second;
-    api::OutputDir out(o.out);
+    formats::OutputDir out(o.out);
     out.stage_text(api::kSummaryFileName, summary_text);
     out.stage_text(api::kResultsFileName, h5);
     if (!compare.empty()) {

@@ -1,4 +1,4 @@
-// libFuzzer target: bytes as a shard's partial file, partial.fsp (api/partial_file.h), decoded
+// libFuzzer target: bytes as a shard's partial file, partial.fsp (formats/partial_file.h), decoded
 // for a tiny site as `fragsim merge` and fragsim-mpi decode the pieces they are given; what
 // decodes is merged with copies of itself and finished (core/run/partial.h).
 //
@@ -18,8 +18,8 @@
 #include <memory>
 #include <string>
 
-#include "api/partial_file.h"
 #include "core/run/partial.h"
+#include "formats/partial_file.h"
 #include "fuzz/fuzz_support.h"
 
 namespace {
@@ -105,33 +105,35 @@ void finish_checked(run::PartialRun&& p) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  constexpr std::size_t kTrailer = api::kPartialTrailerBytes;
+  constexpr std::size_t kTrailer = formats::kPartialTrailerBytes;
   std::string bytes(fuzz::as_text(data, size));
   if (bytes.size() >= 8 + kTrailer)
-    bytes.replace(bytes.size() - kTrailer, kTrailer,
-                  api::partial_trailer(std::string_view(bytes).substr(0, bytes.size() - kTrailer)));
+    bytes.replace(
+        bytes.size() - kTrailer, kTrailer,
+        formats::partial_trailer(std::string_view(bytes).substr(0, bytes.size() - kTrailer)));
   const Tiny& t = tiny();
-  api::PartialIdentity id;
+  formats::PartialIdentity id;
   run::PartialRun p;
   try {
-    p = api::decode_partial(bytes, t.bins, id, "fuzz.fsp");
+    p = formats::decode_partial(bytes, t.bins, id, "fuzz.fsp");
   } catch (const InputError&) {
     return 0;
   }
 
   // What decodes encodes to bytes that decode and encode back to themselves (the first encoding
   // may differ from the input: a flag byte 2 reads as true, a mean bin listed twice as one).
-  const std::string once = api::encode_partial(p, id);
-  api::PartialIdentity id2;
+  const std::string once = formats::encode_partial(p, id);
+  formats::PartialIdentity id2;
   run::PartialRun again;
   try {
-    again = api::decode_partial(once, t.bins, id2, "fuzz.fsp");
+    again = formats::decode_partial(once, t.bins, id2, "fuzz.fsp");
   } catch (const InputError& e) {
     fuzz::fail(std::string("a decoded partial, encoded, does not decode: ") + e.what());
   }
   if (!(id2 == id) && !(std::isnan(id.samples_scale) && std::isnan(id2.samples_scale)))
     fuzz::fail("the identity changes through encode and decode");
-  if (api::encode_partial(again, id2) != once) fuzz::fail("encode(decode(encode(p))) != encode(p)");
+  if (formats::encode_partial(again, id2) != once)
+    fuzz::fail("encode(decode(encode(p))) != encode(p)");
 
   // A copy that shares a shard is refused.
   {

@@ -17,9 +17,9 @@
 #include <variant>
 #include <vector>
 
-#include "api/output_dir.h"
-#include "api/results_h5.h"
 #include "core/common/error.h"
+#include "formats/output_dir.h"
+#include "formats/results_h5.h"
 #include "gis/gdal_support.h"
 #include "gis/plan_boundary.h"
 #include "gis/plan_raster.h"
@@ -110,11 +110,11 @@ void write_difference_tif(const fs::path& path, const PlanRaster& pr,
 // The results with compare.h5's difference and se in place of the density and its se; nullopt
 // when compare.h5 has none (the terrains differ).
 std::optional<ResultsFile> with_difference(ResultsFile r, const fs::path& compare_h5) {
-  const auto names = api::list_datasets(compare_h5);
+  const auto names = formats::list_datasets(compare_h5);
   if (std::find(names.begin(), names.end(), "/density/difference_per_m2") == names.end())
     return std::nullopt;
-  r.density = api::read_dataset_double(compare_h5, "/density/difference_per_m2");
-  r.std_error = api::read_dataset_double(compare_h5, "/density/paired_std_error_per_m2");
+  r.density = formats::read_dataset_double(compare_h5, "/density/difference_per_m2");
+  r.std_error = formats::read_dataset_double(compare_h5, "/density/paired_std_error_per_m2");
   if (r.density.size() != r.triangles.size() || r.std_error.size() != r.triangles.size())
     throw InputError(compare_h5.string(),
                      "its density difference has " + std::to_string(r.density.size()) +
@@ -534,14 +534,14 @@ void stage_paraview(const fs::path& h5, const Vec2& offset,
                     const std::function<void(const std::string&,
                                              const std::function<void(const fs::path&)>&)>& stage,
                     std::vector<std::string>& notes) {
-  const api::VtkUnstructuredGrid terrain = terrain_vtk(h5, offset);
-  stage("terrain.vtkhdf", [&](const fs::path& p) { api::write_vtkhdf(p, terrain); });
+  const formats::VtkUnstructuredGrid terrain = terrain_vtk(h5, offset);
+  stage("terrain.vtkhdf", [&](const fs::path& p) { formats::write_vtkhdf(p, terrain); });
   if (const auto b = buildings_vtk(h5, offset))
-    stage("buildings.vtkhdf", [&](const fs::path& p) { api::write_vtkhdf(p, *b); });
+    stage("buildings.vtkhdf", [&](const fs::path& p) { formats::write_vtkhdf(p, *b); });
   else
     notes.push_back("the site has no buildings: buildings.vtkhdf was not written");
   if (const auto t = trajectories_vtk(h5, offset))
-    stage("trajectories.vtkhdf", [&](const fs::path& p) { api::write_vtkhdf(p, *t); });
+    stage("trajectories.vtkhdf", [&](const fs::path& p) { formats::write_vtkhdf(p, *t); });
   else
     notes.push_back(
         "the run recorded no trajectories (settings.record_trajectories): trajectories.vtkhdf "
@@ -559,7 +559,7 @@ bool write_difference_map(const fs::path& results_h5, const fs::path& compare_h5
       rasterise(*d, pixel_m.value_or(default_cell(*d)), d->grid_origin && !pixel_m);
   const std::optional<OGRSpatialReference> srs = site_crs(*d);
   GdalErrorCapture quiet;
-  api::OutputDir out(out_tif.parent_path());
+  formats::OutputDir out(out_tif.parent_path());
   out.stage(out_tif.filename().string(),
             [&](const fs::path& p) { write_difference_tif(p, pr, srs ? &*srs : nullptr); });
   out.commit();
@@ -601,7 +601,7 @@ ExportReport export_results(const ExportOptions& o) {
         "(hfd_envelope, hazard_boundary) are empty");
 
   GdalErrorCapture quiet;  // drivers' warnings (temporary file names) are not the user's
-  api::OutputDir out(o.out_dir);
+  formats::OutputDir out(o.out_dir);
   const auto stage = [&](const std::string& name, const std::function<void(const fs::path&)>& w) {
     out.stage(name, w);
     report.files.push_back(name);

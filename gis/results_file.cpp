@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "api/results_h5.h"
 #include "core/common/error.h"
+#include "formats/results_h5.h"
 
 namespace fragsim::gis {
 
@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
 std::vector<Vec3> read_points(const fs::path& f, const std::string& name, const Vec2& offset) {
-  const auto v = api::read_dataset_double(f, name);
+  const auto v = formats::read_dataset_double(f, name);
   std::vector<Vec3> out(v.size() / 3);
   for (std::size_t k = 0; k < out.size(); ++k)
     out[k] = Vec3(v[3 * k] + offset.x(), v[3 * k + 1] + offset.y(), v[3 * k + 2]);
@@ -26,7 +26,7 @@ std::vector<Vec3> read_points(const fs::path& f, const std::string& name, const 
 }
 
 std::vector<std::array<std::size_t, 3>> read_triangles(const fs::path& f, const std::string& name) {
-  const auto t = api::read_dataset_int64(f, name);
+  const auto t = formats::read_dataset_int64(f, name);
   std::vector<std::array<std::size_t, 3>> out(t.size() / 3);
   for (std::size_t k = 0; k < out.size(); ++k)
     for (std::size_t c = 0; c < 3; ++c) out[k][c] = static_cast<std::size_t>(t[3 * k + c]);
@@ -34,7 +34,7 @@ std::vector<std::array<std::size_t, 3>> read_triangles(const fs::path& f, const 
 }
 
 void read_site_of_scenario(const fs::path& f, ResultsFile& r) {
-  const Json sc = Json::parse(api::read_attribute_string(f, "/", "scenario_json"));
+  const Json sc = Json::parse(formats::read_attribute_string(f, "/", "scenario_json"));
   const Json& site = sc.at("site");
   if (const auto o = site.find("origin"); o != site.end()) {
     r.crs = o->value("crs", "");
@@ -53,18 +53,18 @@ void read_site_of_scenario(const fs::path& f, ResultsFile& r) {
 }
 
 void read_buildings(const fs::path& f, ResultsFile& r) {
-  const auto ids = api::read_dataset_strings(f, "/buildings/id");
-  const auto imp = api::read_dataset_double(f, "/buildings/expected_impacts");
-  const auto imp_se = api::read_dataset_double(f, "/buildings/impacts_std_error");
-  const auto pen = api::read_dataset_double(f, "/buildings/expected_penetrations");
-  const auto pen_se = api::read_dataset_double(f, "/buildings/penetrations_std_error");
+  const auto ids = formats::read_dataset_strings(f, "/buildings/id");
+  const auto imp = formats::read_dataset_double(f, "/buildings/expected_impacts");
+  const auto imp_se = formats::read_dataset_double(f, "/buildings/impacts_std_error");
+  const auto pen = formats::read_dataset_double(f, "/buildings/expected_penetrations");
+  const auto pen_se = formats::read_dataset_double(f, "/buildings/penetrations_std_error");
   r.buildings.resize(ids.size());
   for (std::size_t k = 0; k < ids.size(); ++k)
     r.buildings[k] = {ids[k], imp[k], imp_se[k], pen[k], pen_se[k], {}};
   if (ids.empty()) return;
   const auto v = read_points(f, "/buildings/vertices_m", r.offset);
   const auto t = read_triangles(f, "/buildings/triangles");
-  const auto owner = api::read_dataset_int64(f, "/buildings/triangle_building");
+  const auto owner = formats::read_dataset_int64(f, "/buildings/triangle_building");
   for (std::size_t k = 0; k < t.size(); ++k)
     r.buildings[static_cast<std::size_t>(owner[k])].plan.push_back(
         {v[t[k][0]].head<2>(), v[t[k][1]].head<2>(), v[t[k][2]].head<2>()});
@@ -75,19 +75,20 @@ const char* bound_name(double flag) {
 }
 
 void read_hfd_bounds(const fs::path& f, ResultsFile& r) {
-  if (api::read_attribute_int64(f, "/", "format_version") < 2) return;
-  r.hfd_bound = bound_name(api::read_dataset_double(f, "/hfd/bound").at(0));
-  const auto band = api::read_dataset_double(f, "/hfd/band_bound");
+  if (formats::read_attribute_int64(f, "/", "format_version") < 2) return;
+  r.hfd_bound = bound_name(formats::read_dataset_double(f, "/hfd/bound").at(0));
+  const auto band = formats::read_dataset_double(f, "/hfd/band_bound");
   r.band_lower_bound = bound_name(band.at(0));
   r.band_upper_bound = bound_name(band.at(1));
-  const auto sectors = api::read_dataset_double(f, "/hfd/by_sector_bound");
+  const auto sectors = formats::read_dataset_double(f, "/hfd/by_sector_bound");
   for (std::size_t k = 0; k < r.sector_bound.size() && k < sectors.size(); ++k)
     r.sector_bound[k] = bound_name(sectors[k]);
-  r.hfd_note = api::read_attribute_string(f, "/hfd", "note");
-  r.left_hazardous = api::read_dataset_double(f, "/hfd/left_site_hazardous_fragments").at(0);
+  r.hfd_note = formats::read_attribute_string(f, "/hfd", "note");
+  r.left_hazardous = formats::read_dataset_double(f, "/hfd/left_site_hazardous_fragments").at(0);
   r.left_hazardous_se =
-      api::read_dataset_double(f, "/hfd/left_site_hazardous_fragments_std_error").at(0);
-  r.left_hazardous_by_sector = api::read_dataset_double(f, "/hfd/left_site_hazardous_by_sector");
+      formats::read_dataset_double(f, "/hfd/left_site_hazardous_fragments_std_error").at(0);
+  r.left_hazardous_by_sector =
+      formats::read_dataset_double(f, "/hfd/left_site_hazardous_by_sector");
   r.left_hazardous_by_sector.resize(36, 0.0);
 }
 
@@ -96,20 +97,20 @@ void read_hfd_bounds(const fs::path& f, ResultsFile& r) {
 ResultsFile read_results_file(const fs::path& f) {
   ResultsFile r;
   try {
-    if (api::read_attribute_string(f, "/", "file_type") != api::kResultsFileType)
+    if (formats::read_attribute_string(f, "/", "file_type") != formats::kResultsFileType)
       throw std::runtime_error("not a fragsim results file");
     read_site_of_scenario(f, r);
     r.vertices = read_points(f, "/terrain/vertices_m", r.offset);
     r.triangles = read_triangles(f, "/terrain/triangles");
-    r.density = api::read_dataset_double(f, "/ptn/density_per_m2");
-    r.std_error = api::read_dataset_double(f, "/ptn/std_error_per_m2");
-    r.threshold = api::read_dataset_double(f, "/hfd/threshold_per_m2").at(0);
-    r.hfd_m = api::read_dataset_double(f, "/hfd/hazardous_fragment_distance_m").at(0);
-    const auto band = api::read_dataset_double(f, "/hfd/band_m");
+    r.density = formats::read_dataset_double(f, "/ptn/density_per_m2");
+    r.std_error = formats::read_dataset_double(f, "/ptn/std_error_per_m2");
+    r.threshold = formats::read_dataset_double(f, "/hfd/threshold_per_m2").at(0);
+    r.hfd_m = formats::read_dataset_double(f, "/hfd/hazardous_fragment_distance_m").at(0);
+    const auto band = formats::read_dataset_double(f, "/hfd/band_m");
     r.band_lo = band.at(0);
     r.band_hi = band.at(1);
-    r.by_sector = api::read_dataset_double(f, "/hfd/by_sector_m");
-    const auto o = api::read_dataset_double(f, "/hfd/origin_m");
+    r.by_sector = formats::read_dataset_double(f, "/hfd/by_sector_m");
+    const auto o = formats::read_dataset_double(f, "/hfd/origin_m");
     r.hfd_origin = Vec3(o.at(0) + r.offset.x(), o.at(1) + r.offset.y(), o.at(2));
     read_hfd_bounds(f, r);
     read_buildings(f, r);

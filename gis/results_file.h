@@ -1,6 +1,6 @@
 #pragma once
 // What the exports, the site-plan boundary and the study report read from results.h5
-// (api/results_h5.h), in the site's CRS: input coordinates plus the site origin's easting and
+// (formats/results_h5.h), in the site's CRS: input coordinates plus the site origin's easting and
 // northing. Shared by gis/results_export, gis/plan_boundary and report/.
 #include <array>
 #include <filesystem>

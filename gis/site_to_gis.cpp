@@ -5,8 +5,8 @@
 
 #include <memory>
 
-#include "api/output_dir.h"
 #include "core/common/error.h"
+#include "formats/output_dir.h"
 #include "gis/gdal_support.h"
 
 namespace fragsim::gis {
@@ -121,7 +121,7 @@ SiteGisReport write_site_gis(const Json& site, const fs::path& out_dir) {
     throw InputError("site.terrain", "only a grid terrain is a raster (DEM)");
   const Offset o{site["origin"].value("easting_m", 0.0), site["origin"].value("northing_m", 0.0)};
   SiteGisReport report;
-  api::OutputDir out(out_dir);
+  formats::OutputDir out(out_dir);
   out.stage("terrain.tif", [&](const fs::path& p) { write_dem(p, terrain["grid"], srs, o); });
   report.files.push_back("terrain.tif");
   const bool buildings = site.contains("buildings") && !site["buildings"].empty();

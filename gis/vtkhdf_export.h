@@ -1,6 +1,6 @@
 #pragma once
 // ParaView files of a run (docs/gis.md, "ParaView"): results.h5 as three VTKHDF unstructured
-// grids (api/vtkhdf.h), in the same coordinates as the GIS files (the site's CRS: input
+// grids (formats/vtkhdf.h), in the same coordinates as the GIS files (the site's CRS: input
 // coordinates + site.origin easting/northing):
 //   terrain        its triangles; cell data density_per_m2, std_error_per_m2, area_m2, and
 //                  hazardous (1 where density >= the threshold, else 0)
@@ -12,17 +12,18 @@
 #include <filesystem>
 #include <optional>
 
-#include "api/vtkhdf.h"
 #include "core/common/types.h"
+#include "formats/vtkhdf.h"
 
 namespace fragsim::gis {
 
 // Each reads what it needs from results.h5 (throws std::runtime_error naming what is missing).
-api::VtkUnstructuredGrid terrain_vtk(const std::filesystem::path& results_h5, const Vec2& offset);
+formats::VtkUnstructuredGrid terrain_vtk(const std::filesystem::path& results_h5,
+                                         const Vec2& offset);
 // nullopt when the site has no buildings, or the run recorded no trajectories.
-std::optional<api::VtkUnstructuredGrid> buildings_vtk(const std::filesystem::path& results_h5,
-                                                      const Vec2& offset);
-std::optional<api::VtkUnstructuredGrid> trajectories_vtk(const std::filesystem::path& results_h5,
-                                                         const Vec2& offset);
+std::optional<formats::VtkUnstructuredGrid> buildings_vtk(const std::filesystem::path& results_h5,
+                                                          const Vec2& offset);
+std::optional<formats::VtkUnstructuredGrid> trajectories_vtk(
+    const std::filesystem::path& results_h5, const Vec2& offset);
 
 }  // namespace fragsim::gis

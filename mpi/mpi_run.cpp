@@ -14,13 +14,13 @@
 #include <optional>
 #include <thread>
 
-#include "api/output_dir.h"
-#include "api/partial_file.h"
 #include "cli/args.h"
 #include "cli/commands.h"
 #include "cli/progress.h"
 #include "core/common/error.h"
 #include "core/run/partial.h"
+#include "formats/output_dir.h"
+#include "formats/partial_file.h"
 
 namespace fragsim::mpi {
 
@@ -58,17 +58,17 @@ int broadcast_scenario(const cli::Options& o, std::string& text, int rank, MPI_C
 std::optional<run::PartialRun> reduce_partials(run::PartialRun mine, const cli::Options& o,
                                                const cli::PreparedRun& p, int rank, int size,
                                                MPI_Comm comm) {
-  const api::PartialIdentity id = cli::identity_of(o, p);
+  const formats::PartialIdentity id = cli::identity_of(o, p);
   const std::size_t bins = run::tally_bins(p.doc.scenario, *p.site).total;
   for (int step = 1; step < size; step *= 2) {
     if (rank % (2 * step) == step) {
-      send_bytes(api::encode_partial(mine, id), rank - step, comm);
+      send_bytes(formats::encode_partial(mine, id), rank - step, comm);
       return std::nullopt;
     }
     if (rank % (2 * step) == 0 && rank + step < size) {
-      api::PartialIdentity theirs;
-      run::PartialRun other = api::decode_partial(receive_bytes(rank + step, comm), bins, theirs,
-                                                  "rank " + std::to_string(rank + step));
+      formats::PartialIdentity theirs;
+      run::PartialRun other = formats::decode_partial(
+          receive_bytes(rank + step, comm), bins, theirs, "rank " + std::to_string(rank + step));
       if (!(theirs == id)) throw std::runtime_error("a rank ran another scenario");
       run::merge(mine, std::move(other));
     }
@@ -128,11 +128,12 @@ std::vector<std::string> all_gather_bytes(const std::string& mine, int rank, int
 // (in rank order; any order gives the same bits).
 class MpiBatchExchange : public run::BatchSynchronizer {
  public:
-  MpiBatchExchange(api::PartialIdentity id, std::size_t bins) : id_(std::move(id)), bins_(bins) {}
+  MpiBatchExchange(formats::PartialIdentity id, std::size_t bins)
+      : id_(std::move(id)), bins_(bins) {}
 
   std::optional<run::BatchState> exchange(const run::BatchState& mine) override {
     const auto t0 = std::chrono::steady_clock::now();
-    std::string bytes = api::encode_batch(mine, id_);
+    std::string bytes = formats::encode_batch(mine, id_);
     std::vector<std::string> all;
     const auto t1 = std::chrono::steady_clock::now();
     {
@@ -149,9 +150,9 @@ class MpiBatchExchange : public run::BatchSynchronizer {
     const auto t2 = std::chrono::steady_clock::now();
     run::BatchState merged;
     for (std::size_t r = 0; r < all.size(); ++r) {
-      api::PartialIdentity theirs;
+      formats::PartialIdentity theirs;
       run::BatchState b =
-          api::decode_batch(all[r], bins_, theirs, "batch state of rank " + std::to_string(r));
+          formats::decode_batch(all[r], bins_, theirs, "batch state of rank " + std::to_string(r));
       if (!(theirs == id_)) throw std::runtime_error("a rank ran another scenario");
       if (r == 0) {
         merged = std::move(b);
@@ -205,7 +206,7 @@ class MpiBatchExchange : public run::BatchSynchronizer {
   }
 
  private:
-  const api::PartialIdentity id_;
+  const formats::PartialIdentity id_;
   const std::size_t bins_;
   std::mutex mutex_;
   std::condition_variable cv_;
@@ -310,7 +311,7 @@ run::PartialRun as_one_shard(run::PartialRun whole) {
 }
 
 int run_ranks(const cli::Options& o, const cli::PreparedRun& p, int rank, int size, MPI_Comm comm,
-              const std::atomic<bool>& cancel, api::OutputDir* out) {
+              const std::atomic<bool>& cancel, formats::OutputDir* out) {
   cli::ProgressFile progress(rank == 0 ? o.progress_file : std::string());
   bool stopped = false;
   run::PartialRun part = run_shard(o, p, rank, size, comm, cancel, progress, stopped);
@@ -334,7 +335,8 @@ int run_ranks(const cli::Options& o, const cli::PreparedRun& p, int rank, int si
 
 // Rank 0 makes --out before the run, so that one that cannot be made fails now, not after it
 // (removed again unless the outputs are committed). Every rank returns the same status.
-int open_out(const cli::Options& o, int rank, MPI_Comm comm, std::unique_ptr<api::OutputDir>& out) {
+int open_out(const cli::Options& o, int rank, MPI_Comm comm,
+             std::unique_ptr<formats::OutputDir>& out) {
   int status = 0;
   if (rank == 0) {
     try {
@@ -399,7 +401,7 @@ int run_mpi(const std::vector<std::string>& args, MPI_Comm comm, const std::atom
     return cli::kExitInvalidInput;
   }
   if (rank == 0 && !o.quiet) std::cerr << cli::input_notes(*p);
-  std::unique_ptr<api::OutputDir> out;
+  std::unique_ptr<formats::OutputDir> out;
   if (const int status = open_out(o, rank, comm, out); status != 0) return status;
   try {
     return run_ranks(o, *p, rank, size, comm, cancel, out.get());

@@ -7,8 +7,8 @@
 #include <memory>
 
 #include "api/machine.h"
-#include "api/output_dir.h"
 #include "core/common/error.h"
+#include "formats/output_dir.h"
 #include "report/report_html.h"
 #include "report/report_inputs.h"
 #include "report/report_pdf.h"
@@ -29,19 +29,19 @@ fs::path parent_of(const fs::path& p) {
 }
 
 // An output file's directory, staged: InputError(option) when it cannot be used.
-std::unique_ptr<api::OutputDir> open_dir(const fs::path& file, const char* option) {
+std::unique_ptr<formats::OutputDir> open_dir(const fs::path& file, const char* option) {
   if (file.filename().empty() || file.filename() == "." || file.filename() == "..")
     throw InputError(option, file.string() + ": not a file name");
   std::error_code ec;
   if (fs::is_directory(file, ec)) throw InputError(option, file.string() + ": is a directory");
   try {
-    return std::make_unique<api::OutputDir>(parent_of(file));
+    return std::make_unique<formats::OutputDir>(parent_of(file));
   } catch (const std::exception& e) {
     throw InputError(option, file.string() + ": " + e.what());
   }
 }
 
-void stage(api::OutputDir& dir, const fs::path& file, const char* option,
+void stage(formats::OutputDir& dir, const fs::path& file, const char* option,
            const std::function<void(const fs::path&)>& write) {
   try {
     dir.stage(file.filename().string(), write);
@@ -76,7 +76,7 @@ ReportWritten write_report(const ReportOptions& o) {
   auto html_dir = open_dir(o.out_html, "--out");
   stage(*html_dir, o.out_html, "--out", [&](const fs::path& p) { write_text(p, html); });
   w.html_s = seconds_since(t0);
-  std::unique_ptr<api::OutputDir> pdf_dir;
+  std::unique_ptr<formats::OutputDir> pdf_dir;
   if (o.out_pdf) {
     const auto t1 = Clock::now();
     pdf_dir = open_dir(*o.out_pdf, "--pdf");

@@ -5,8 +5,8 @@
 #include <cstring>
 #include <fstream>
 
-#include "api/results_h5.h"
 #include "core/common/error.h"
+#include "formats/results_h5.h"
 
 namespace fragsim::report {
 
@@ -35,7 +35,7 @@ bool has_hdf5_signature(const fs::path& path) {
 
 std::string attribute_or(const fs::path& f, const char* name, const std::string& fallback) {
   try {
-    return api::read_attribute_string(f, "/", name);
+    return formats::read_attribute_string(f, "/", name);
   } catch (const std::exception&) {
     return fallback;
   }
@@ -51,29 +51,30 @@ void check_readable(const fs::path& path) {
 
 void read_attributes(const fs::path& path, ReportInputs& in) {
   try {
-    if (api::read_attribute_string(path, "/", "file_type") != api::kResultsFileType)
+    if (formats::read_attribute_string(path, "/", "file_type") != formats::kResultsFileType)
       refuse(path, "not a fragsim results file (file_type is not \"fragsim.results\")");
   } catch (const InputError&) {
     throw;
   } catch (const std::exception&) {
     refuse(path, "not a fragsim results file (no file_type attribute)");
   }
-  in.format_version = static_cast<int>(api::read_attribute_int64(path, "/", "format_version"));
-  if (api::read_attribute_int64(path, "/", "cancelled") != 0)
+  in.format_version = static_cast<int>(formats::read_attribute_int64(path, "/", "format_version"));
+  if (formats::read_attribute_int64(path, "/", "cancelled") != 0)
     refuse(path, "the results of a cancelled run: its figures are partial and are not reported");
   if (in.format_version < 5)
     refuse(path, "results format " + std::to_string(in.format_version) +
                      " stores no summary (format 5 and later do): run the scenario again");
-  in.summary = nlohmann::ordered_json::parse(api::read_attribute_string(path, "/", "summary_json"));
+  in.summary =
+      nlohmann::ordered_json::parse(formats::read_attribute_string(path, "/", "summary_json"));
   in.scenario =
-      nlohmann::ordered_json::parse(api::read_attribute_string(path, "/", "scenario_json"));
+      nlohmann::ordered_json::parse(formats::read_attribute_string(path, "/", "scenario_json"));
   in.fragsim_version = attribute_or(path, "fragsim_version", "unknown");
   in.git_sha = attribute_or(path, "git_sha", "unknown");
   in.scenario_sha256 = attribute_or(path, "scenario_sha256", "not recorded");
   in.created_utc = attribute_or(path, "created_utc", "unknown");
   in.machine = attribute_or(path, "machine", "not recorded");
-  in.wall_s = api::read_attribute_double(path, "/", "wall_s");
-  in.threads = api::read_attribute_int64(path, "/", "threads");
+  in.wall_s = formats::read_attribute_double(path, "/", "wall_s");
+  in.threads = formats::read_attribute_int64(path, "/", "threads");
 }
 
 }  // namespace

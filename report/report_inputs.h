@@ -1,5 +1,5 @@
 #pragma once
-// What the study report is made of (docs/report.md): one results.h5 (api/results_h5.h, format 5
+// What the study report is made of (docs/report.md): one results.h5 (formats/results_h5.h, format 5
 // or later) read once: the figures exactly as summary.json holds them, the normalised scenario,
 // the provenance attributes, the fields (gis/results_file.h) and the site-plan boundary
 // (gis/plan_boundary.h).

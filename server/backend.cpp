@@ -19,8 +19,8 @@
 #include <stdexcept>
 #include <thread>
 
-#include "api/output_dir.h"
 #include "core/common/error.h"
+#include "formats/output_dir.h"
 #include "server/backend_templates.h"
 #include "server/child_process.h"
 #include "server/log.h"
@@ -63,9 +63,9 @@ void write_file_atomic(const fs::path& p, const std::string& text, mode_t mode =
     if (!out) throw std::runtime_error("cannot write " + tmp.string());
   }
   ::chmod(tmp.c_str(), mode);
-  api::fsync_path(tmp);
+  formats::fsync_path(tmp);
   fs::rename(tmp, p);
-  api::fsync_path(p.parent_path());
+  formats::fsync_path(p.parent_path());
 }
 
 // The last non-empty line of a text file, at most 300 characters ("" when none).

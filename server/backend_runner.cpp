@@ -8,11 +8,11 @@
 #include <utility>
 
 #include "api/job_request.h"
-#include "api/partial_file.h"
 #include "api/scenario_json.h"
 #include "api/sha256.h"
 #include "core/common/error.h"
 #include "core/run/partial.h"
+#include "formats/partial_file.h"
 #include "server/log.h"
 #include "server/thread_nice.h"
 
@@ -38,17 +38,17 @@ std::string join_words(const std::vector<std::string>& words) {
 
 // The shards' partial tallies merged and finished: the result run::run gives for the whole run,
 // bit for bit, whatever the split (core/run/partial.h). Every partial must carry the identity of
-// the scenario file the daemon wrote (api/partial_file.h).
+// the scenario file the daemon wrote (formats/partial_file.h).
 run::RunResult merge_partials(const run::Scenario& scenario, const scene::Site& site,
                               const BackendJob& job) {
-  api::PartialIdentity expected;
+  formats::PartialIdentity expected;
   expected.scenario_sha256 = api::sha256_hex(read_text_file(job.scenario_file()));
   const std::size_t bins = run::tally_bins(scenario, site).total;
   std::optional<run::PartialRun> merged;
   for (int k = 0; k < job.shards(); ++k) {
     const auto file = job.partial_file(k);
-    api::PartialIdentity identity;
-    run::PartialRun part = api::read_partial_file(file, bins, identity);
+    formats::PartialIdentity identity;
+    run::PartialRun part = formats::read_partial_file(file, bins, identity);
     if (part.cancelled)  // a worker writes nothing when cancelled
       throw std::runtime_error("shard " + std::to_string(k) + ": " + file.string() +
                                " is the partial of a cancelled shard: nothing to merge");
@@ -80,7 +80,7 @@ int count_finish_attempt(const std::filesystem::path& workdir) {
     std::ofstream out(file, std::ios::trunc);
     out << n << "\n";
   }
-  api::fsync_path(file);
+  formats::fsync_path(file);
   return n;
 }
 

@@ -9,7 +9,7 @@
 #include <system_error>
 #include <thread>
 
-#include "api/output_dir.h"
+#include "formats/output_dir.h"
 #include "server/job_maps.h"
 #include "server/job_reports.h"
 
@@ -84,7 +84,7 @@ void copy_store(const fs::path& from, const fs::path& to) {
   }
   sqlite3_backup_finish(b);
   if (rc != SQLITE_DONE) {
-    if (sqlite3_errcode(dst.get()) == SQLITE_FULL) throw api::StorageFullError(to, ENOSPC, -1);
+    if (sqlite3_errcode(dst.get()) == SQLITE_FULL) throw formats::StorageFullError(to, ENOSPC, -1);
     throw std::runtime_error(std::string("backup of the store: ") + sqlite3_errstr(rc));
   }
   dst.exec("PRAGMA journal_mode = DELETE");  // one file, no -wal beside it
@@ -103,7 +103,7 @@ std::vector<fs::path> job_files(const fs::path& dir) {
         it.disable_recursion_pending();
       continue;
     }
-    if (!it->is_regular_file() || api::is_temporary_name(name)) continue;
+    if (!it->is_regular_file() || formats::is_temporary_name(name)) continue;
     if (top && name.rfind("scene", 0) == 0 && name.size() > 4 &&
         name.compare(name.size() - 4, 4, ".bin") == 0)
       continue;
@@ -122,10 +122,11 @@ bool copy_file(const fs::path& from, const fs::path& to, std::int64_t& bytes) {
   if (ec) {
     const std::error_code failed = ec;
     fs::remove(to, ec);
-    if (api::is_no_space(failed.value())) throw api::StorageFullError(to, failed.value(), -1);
+    if (formats::is_no_space(failed.value()))
+      throw formats::StorageFullError(to, failed.value(), -1);
     throw std::runtime_error("backup: cannot copy " + from.string() + ": " + failed.message());
   }
-  api::fsync_path(to);
+  formats::fsync_path(to);
   bytes += static_cast<std::int64_t>(fs::file_size(to));
   return true;
 }
@@ -189,9 +190,9 @@ BackupReport backup_data_dir(const fs::path& data_dir, const fs::path& target) {
     fs::remove_all(partial, ec);
     throw;
   }
-  api::fsync_path(partial / kStoreName);
+  formats::fsync_path(partial / kStoreName);
   fs::rename(partial, target);
-  api::fsync_path(target.parent_path().empty() ? fs::path(".") : target.parent_path());
+  formats::fsync_path(target.parent_path().empty() ? fs::path(".") : target.parent_path());
   return r;
 }
 

@@ -29,7 +29,7 @@ struct BackupReport {
 };
 
 // Throws std::runtime_error naming the problem (TARGET exists, no store in data_dir, a copy
-// failed; api::StorageFullError for a full disk); TARGET is then not made.
+// failed; formats::StorageFullError for a full disk); TARGET is then not made.
 BackupReport backup_data_dir(const std::filesystem::path& data_dir,
                              const std::filesystem::path& target);
 

@@ -7,8 +7,8 @@
 #include <stdexcept>
 
 #include "api/compare_json.h"
-#include "api/output_dir.h"
 #include "api/run_outputs.h"
+#include "formats/output_dir.h"
 #include "gis/results_export.h"
 
 namespace fragsim::server {
@@ -81,7 +81,7 @@ MapSet JobMaps::make(const fs::path& job_dir) {
   const fs::path dir = job_dir / kDirName;
   std::error_code ec;
   if (fs::is_directory(dir, ec)) {
-    api::remove_stale_temporaries(dir);
+    formats::remove_stale_temporaries(dir);
     fs::remove(dir / kIndexName, ec);  // the old listing must not outlive a new file set
   }
   gis::ExportOptions options;
@@ -100,7 +100,7 @@ MapSet JobMaps::make(const fs::path& job_dir) {
   m.notes = report.notes;
   for (const auto& name : report.files)
     m.files.push_back({name, map_content_type(name), fs::file_size(dir / name)});
-  api::OutputDir out(dir);
+  formats::OutputDir out(dir);
   out.stage_text(kIndexName, to_json(m).dump(2) + "\n");
   out.commit();
   return m;
@@ -114,7 +114,7 @@ MapSet JobMaps::ensure(const fs::path& job_dir) {
 }
 
 std::size_t JobMaps::remove_stale(const fs::path& job_dir) noexcept {
-  return api::remove_stale_temporaries(job_dir / kDirName);
+  return formats::remove_stale_temporaries(job_dir / kDirName);
 }
 
 }  // namespace fragsim::server

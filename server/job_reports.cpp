@@ -2,8 +2,8 @@
 #include "server/job_reports.h"
 
 #include "api/compare_json.h"
-#include "api/output_dir.h"
 #include "api/run_outputs.h"
+#include "formats/output_dir.h"
 #include "report/report.h"
 
 namespace fragsim::server {
@@ -54,7 +54,7 @@ fs::path JobReports::ensure(const fs::path& job_dir, api::UnitSystem units, bool
 }
 
 std::size_t JobReports::remove_stale(const fs::path& job_dir) noexcept {
-  return api::remove_stale_temporaries(job_dir / kDirName);
+  return formats::remove_stale_temporaries(job_dir / kDirName);
 }
 
 }  // namespace fragsim::server

@@ -31,14 +31,15 @@ JobResults::JobResults(Store& store, std::filesystem::path jobs_dir)
 bool JobResults::commit(const JobRow& job, const api::ScenarioDocument& doc,
                         const scene::Site& site, const run::RunResult& result,
                         std::chrono::steady_clock::time_point started,
-                        const std::function<void(api::OutputDir&)>& stage_more) {
+                        const std::function<void(formats::OutputDir&)>& stage_more) {
   const std::string& id = job.job_id;
   api::Provenance provenance = api::build_provenance();
   provenance.scenario_sha256 = api::sha256_hex(job.scenario_json);
   const std::filesystem::path dir = job_dir(id);
-  api::remove_stale_temporaries(dir);  // a killed earlier run of this job (we hold the data dir)
+  formats::remove_stale_temporaries(
+      dir);  // a killed earlier run of this job (we hold the data dir)
   {
-    api::OutputDir out(dir);
+    formats::OutputDir out(dir);
     const auto summary = api::stage_run_outputs(out, result, site, doc, provenance);
     if (stage_more) stage_more(out);
     out.commit();
@@ -78,7 +79,7 @@ void JobResults::fail_with_current_exception(const std::string& id, const std::s
     throw;
   } catch (const InputError& e) {
     fail(id, "invalid_input", e.what());
-  } catch (const api::StorageFullError& e) {
+  } catch (const formats::StorageFullError& e) {
     fail(id, "storage_full", e.what());
   } catch (const std::bad_alloc&) {
     fail(id, "internal", doing.empty() ? "out of memory" : "out of memory while " + doing);

@@ -9,10 +9,10 @@
 #include <functional>
 #include <string>
 
-#include "api/output_dir.h"
 #include "api/scenario_json.h"
 #include "core/run/result.h"
 #include "core/scene/site.h"
+#include "formats/output_dir.h"
 #include "server/store.h"
 
 namespace fragsim::server {
@@ -28,12 +28,12 @@ class JobResults {
   // are removed again).
   bool commit(const JobRow& job, const api::ScenarioDocument& doc, const scene::Site& site,
               const run::RunResult& result, std::chrono::steady_clock::time_point started,
-              const std::function<void(api::OutputDir&)>& stage_more = {});
+              const std::function<void(formats::OutputDir&)>& stage_more = {});
 
   // Records a failed job (its error as GET /v1/jobs/{id} shows it) and logs it.
   void fail(const std::string& job_id, const std::string& code, const std::string& message);
   // From a catch block: records the exception being handled as the job's failure.
-  // InputError: invalid_input; api::StorageFullError: storage_full; std::bad_alloc: internal
+  // InputError: invalid_input; formats::StorageFullError: storage_full; std::bad_alloc: internal
   // ("out of memory" and `doing`); any other: `other_code`.
   void fail_with_current_exception(const std::string& job_id, const std::string& other_code,
                                    const std::string& doing = "");

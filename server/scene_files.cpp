@@ -1,24 +1,24 @@
 #include "server/scene_files.h"
 
-#include "api/output_dir.h"
+#include "formats/output_dir.h"
 
 namespace fragsim::server {
 
 std::filesystem::path SceneFiles::ensure(const std::filesystem::path& dir, const std::string& name,
-                                         const std::function<api::SceneArrays()>& build) {
+                                         const std::function<formats::SceneArrays()>& build) {
   const std::filesystem::path file = dir / name;
   const std::lock_guard<std::mutex> lock(mutex_);
   std::error_code ec;
   if (std::filesystem::is_regular_file(file, ec)) return file;
-  api::OutputDir out(dir);
-  out.stage_text(name, api::encode_scene(build()));
+  formats::OutputDir out(dir);
+  out.stage_text(name, formats::encode_scene(build()));
   out.commit();
   return file;
 }
 
-std::string SceneFiles::encode_now(const std::function<api::SceneArrays()>& build) {
+std::string SceneFiles::encode_now(const std::function<formats::SceneArrays()>& build) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  return api::encode_scene(build());
+  return formats::encode_scene(build());
 }
 
 }  // namespace fragsim::server

@@ -223,7 +223,7 @@ void Scheduler::run_comparison(const JobRow& job, const LoadedJob& variant,
   in.provenance = api::build_provenance();
   const nlohmann::ordered_json compare = api::compare_to_json(in);
   results_.commit(job, variant.doc, *variant.site, paired.variant, started,
-                  [&](api::OutputDir& out) {
+                  [&](formats::OutputDir& out) {
                     out.stage(api::kCompareH5FileName, [&](const std::filesystem::path& tmp) {
                       api::write_compare_h5(tmp, paired, *base.site, compare);
                     });

@@ -23,11 +23,11 @@
 #include <string>
 #include <thread>
 
-#include "api/output_dir.h"
 #include "api/scenario_json.h"
 #include "core/run/precision.h"
 #include "core/run/result.h"
 #include "core/run/run.h"
+#include "formats/output_dir.h"
 #include "server/backend.h"
 #include "server/backend_runner.h"
 #include "server/disk_guard.h"

@@ -14,11 +14,9 @@
 
 #include "api/compare_json.h"
 #include "api/job_request.h"
-#include "api/output_dir.h"
 #include "api/ptn_json.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
-#include "api/scene_binary.h"
 #include "api/sha256.h"
 #include "api/site_document.h"
 #include "api/summary_json.h"
@@ -26,6 +24,8 @@
 #include "core/run/paired.h"
 #include "core/run/reach.h"
 #include "core/scene/site_limits.h"
+#include "formats/output_dir.h"
+#include "formats/scene_binary.h"
 #include "fragsim/version.h"
 #include "gis/gdal_support.h"
 #include "gis/plan_boundary.h"
@@ -187,12 +187,12 @@ namespace {
 // A daemon killed while writing a site or a job's results leaves its temporaries; with the data
 // directory's lock held none can be in use, so they go (sites/ and every jobs/<id>/).
 std::size_t clean_stale_temporaries(const std::filesystem::path& data_dir) {
-  std::size_t n = api::remove_stale_temporaries(data_dir / "sites");
+  std::size_t n = formats::remove_stale_temporaries(data_dir / "sites");
   std::error_code ec;
   for (std::filesystem::directory_iterator it(data_dir / "jobs", ec), end; !ec && it != end;
        it.increment(ec)) {
     if (it->is_directory(ec))
-      n += api::remove_stale_temporaries(it->path()) + JobMaps::remove_stale(it->path()) +
+      n += formats::remove_stale_temporaries(it->path()) + JobMaps::remove_stale(it->path()) +
            JobReports::remove_stale(it->path());
   }
   return n;
@@ -420,7 +420,7 @@ Response Service::guarded_dispatch(const Request& req, const Route& route, const
   } catch (const LimitError& e) {
     return error_response(422, "limit_exceeded", e.what(),
                           e.field().empty() ? std::nullopt : std::optional(e.field()));
-  } catch (const api::StorageFullError& e) {
+  } catch (const formats::StorageFullError& e) {
     log(LogLevel::kError, "storage full", {{"path", req.path}, {"error", e.what()}});
     return error_response(507, "storage_full", e.what());
   } catch (const std::bad_alloc&) {

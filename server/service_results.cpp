@@ -13,11 +13,9 @@
 
 #include "api/compare_json.h"
 #include "api/job_request.h"
-#include "api/output_dir.h"
 #include "api/ptn_json.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
-#include "api/scene_binary.h"
 #include "api/sha256.h"
 #include "api/site_document.h"
 #include "api/summary_json.h"
@@ -25,6 +23,8 @@
 #include "core/run/paired.h"
 #include "core/run/reach.h"
 #include "core/scene/site_limits.h"
+#include "formats/output_dir.h"
+#include "formats/scene_binary.h"
 #include "fragsim/version.h"
 #include "gis/gdal_support.h"
 #include "gis/plan_boundary.h"
@@ -96,16 +96,16 @@ Response Service::job_ptn(const Request& req, const std::string& id) {
 
 // The job's terrain, density, buildings and a sample of its trajectories for a browser.
 Response Service::job_scene(const Request& req, const std::string& id) {
-  std::int64_t max_trajectories = api::kDefaultSceneTrajectories;
+  std::int64_t max_trajectories = formats::kDefaultSceneTrajectories;
   if (const auto it = req.query.find("max_trajectories"); it != req.query.end()) {
     const std::string& text = it->second;
     const bool digits =
         !text.empty() && text.size() <= 6 &&
         std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); });
-    if (!digits || std::stoll(text) > api::kMaxSceneTrajectories)
+    if (!digits || std::stoll(text) > formats::kMaxSceneTrajectories)
       return error_response(
           400, "bad_parameter",
-          "must be an integer in [0, " + std::to_string(api::kMaxSceneTrajectories) + "]",
+          "must be an integer in [0, " + std::to_string(formats::kMaxSceneTrajectories) + "]",
           "max_trajectories");
     max_trajectories = std::stoll(text);
   }
@@ -113,11 +113,11 @@ Response Service::job_scene(const Request& req, const std::string& id) {
   if (auto* r = std::get_if<Response>(&job)) return *r;
   const auto dir = scheduler_.job_dir(id);
   const auto build = [&] {
-    return api::scene_from_results(dir / api::kResultsFileName, max_trajectories);
+    return formats::scene_from_results(dir / api::kResultsFileName, max_trajectories);
   };
   Response r;
-  r.content_type = api::kSceneContentType;
-  if (max_trajectories == api::kDefaultSceneTrajectories)
+  r.content_type = formats::kSceneContentType;
+  if (max_trajectories == formats::kDefaultSceneTrajectories)
     r.file = scenes_.ensure(dir, SceneFiles::kJobSceneName, build);
   else
     r.body = scenes_.encode_now(build);

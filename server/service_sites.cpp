@@ -13,11 +13,9 @@
 
 #include "api/compare_json.h"
 #include "api/job_request.h"
-#include "api/output_dir.h"
 #include "api/ptn_json.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
-#include "api/scene_binary.h"
 #include "api/sha256.h"
 #include "api/site_document.h"
 #include "api/summary_json.h"
@@ -25,6 +23,8 @@
 #include "core/run/paired.h"
 #include "core/run/reach.h"
 #include "core/scene/site_limits.h"
+#include "formats/output_dir.h"
+#include "formats/scene_binary.h"
 #include "fragsim/version.h"
 #include "gis/gdal_support.h"
 #include "gis/plan_boundary.h"
@@ -95,14 +95,14 @@ Response Service::get_site(const std::string& id) {
   return json_response(200, site_json(*e));
 }
 
-// The site's terrain and buildings for a browser (api/scene_binary.h).
+// The site's terrain and buildings for a browser (formats/scene_binary.h).
 Response Service::site_scene(const std::string& id) {
   const auto e = sites_.find(id);
   if (!e) return error_response(404, "not_found", "no site " + id);
   Response r;
-  r.content_type = api::kSceneContentType;
+  r.content_type = formats::kSceneContentType;
   r.file = scenes_.ensure(data_dir_ / "sites", SceneFiles::site_scene_name(id),
-                          [&] { return api::scene_from_site(*e->site); });
+                          [&] { return formats::scene_from_site(*e->site); });
   return r;
 }
 

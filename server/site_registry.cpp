@@ -4,8 +4,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "api/output_dir.h"
 #include "api/scenario_json.h"
+#include "formats/output_dir.h"
 #include "server/log.h"
 #include "server/scene_files.h"
 
@@ -83,7 +83,7 @@ SiteRegistry::Added SiteRegistry::insert(std::shared_ptr<const SiteEntry> e,
   if (static_cast<std::int64_t>(sites_.size()) >= max_sites)
     throw LimitError("", "the daemon holds " + std::to_string(sites_.size()) +
                              " sites, its limit (--max-sites); delete one first");
-  api::OutputDir out(dir_);
+  formats::OutputDir out(dir_);
   out.stage_text(e->site_id + ".json", e->normalised.dump());
   out.commit();
   SiteRow row{e->site_id, e->created_utc, e->summary.dump()};

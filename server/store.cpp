@@ -4,7 +4,7 @@
 #include <cerrno>
 #include <stdexcept>
 
-#include "api/output_dir.h"
+#include "formats/output_dir.h"
 #include "fragsim/version.h"
 
 namespace fragsim::server {
@@ -74,7 +74,7 @@ constexpr const char* kJobStatusColumns =
 [[noreturn]] void throw_database_error(sqlite3* db, const char* what, const std::string& message) {
   if (sqlite3_errcode(db) == SQLITE_FULL) {
     const char* file = sqlite3_db_filename(db, "main");
-    throw api::StorageFullError(file != nullptr ? file : "the database", ENOSPC, -1);
+    throw formats::StorageFullError(file != nullptr ? file : "the database", ENOSPC, -1);
   }
   throw std::runtime_error(std::string("database error (") + what + "): " + message);
 }

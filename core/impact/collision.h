@@ -9,7 +9,8 @@
 // of compression (u_z = 0) and restitution (W_z = (1 - e^2) W_c) are roots of the series;
 // sticking, the last approach to it and sliding along an invariant ray have constant zeta and
 // are exact straight segments. Contact velocity after: error ~2e-11 |u0| typical, ~1e-9 |u0|
-// worst seen; u.n after >= 0 always (lifted past rounding). Details, sources: collision.cpp.
+// worst seen; u.n after >= 0 always (lifted past rounding). Details, sources: docs/physics.md
+// C1-C10.
 #include "core/common/types.h"
 
 namespace fragsim::impact {
@@ -63,7 +64,7 @@ bool sticking_is_stable(const Mat3& k_hat, double mu);
 // Unit slip direction (cos phi, sin phi) in the contact frame along which sliding resumes after
 // unstable sticking: the diverging invariant ray, (K_hat zeta)_t = lambda (cos phi, sin phi) with
 // lambda > 0 and zeta = (-mu cos phi, -mu sin phi, 1). It is a root of Mirtich's quartic in
-// tan(phi/2) and unique (see collision.cpp). Precondition: !sticking_is_stable(k_hat, mu).
+// tan(phi/2) and unique (docs/physics.md C1-C10). Precondition: !sticking_is_stable(k_hat, mu).
 Vec2 diverging_slip_direction(const Mat3& k_hat, double mu);
 
 }  // namespace fragsim::impact

@@ -130,7 +130,7 @@ class StratifiedTally {
   std::vector<double> means(std::size_t first, std::size_t count) const;
   std::vector<double> std_errors(std::size_t first, std::size_t count) const;
 
-  // The exact sums, for a partial result's file (api/partial_file.h).
+  // The exact sums, for a partial result's file (formats/partial_file.h).
   const ExactBins& mean_sums() const { return mean_; }
   const ExactBins& variance_sums(std::size_t partition) const { return var_[partition]; }
   void restore(ExactBins mean, std::vector<ExactBins> var, std::map<StratumKey, OpenStratum> open);

@@ -1,6 +1,6 @@
 """Reader of fragsim's ``results.h5`` (needs h5py; the DataFrames need pandas).
 
-The layout is docs/scenario.md, "results.h5" (written by api/results_h5.cpp). The root attributes
+The layout is docs/scenario.md, "results.h5" (written by formats/results_h5.cpp). The root attributes
 ``file_type`` (``"fragsim.results"``) and ``format_version`` say what the file is; this reader
 knows formats 1 … 5 (:data:`SUPPORTED_FORMATS`) and refuses anything else with
 :class:`~fragsim.errors.UnsupportedFormat` naming the file and the version. What an older format
@@ -33,7 +33,7 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas
 
 FILE_TYPE = "fragsim.results"
-#: The results.h5 format versions this reader knows (api/results_h5.h kResultsFormatVersion).
+#: The results.h5 format versions this reader knows (formats/results_h5.h kResultsFormatVersion).
 SUPPORTED_FORMATS = (1, 2, 3, 4, 5)
 #: Columns of the ``*_by_surface`` datasets (attribute ``columns``).
 SURFACES = ("terrain", "wall", "roof", "window")

@@ -14,9 +14,9 @@
 #include <memory>
 #include <stdexcept>
 
-#include "api/output_dir.h"
 #include "api/run_outputs.h"
 #include "core/run/run.h"
+#include "formats/output_dir.h"
 #include "test_support.h"
 
 namespace fragsim::api {
@@ -75,7 +75,7 @@ std::unique_ptr<RunFiles> run_to_files(const Json& scenario, const fs::path& dir
   f->doc = parse_scenario_document(scenario);
   f->site = validate_scenario(f->doc.scenario);
   f->result = run::run(f->doc.scenario, f->site);
-  OutputDir out(dir);
+  formats::OutputDir out(dir);
   stage_run_outputs(out, f->result, *f->site, f->doc, build_provenance());
   out.commit();
   f->h5 = dir / kResultsFileName;

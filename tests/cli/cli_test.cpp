@@ -16,9 +16,9 @@
 #include <sstream>
 #include <thread>
 
-#include "api/results_h5.h"
 #include "api/test_support.h"
 #include "cli/cli_process.h"
+#include "formats/results_h5.h"
 
 namespace {
 
@@ -216,8 +216,8 @@ TEST_F(Cli, RunWritesSummaryAndResults) {
                            "Max PTN density", "B1", "Outcomes", "fragments/s", "per thread"})
     EXPECT_NE(r.out.find(part), std::string::npos) << part << " missing in\n" << r.out;
   // The recorded scenario shows the overrides.
-  const Json stored =
-      Json::parse(fragsim::api::read_attribute_string(out / "results.h5", "/", "scenario_json"));
+  const Json stored = Json::parse(
+      fragsim::formats::read_attribute_string(out / "results.h5", "/", "scenario_json"));
   EXPECT_EQ(stored["fragment_groups"][0]["samples"], 1000);
   EXPECT_EQ(stored["settings"]["threads"], 2);
 }
@@ -331,20 +331,20 @@ TEST_F(Cli, DeterministicForThreadsAndChunkSize) {
   for (const auto& [name, args] : runs) ASSERT_EQ(run(args).exit_code, 0) << name;
 
   const fs::path reference = dir_ / "t1" / "results.h5";
-  const auto names = fragsim::api::list_datasets(reference);
+  const auto names = fragsim::formats::list_datasets(reference);
   EXPECT_NE(std::find(names.begin(), names.end(), "/ptn/density_per_m2"), names.end());
   EXPECT_NE(std::find(names.begin(), names.end(), "/fragments/end_position_m"), names.end());
   for (const char* other : {"t2", "c37"}) {
     const fs::path file = dir_ / other / "results.h5";
-    ASSERT_EQ(fragsim::api::list_datasets(file), names) << other;
+    ASSERT_EQ(fragsim::formats::list_datasets(file), names) << other;
     for (const auto& name : names)
-      EXPECT_EQ(fragsim::api::read_dataset_raw(reference, name),
-                fragsim::api::read_dataset_raw(file, name))
+      EXPECT_EQ(fragsim::formats::read_dataset_raw(reference, name),
+                fragsim::formats::read_dataset_raw(file, name))
           << name << " differs between t1 and " << other;
   }
   // The run produced something to compare: fragments reached the ground near the origin.
   double max_density = 0;
-  for (double d : fragsim::api::read_dataset_double(reference, "/ptn/density_per_m2"))
+  for (double d : fragsim::formats::read_dataset_double(reference, "/ptn/density_per_m2"))
     max_density = std::max(max_density, d);
   EXPECT_GT(max_density, 0.0);
   // summary.json agrees too, apart from timing.
@@ -389,13 +389,13 @@ TEST_F(Cli, PolyhedronGroupRunsDeterministically) {
               0)
         << t;
   const fs::path reference = dir_ / "1" / "results.h5";
-  const auto names = fragsim::api::list_datasets(reference);
-  ASSERT_EQ(fragsim::api::list_datasets(dir_ / "2" / "results.h5"), names);
+  const auto names = fragsim::formats::list_datasets(reference);
+  ASSERT_EQ(fragsim::formats::list_datasets(dir_ / "2" / "results.h5"), names);
   for (const auto& name : names)
-    EXPECT_EQ(fragsim::api::read_dataset_raw(reference, name),
-              fragsim::api::read_dataset_raw(dir_ / "2" / "results.h5", name))
+    EXPECT_EQ(fragsim::formats::read_dataset_raw(reference, name),
+              fragsim::formats::read_dataset_raw(dir_ / "2" / "results.h5", name))
         << name;
-  const auto ends = fragsim::api::read_dataset_double(reference, "/fragments/end_position_m");
+  const auto ends = fragsim::formats::read_dataset_double(reference, "/fragments/end_position_m");
   ASSERT_EQ(ends.size(), 900u);
   for (const double v : ends) ASSERT_TRUE(std::isfinite(v));
   const Json s = Json::parse(read_text(dir_ / "1" / "summary.json"));

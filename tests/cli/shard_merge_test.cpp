@@ -19,12 +19,12 @@
 #include <thread>
 #include <vector>
 
-#include "api/partial_file.h"
-#include "api/results_h5.h"
 #include "api/scenario_json.h"
 #include "api/test_support.h"
 #include "cli/cli_process.h"
 #include "core/run/partial.h"
+#include "formats/partial_file.h"
+#include "formats/results_h5.h"
 
 namespace {
 
@@ -147,14 +147,17 @@ void expect_same_outputs(const fs::path& reference, const fs::path& candidate) {
 
   namespace api = fragsim::api;
   const fs::path ra = reference / "results.h5", rb = candidate / "results.h5";
-  const auto names = api::list_datasets(ra);
-  ASSERT_EQ(api::list_datasets(rb), names);
+  const auto names = fragsim::formats::list_datasets(ra);
+  ASSERT_EQ(fragsim::formats::list_datasets(rb), names);
   EXPECT_NE(std::find(names.begin(), names.end(), "/ptn/density_per_m2"), names.end());
   EXPECT_NE(std::find(names.begin(), names.end(), "/fragments/end_position_m"), names.end());
   for (const auto& name : names)
-    EXPECT_EQ(api::read_dataset_raw(ra, name), api::read_dataset_raw(rb, name)) << name;
+    EXPECT_EQ(fragsim::formats::read_dataset_raw(ra, name),
+              fragsim::formats::read_dataset_raw(rb, name))
+        << name;
   for (const char* attr : {"samples", "histories_done", "seed"})
-    EXPECT_EQ(api::read_attribute_int64(ra, "/", attr), api::read_attribute_int64(rb, "/", attr))
+    EXPECT_EQ(fragsim::formats::read_attribute_int64(ra, "/", attr),
+              fragsim::formats::read_attribute_int64(rb, "/", attr))
         << attr;
 }
 
@@ -163,7 +166,7 @@ void expect_same_outputs(const fs::path& reference, const fs::path& candidate) {
 TEST_F(ShardMerge, ShardsWithAnyThreadsMergedInAnyOrderGiveTheOutputsOfOneRun) {
   const fs::path reference = run_whole(kDemo, kScale, "one");
   {  // the demo records trajectories: compared too
-    const auto names = fragsim::api::list_datasets(reference / "results.h5");
+    const auto names = fragsim::formats::list_datasets(reference / "results.h5");
     EXPECT_NE(std::find(names.begin(), names.end(), "/trajectories/t_s"), names.end());
   }
   std::mt19937 gen(2024);
@@ -313,11 +316,11 @@ TEST_F(ShardMerge, ForgedPartialsWithAValidChecksumAreRefused) {
   const std::size_t bins =
       run::tally_bins(doc.scenario, *api::validate_scenario(doc.scenario)).total;
   auto forge = [&](std::size_t k, const std::string& name, auto&& alter) {
-    api::PartialIdentity id;
-    run::PartialRun part = api::read_partial_file(p[k], bins, id);
+    fragsim::formats::PartialIdentity id;
+    run::PartialRun part = fragsim::formats::read_partial_file(p[k], bins, id);
     alter(part);
     const fs::path out = dir_ / name;
-    api::write_partial_file(out, part, id);
+    fragsim::formats::write_partial_file(out, part, id);
     return out;
   };
   {  // histories_done near 2^63 in two shards: their sum overflows

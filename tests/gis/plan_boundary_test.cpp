@@ -15,11 +15,11 @@
 #include <limits>
 #include <map>
 
-#include "api/results_h5.h"
 #include "api/scenario_json.h"
 #include "api/test_support.h"
 #include "core/common/error.h"
 #include "core/run/hfd.h"
+#include "formats/results_h5.h"
 #include "gis/gdal_support.h"
 #include "gis/results_export.h"
 
@@ -91,7 +91,8 @@ class PlanBoundaryTest : public ::testing::Test {
     r.hfd_upper_m = f.upper_m;
     r.hfd_by_sector_m = f.by_sector_m;
     const fs::path path = dir_ / name;
-    write_results_h5(path, r, *site, sc, api::scenario_to_json(sc).dump(), api::build_provenance());
+    formats::write_results_h5(path, r, *site, sc, api::scenario_to_json(sc).dump(),
+                              api::build_provenance());
     return path;
   }
 

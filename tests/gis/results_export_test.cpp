@@ -8,12 +8,12 @@
 #include <cmath>
 #include <map>
 
-#include "api/h5_writer.h"
 #include "api/ptn_json.h"
-#include "api/results_h5.h"
 #include "api/run_outputs.h"
 #include "api/test_support.h"
 #include "core/run/run.h"
+#include "formats/h5_writer.h"
+#include "formats/results_h5.h"
 #include "gis/gdal_support.h"
 #include "gis/run_fixture.h"
 
@@ -57,11 +57,11 @@ struct Terrain {
 };
 
 Terrain read_terrain(const fs::path& h5) {
-  return {api::read_dataset_double(h5, "/terrain/vertices_m"),
-          api::read_dataset_int64(h5, "/terrain/triangles"),
-          api::read_dataset_double(h5, "/ptn/density_per_m2"),
-          api::read_dataset_double(h5, "/ptn/std_error_per_m2"),
-          api::read_dataset_double(h5, "/hfd/threshold_per_m2").at(0)};
+  return {formats::read_dataset_double(h5, "/terrain/vertices_m"),
+          formats::read_dataset_int64(h5, "/terrain/triangles"),
+          formats::read_dataset_double(h5, "/ptn/density_per_m2"),
+          formats::read_dataset_double(h5, "/ptn/std_error_per_m2"),
+          formats::read_dataset_double(h5, "/hfd/threshold_per_m2").at(0)};
 }
 
 TEST_F(ResultsExport, TheDensityGeoTiffHoldsTheCellMeansOfTheTrianglesInTheSiteCrs) {
@@ -184,21 +184,21 @@ std::map<std::string, std::string> hfd_fields(const fs::path& gpkg) {
 TEST_F(ResultsExport, TheHfdLayersSayWhereTheSiteBoundaryCutsThem) {
   const fs::path h5 = run_minimal("EPSG:32611");
   const ExportReport rep = export_results({h5, dir_ / "gis", std::nullopt});
-  ASSERT_EQ(api::read_dataset_double(h5, "/hfd/bound").at(0), 1.0) << "the small plane is cut";
+  ASSERT_EQ(formats::read_dataset_double(h5, "/hfd/bound").at(0), 1.0) << "the small plane is cut";
   auto f = hfd_fields(dir_ / "gis/hazard.gpkg");
   EXPECT_EQ(f["hfd_bound"], "lower");
   EXPECT_EQ(f["area_estimate"], "lower");
-  const std::string note = api::read_attribute_string(h5, "/hfd", "note");
+  const std::string note = formats::read_attribute_string(h5, "/hfd", "note");
   EXPECT_EQ(note.rfind("HFD ≥ ", 0), 0u) << note;
   EXPECT_EQ(f["note"], note);
   ASSERT_FALSE(rep.notes.empty());
   EXPECT_EQ(rep.notes[0], note);
-  const auto band = api::read_dataset_double(h5, "/hfd/band_bound");
+  const auto band = formats::read_dataset_double(h5, "/hfd/band_bound");
   EXPECT_EQ(f["band_lower_bound"], band[0] != 0 ? "lower" : "none");
   EXPECT_EQ(f["band_upper_bound"], band[1] != 0 ? "lower" : "none");
   EXPECT_EQ(f["area_lower_1se"], f["band_lower_bound"]);
   EXPECT_EQ(f["area_upper_1se"], f["band_upper_bound"]);
-  const auto sectors = api::read_dataset_double(h5, "/hfd/by_sector_bound");
+  const auto sectors = formats::read_dataset_double(h5, "/hfd/by_sector_bound");
   int cut = 0;
   for (std::size_t k = 0; k < 36; ++k) {
     EXPECT_EQ(f["sector_" + std::to_string(k)], sectors[k] != 0 ? "lower" : "none") << k;
@@ -222,8 +222,8 @@ TEST_F(ResultsExport, TheHfdLayersSayWhereTheSiteBoundaryCutsThem) {
 TEST_F(ResultsExport, BuildingsCarryTheirFiguresAndGeoJsonIsRfc7946) {
   const fs::path h5 = run_minimal("EPSG:32611");
   export_results({h5, dir_ / "gis", std::nullopt});
-  const auto ids = api::read_dataset_strings(h5, "/buildings/id");
-  const auto impacts = api::read_dataset_double(h5, "/buildings/expected_impacts");
+  const auto ids = formats::read_dataset_strings(h5, "/buildings/id");
+  const auto impacts = formats::read_dataset_double(h5, "/buildings/expected_impacts");
   GDALDatasetUniquePtr ds(
       GDALDataset::Open((dir_ / "gis/buildings.geojson").c_str(), GDAL_OF_VECTOR));
   ASSERT_TRUE(ds);
@@ -355,8 +355,8 @@ TEST_F(ResultsExport, TheDifferenceMapIsThePairedDifferenceRasterisedAsTheDensit
   auto write_compare = [&](const fs::path& p, bool with_density, std::size_t drop) {
     std::vector<double> minus(t.d.begin(), t.d.end() - static_cast<long>(drop));
     for (double& x : minus) x = -x;
-    const std::lock_guard<std::mutex> lock(api::h5::hdf5_mutex());
-    api::h5::Writer w(p);
+    const std::lock_guard<std::mutex> lock(formats::h5::hdf5_mutex());
+    formats::h5::Writer w(p);
     if (with_density) {
       const auto g = w.group("/density");
       w.dataset("/density/difference_per_m2", minus);
@@ -419,8 +419,8 @@ TEST_F(ResultsExport, ThePtnGeoJsonRouteIsRfc7946WhenTheSiteHasACrs) {
   const Json g = Json::parse(api::render_ptn_geojson(h5, "j_1", std::nullopt, wgs84_converter));
   EXPECT_EQ(g["fragsim_coordinates"].get<std::string>().rfind("RFC 7946: WGS 84", 0), 0u);
   EXPECT_FALSE(g.contains("crs"));
-  const auto v = api::read_dataset_double(h5, "/terrain/vertices_m");
-  const auto t = api::read_dataset_int64(h5, "/terrain/triangles");
+  const auto v = formats::read_dataset_double(h5, "/terrain/vertices_m");
+  const auto t = formats::read_dataset_int64(h5, "/terrain/triangles");
   const OGRSpatialReference wgs = crs_from_text("EPSG:4326", "x");
   const OGRSpatialReference utm = crs_from_text("EPSG:32611", "x");
   std::unique_ptr<OGRCoordinateTransformation> back(OGRCreateCoordinateTransformation(&wgs, &utm));
@@ -446,8 +446,8 @@ TEST_F(ResultsExport, ThePtnGeoJsonSaysSoWhenTheCrsIsOnlyALabel) {
   EXPECT_EQ(g["fragsim_coordinates"],
             "site input coordinates [x, y, z] in metres: the site has no CRS PROJ knows "
             "(\"local\"), so this is not RFC 7946 GeoJSON");
-  const auto v = api::read_dataset_double(h5, "/terrain/vertices_m");
-  const auto t = api::read_dataset_int64(h5, "/terrain/triangles");
+  const auto v = formats::read_dataset_double(h5, "/terrain/vertices_m");
+  const auto t = formats::read_dataset_int64(h5, "/terrain/triangles");
   EXPECT_EQ(g["features"][0]["geometry"]["coordinates"][0][0][0].get<double>(),
             v[static_cast<std::size_t>(3 * t[0])]);
 }

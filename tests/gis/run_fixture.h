@@ -4,10 +4,10 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "api/output_dir.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
 #include "core/run/run.h"
+#include "formats/output_dir.h"
 
 namespace fragsim::gis::testing {
 
@@ -17,7 +17,7 @@ inline std::filesystem::path write_run(const nlohmann::json& scenario,
   const api::ScenarioDocument doc = api::parse_scenario_document(scenario);
   const auto site = api::validate_scenario(doc.scenario);
   const run::RunResult result = run::run(doc.scenario);
-  api::OutputDir out(dir);
+  formats::OutputDir out(dir);
   api::stage_run_outputs(out, result, *site, doc, api::build_provenance());
   out.commit();
   return dir / api::kResultsFileName;

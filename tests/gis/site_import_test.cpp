@@ -4,12 +4,12 @@
 
 #include <gtest/gtest.h>
 
-#include "api/results_h5.h"
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
 #include "api/site_document.h"
 #include "api/test_support.h"
 #include "core/run/run.h"
+#include "formats/results_h5.h"
 #include "gis/results_export.h"
 #include "gis_fixtures.h"
 
@@ -131,7 +131,7 @@ TEST_F(SiteImportTest, ADemImportedRunAndExportedComesBackOnItsOwnCellsAndCrs) {
   g["direction"]["elevation_deg"] = {40, 80};
   const api::ScenarioDocument doc = api::parse_scenario_document(scenario);
   const auto site = api::validate_scenario(doc.scenario);
-  api::OutputDir out(dir_ / "run");
+  formats::OutputDir out(dir_ / "run");
   api::stage_run_outputs(out, run::run(doc.scenario), *site, doc, api::build_provenance());
   out.commit();
   const fs::path h5 = dir_ / "run" / "results.h5";
@@ -159,7 +159,7 @@ TEST_F(SiteImportTest, ADemImportedRunAndExportedComesBackOnItsOwnCellsAndCrs) {
           (col == 0 || col == 40 ? 0.5 : 1.0) * (row == 0 || row == 40 ? 0.5 : 1.0);
       cells += v[row * 41 + col] * cover * 100.0;
     }
-  const auto d = api::read_dataset_double(h5, "/ptn/density_per_m2");
+  const auto d = formats::read_dataset_double(h5, "/ptn/density_per_m2");
   double triangles = 0;  // each of the 2 x 40 x 40 triangles covers 50 m2 in plan
   for (const double x : d) triangles += 50.0 * x;
   ASSERT_GT(triangles, 0.0);

@@ -12,10 +12,10 @@
 #include <nlohmann/json.hpp>
 #include <numeric>
 
-#include "api/results_h5.h"
 #include "api/run_outputs.h"
 #include "api/test_support.h"
 #include "core/run/run.h"
+#include "formats/results_h5.h"
 #include "gis/results_export.h"
 #include "gis/run_fixture.h"
 
@@ -52,7 +52,7 @@ double sum(const std::vector<double>& v) {
 // The bounds [xmin, xmax, ymin, ymax, zmin, zmax] of results.h5's n x 3 `name`, x and y shifted
 // by the site's CRS origin: what VTK must report for the file made of them.
 std::vector<double> bounds_of(const fs::path& h5, const std::string& name, double e, double n) {
-  const auto xyz = api::read_dataset_double(h5, name);
+  const auto xyz = formats::read_dataset_double(h5, name);
   std::vector<double> b{1e300, -1e300, 1e300, -1e300, 1e300, -1e300};
   for (std::size_t k = 0; k < xyz.size(); ++k) {
     const double v = xyz[k] + (k % 3 == 0 ? e : k % 3 == 1 ? n : 0.0);
@@ -90,17 +90,17 @@ std::vector<std::int64_t> int_array_attribute(const fs::path& f, const char* obj
 std::vector<std::int64_t> expect_vtkhdf_layout(const fs::path& f) {
   SCOPED_TRACE(f.filename().string());
   EXPECT_EQ(int_array_attribute(f, "/VTKHDF", "Version"), (std::vector<std::int64_t>{1, 0}));
-  EXPECT_EQ(api::read_attribute_string(f, "/VTKHDF", "Type"), "UnstructuredGrid");
-  const auto n = static_cast<std::int64_t>(api::dataset_shape(f, "/VTKHDF/Points").at(0));
-  EXPECT_EQ(api::dataset_shape(f, "/VTKHDF/Points")[1], 3u);
-  const auto offsets = api::read_dataset_int64(f, "/VTKHDF/Offsets");
-  const auto connectivity = api::read_dataset_int64(f, "/VTKHDF/Connectivity");
-  const auto types = api::read_dataset_int64(f, "/VTKHDF/Types");
-  EXPECT_EQ(api::read_dataset_raw(f, "/VTKHDF/Types").size(), types.size());  // uint8
-  EXPECT_EQ(api::read_dataset_int64(f, "/VTKHDF/NumberOfPoints"), std::vector<std::int64_t>{n});
-  EXPECT_EQ(api::read_dataset_int64(f, "/VTKHDF/NumberOfCells"),
+  EXPECT_EQ(formats::read_attribute_string(f, "/VTKHDF", "Type"), "UnstructuredGrid");
+  const auto n = static_cast<std::int64_t>(formats::dataset_shape(f, "/VTKHDF/Points").at(0));
+  EXPECT_EQ(formats::dataset_shape(f, "/VTKHDF/Points")[1], 3u);
+  const auto offsets = formats::read_dataset_int64(f, "/VTKHDF/Offsets");
+  const auto connectivity = formats::read_dataset_int64(f, "/VTKHDF/Connectivity");
+  const auto types = formats::read_dataset_int64(f, "/VTKHDF/Types");
+  EXPECT_EQ(formats::read_dataset_raw(f, "/VTKHDF/Types").size(), types.size());  // uint8
+  EXPECT_EQ(formats::read_dataset_int64(f, "/VTKHDF/NumberOfPoints"), std::vector<std::int64_t>{n});
+  EXPECT_EQ(formats::read_dataset_int64(f, "/VTKHDF/NumberOfCells"),
             std::vector<std::int64_t>{static_cast<std::int64_t>(types.size())});
-  EXPECT_EQ(api::read_dataset_int64(f, "/VTKHDF/NumberOfConnectivityIds"),
+  EXPECT_EQ(formats::read_dataset_int64(f, "/VTKHDF/NumberOfConnectivityIds"),
             std::vector<std::int64_t>{static_cast<std::int64_t>(connectivity.size())});
   EXPECT_EQ(offsets.size(), types.size() + 1);
   EXPECT_EQ(offsets.front(), 0);
@@ -148,47 +148,47 @@ TEST_F(VtkhdfExport, VtkReadsTerrainBuildingsAndTrajectoriesAsInResultsH5) {
   // Terrain: counts, CRS coordinates (input + origin), cell values, the hazardous flag.
   const Json& tv = v[t.string()];
   EXPECT_EQ(tv["class"], "vtkUnstructuredGrid");
-  EXPECT_EQ(tv["points"], api::dataset_shape(h5, "/terrain/vertices_m")[0]);
+  EXPECT_EQ(tv["points"], formats::dataset_shape(h5, "/terrain/vertices_m")[0]);
   EXPECT_EQ(tv["cells"], 3200);
   EXPECT_EQ(tv["cell_types"], Json::array({5}));
-  const auto tri = api::read_dataset_int64(h5, "/terrain/triangles");
+  const auto tri = formats::read_dataset_int64(h5, "/terrain/triangles");
   EXPECT_EQ(tv["first_cell"], Json::array({tri[0], tri[1], tri[2]}));
   EXPECT_DOUBLE_EQ(tv["bounds"][0].get<double>(), 452300.0 - 200.0);
   EXPECT_DOUBLE_EQ(tv["bounds"][3].get<double>(), 3839800.0 + 200.0);
   EXPECT_EQ(tv["bounds"].get<std::vector<double>>(),
             bounds_of(h5, "/terrain/vertices_m", 452300.0, 3839800.0));
-  const auto density = api::read_dataset_double(h5, "/ptn/density_per_m2");
-  const double threshold = api::read_dataset_double(h5, "/hfd/threshold_per_m2")[0];
+  const auto density = formats::read_dataset_double(h5, "/ptn/density_per_m2");
+  const double threshold = formats::read_dataset_double(h5, "/hfd/threshold_per_m2")[0];
   const Json& cd = tv["cell_data"];
   EXPECT_DOUBLE_EQ(cd["density_per_m2"]["sum"].get<double>(), sum(density));
   EXPECT_EQ(cd["density_per_m2"]["first"][0].get<double>(), density[0]);
   EXPECT_DOUBLE_EQ(cd["std_error_per_m2"]["sum"].get<double>(),
-                   sum(api::read_dataset_double(h5, "/ptn/std_error_per_m2")));
+                   sum(formats::read_dataset_double(h5, "/ptn/std_error_per_m2")));
   EXPECT_DOUBLE_EQ(cd["area_m2"]["sum"].get<double>(), 400.0 * 400.0);
   const auto hazardous = static_cast<double>(
       std::count_if(density.begin(), density.end(), [&](double d) { return d >= threshold; }));
   EXPECT_GT(hazardous, 0.0);
   EXPECT_EQ(cd["hazardous"]["sum"].get<double>(), hazardous);
   expect_first(cd["density_per_m2"], density, "density_per_m2");
-  expect_first(cd["std_error_per_m2"], api::read_dataset_double(h5, "/ptn/std_error_per_m2"),
+  expect_first(cd["std_error_per_m2"], formats::read_dataset_double(h5, "/ptn/std_error_per_m2"),
                "std_error_per_m2");
-  expect_first(cd["area_m2"], api::read_dataset_double(h5, "/terrain/area_m2"), "area_m2");
+  expect_first(cd["area_m2"], formats::read_dataset_double(h5, "/terrain/area_m2"), "area_m2");
 
   // Buildings: the building's figures on each of its triangles.
   const Json& bv = v[b.string()];
-  const auto owner = api::read_dataset_int64(h5, "/buildings/triangle_building");
+  const auto owner = formats::read_dataset_int64(h5, "/buildings/triangle_building");
   EXPECT_EQ(bv["cells"], owner.size());
-  const double pen = api::read_dataset_double(h5, "/buildings/expected_penetrations")[0];
+  const double pen = formats::read_dataset_double(h5, "/buildings/expected_penetrations")[0];
   EXPECT_DOUBLE_EQ(bv["cell_data"]["expected_penetrations"]["sum"].get<double>(),
                    pen * static_cast<double>(owner.size()));  // one building
   EXPECT_EQ(bv["cell_data"]["surface"]["count"], owner.size());
-  EXPECT_EQ(bv["points"], api::dataset_shape(h5, "/buildings/vertices_m")[0]);
+  EXPECT_EQ(bv["points"], formats::dataset_shape(h5, "/buildings/vertices_m")[0]);
   EXPECT_EQ(bv["bounds"].get<std::vector<double>>(),
             bounds_of(h5, "/buildings/vertices_m", 452300.0, 3839800.0));
   expect_first(
       bv["cell_data"]["surface"],
       [&] {
-        const auto s = api::read_dataset_int64(h5, "/buildings/triangle_surface");
+        const auto s = formats::read_dataset_int64(h5, "/buildings/triangle_surface");
         return std::vector<double>(s.begin(), s.end());
       }(),
       "surface");
@@ -197,14 +197,15 @@ TEST_F(VtkhdfExport, VtkReadsTerrainBuildingsAndTrajectoriesAsInResultsH5) {
   const Json& rv = v[tr.string()];
   EXPECT_EQ(rv["cells"], 5);
   EXPECT_EQ(rv["cell_types"], Json::array({4}));
-  EXPECT_EQ(rv["points"], api::dataset_shape(h5, "/trajectories/t_s")[0]);
+  EXPECT_EQ(rv["points"], formats::dataset_shape(h5, "/trajectories/t_s")[0]);
   EXPECT_DOUBLE_EQ(rv["point_data"]["t_s"]["sum"].get<double>(),
-                   sum(api::read_dataset_double(h5, "/trajectories/t_s")));
+                   sum(formats::read_dataset_double(h5, "/trajectories/t_s")));
   EXPECT_GT(rv["point_data"]["speed_mps"]["first"][0].get<double>(), 30.0);  // the launch
   EXPECT_EQ(rv["cell_data"]["history"]["first"], Json::array({0, 1, 2, 3, 4}));
   EXPECT_EQ(rv["bounds"].get<std::vector<double>>(),
             bounds_of(h5, "/trajectories/position_m", 452300.0, 3839800.0));
-  expect_first(rv["point_data"]["t_s"], api::read_dataset_double(h5, "/trajectories/t_s"), "t_s");
+  expect_first(rv["point_data"]["t_s"], formats::read_dataset_double(h5, "/trajectories/t_s"),
+               "t_s");
 }
 
 TEST_F(VtkhdfExport, FilesReadBackWithHdf5HoldTheLayoutAndTheHazardousFlagPerTriangle) {
@@ -215,12 +216,12 @@ TEST_F(VtkhdfExport, FilesReadBackWithHdf5HoldTheLayoutAndTheHazardousFlagPerTri
 
   // Terrain: one triangle cell per results.h5 triangle; hazardous exactly where density >= t.
   auto types = expect_vtkhdf_layout(t);
-  const auto tri = api::read_dataset_int64(h5, "/terrain/triangles");
+  const auto tri = formats::read_dataset_int64(h5, "/terrain/triangles");
   EXPECT_EQ(types, std::vector<std::int64_t>(tri.size() / 3, 5));
-  EXPECT_EQ(api::read_dataset_int64(t, "/VTKHDF/Connectivity"), tri);
-  const auto density = api::read_dataset_double(h5, "/ptn/density_per_m2");
-  const double threshold = api::read_dataset_double(h5, "/hfd/threshold_per_m2").at(0);
-  const auto flag = api::read_dataset_double(t, "/VTKHDF/CellData/hazardous");
+  EXPECT_EQ(formats::read_dataset_int64(t, "/VTKHDF/Connectivity"), tri);
+  const auto density = formats::read_dataset_double(h5, "/ptn/density_per_m2");
+  const double threshold = formats::read_dataset_double(h5, "/hfd/threshold_per_m2").at(0);
+  const auto flag = formats::read_dataset_double(t, "/VTKHDF/CellData/hazardous");
   ASSERT_EQ(flag.size(), density.size());
   std::size_t below = 0, just_above = 0;  // 0 < density < t, t <= density < 2 t
   for (std::size_t k = 0; k < density.size(); ++k) {
@@ -230,14 +231,14 @@ TEST_F(VtkhdfExport, FilesReadBackWithHdf5HoldTheLayoutAndTheHazardousFlagPerTri
   }
   EXPECT_GT(below, 0u);  // so that the flag is not merely density > 0
   EXPECT_GT(just_above, 0u);
-  EXPECT_EQ(api::read_dataset_double(t, "/VTKHDF/CellData/density_per_m2"), density);
+  EXPECT_EQ(formats::read_dataset_double(t, "/VTKHDF/CellData/density_per_m2"), density);
 
   // Buildings: each triangle carries its building's figures.
   types = expect_vtkhdf_layout(b);
-  const auto owner = api::read_dataset_int64(h5, "/buildings/triangle_building");
+  const auto owner = formats::read_dataset_int64(h5, "/buildings/triangle_building");
   EXPECT_EQ(types, std::vector<std::int64_t>(owner.size(), 5));
-  const auto impacts = api::read_dataset_double(h5, "/buildings/expected_impacts");
-  const auto per_cell = api::read_dataset_double(b, "/VTKHDF/CellData/expected_impacts");
+  const auto impacts = formats::read_dataset_double(h5, "/buildings/expected_impacts");
+  const auto per_cell = formats::read_dataset_double(b, "/VTKHDF/CellData/expected_impacts");
   ASSERT_EQ(per_cell.size(), owner.size());
   for (std::size_t k = 0; k < owner.size(); ++k)
     EXPECT_EQ(per_cell[k], impacts.at(static_cast<std::size_t>(owner[k])));
@@ -245,8 +246,8 @@ TEST_F(VtkhdfExport, FilesReadBackWithHdf5HoldTheLayoutAndTheHazardousFlagPerTri
   // Trajectories: poly-lines over results.h5's own offsets.
   types = expect_vtkhdf_layout(tr);
   EXPECT_EQ(types, std::vector<std::int64_t>(5, 4));
-  EXPECT_EQ(api::read_dataset_int64(tr, "/VTKHDF/Offsets"),
-            api::read_dataset_int64(h5, "/trajectories/offsets"));
+  EXPECT_EQ(formats::read_dataset_int64(tr, "/VTKHDF/Offsets"),
+            formats::read_dataset_int64(h5, "/trajectories/offsets"));
 }
 
 TEST_F(VtkhdfExport, NoTrajectoriesNoFileAndSaid) {

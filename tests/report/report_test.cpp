@@ -13,13 +13,13 @@
 #include <regex>
 
 #include "api/compare_json.h"
-#include "api/output_dir.h"
-#include "api/results_h5.h"
 #include "api/run_outputs.h"
 #include "api/test_support.h"
 #include "core/common/error.h"
 #include "core/run/paired.h"
 #include "core/run/run.h"
+#include "formats/output_dir.h"
+#include "formats/results_h5.h"
 #include "report/report_html.h"
 
 namespace fragsim::report {
@@ -35,7 +35,7 @@ fs::path write_run(const Json& scenario, const fs::path& dir, bool cancelled = f
   const auto site = api::validate_scenario(doc.scenario);
   run::RunResult result = run::run(doc.scenario);
   result.cancelled = cancelled;
-  api::OutputDir out(dir);
+  formats::OutputDir out(dir);
   api::stage_run_outputs(out, result, *site, doc, api::build_provenance());
   out.commit();
   return dir / api::kResultsFileName;
@@ -170,7 +170,8 @@ TEST_F(Report, TheNormalisedScenarioIsInTheAppendixWhole) {
            {"&lt;", "<"}, {"&gt;", ">"}, {"&quot;", "\""}, {"&#39;", "'"}, {"&amp;", "&"}})
     for (std::size_t at; (at = text.find(from)) != std::string::npos;)
       text.replace(at, from.size(), to);
-  EXPECT_EQ(Json::parse(text), Json::parse(api::read_attribute_string(h5, "/", "scenario_json")));
+  EXPECT_EQ(Json::parse(text),
+            Json::parse(formats::read_attribute_string(h5, "/", "scenario_json")));
 }
 
 TEST_F(Report, RefusesWhatIsNotAResultsFileNamingIt) {
@@ -245,7 +246,7 @@ ComparisonFiles write_comparison(const fs::path& dir) {
   const run::PairedRun paired = run::run_paired(bd.scenario, bs, vd.scenario, vs);
   api::Provenance provenance = api::build_provenance();
   provenance.scenario_sha256 = "variant-sha";
-  api::OutputDir out(dir / "variant");
+  formats::OutputDir out(dir / "variant");
   api::stage_run_outputs(out, paired.variant, *vs, vd, provenance);
   out.commit();
   api::CompareInputs in;

@@ -10,7 +10,7 @@
 #include <algorithm>
 #include <nlohmann/json.hpp>
 
-#include "api/results_h5.h"
+#include "formats/results_h5.h"
 #include "tests/api/test_support.h"
 #include "tests/sanitizer_build.h"
 #include "tests/server/daemon_process.h"
@@ -147,11 +147,11 @@ inline std::string trickle_exchange(int port, const std::string& head, int bytes
 // Every dataset of two results.h5 files, byte for byte (attributes hold timing and creation time
 // and may differ).
 inline void expect_same_datasets(const fs::path& a, const fs::path& b) {
-  const auto names = api::list_datasets(a);
-  ASSERT_EQ(names, api::list_datasets(b));
+  const auto names = formats::list_datasets(a);
+  ASSERT_EQ(names, formats::list_datasets(b));
   ASSERT_FALSE(names.empty());
   for (const auto& name : names)
-    EXPECT_EQ(api::read_dataset_raw(a, name), api::read_dataset_raw(b, name)) << name;
+    EXPECT_EQ(formats::read_dataset_raw(a, name), formats::read_dataset_raw(b, name)) << name;
 }
 
 // summary.json without what legitimately differs between two runs of one scenario: run time,

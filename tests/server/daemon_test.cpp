@@ -52,7 +52,7 @@ TEST(Daemon, DemoJobIsBitIdenticalToTheCli) {
   auto ptn = c->Get("/v1/jobs/" + id + "/ptn");
   ASSERT_TRUE(ptn && ptn->status == 200);
   const Json field = Json::parse(ptn->body);
-  const auto density = api::read_dataset_double(cli / "results.h5", "/ptn/density_per_m2");
+  const auto density = formats::read_dataset_double(cli / "results.h5", "/ptn/density_per_m2");
   ASSERT_EQ(field["density_per_m2"].size(), density.size());
   for (std::size_t k = 0; k < density.size(); ++k)
     ASSERT_EQ(field["density_per_m2"][k].get<double>(), density[k]) << "triangle " << k;

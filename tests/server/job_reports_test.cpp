@@ -10,10 +10,10 @@
 #include <fstream>
 #include <future>
 
-#include "api/output_dir.h"
 #include "api/run_outputs.h"
 #include "api/test_support.h"
 #include "core/run/run.h"
+#include "formats/output_dir.h"
 
 namespace fragsim::server {
 namespace {
@@ -27,7 +27,7 @@ class JobReportsTest : public ::testing::Test {
     dir_ = api::testing::fresh_test_dir("fragsim_job_reports_");
     const api::ScenarioDocument doc = api::parse_scenario_document(api::testing::minimal_example());
     const auto site = api::validate_scenario(doc.scenario);
-    api::OutputDir out(dir_ / "job");
+    formats::OutputDir out(dir_ / "job");
     api::stage_run_outputs(out, run::run(doc.scenario), *site, doc, api::build_provenance());
     out.commit();
   }

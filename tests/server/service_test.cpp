@@ -1972,7 +1972,7 @@ TEST_F(ServiceViewer, AnOlderDaemonsCachedSceneIsNotServed) {
   EXPECT_FALSE(fs::exists(dir / (site + ".scene.v2.bin")));
 }
 
-// The scene of a site and of a done job (the format itself: tests/api/scene_binary_test.cpp).
+// The scene of a site and of a done job (the format itself: tests/formats/scene_binary_test.cpp).
 TEST_F(ServiceViewer, ScenesOfSitesAndDoneJobs) {
   start();
   const std::string site = add_site();

@@ -640,7 +640,7 @@ TEST(StratifiedTally, MergingSomePiecesLeavesTheRestOpenAndClosingUsesTheHistori
   EXPECT_GT(open_seen, 0);  // the trials did leave strata open
 }
 
-// A partial result's file keeps the exact sums and the open strata (api/partial_file.h): a
+// A partial result's file keeps the exact sums and the open strata (formats/partial_file.h): a
 // tally restored from them gives the same bits and merges on like the original.
 TEST(StratifiedTally, ARestoredTallyGivesTheSameBitsAndMergesOn) {
   const RunData run(31);

@@ -1,4 +1,4 @@
-#include "api/scene_binary.h"
+#include "formats/scene_binary.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,9 +6,9 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "api/results_h5.h"
+#include "formats/results_h5.h"
 
-namespace fragsim::api {
+namespace fragsim::formats {
 
 namespace {
 
@@ -224,4 +224,4 @@ std::string encode_scene(const SceneArrays& s) {
   return out;
 }
 
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

@@ -21,7 +21,7 @@
 #include "core/common/types.h"
 #include "core/scene/site.h"
 
-namespace fragsim::api {
+namespace fragsim::formats {
 
 inline constexpr const char* kSceneContentType = "application/vnd.fragsim.scene";
 inline constexpr std::int64_t kDefaultSceneTrajectories = 200;
@@ -61,4 +61,4 @@ SceneArrays scene_from_results(const std::filesystem::path& results_h5,
 
 std::string encode_scene(const SceneArrays& scene);
 
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

@@ -1,9 +1,9 @@
-// The partial file of a shard (api/partial_file.h): encode -> decode -> encode is the identity,
+// The partial file of a shard (formats/partial_file.h): encode -> decode -> encode is the identity,
 // a decoded partial finishes to the bits of the original, and every kind of damage -- truncation,
 // a flipped byte, another magic or version, a partial of another site, a count that lies under a
 // valid checksum, open-stratum bins out of order, unknown codes -- is an InputError naming the
 // file, decoded without a large allocation, never a crash or a wrong result.
-#include "api/partial_file.h"
+#include "formats/partial_file.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -21,9 +21,9 @@
 #include <vector>
 
 #include "api/sha256.h"
+#include "api/test_support.h"
 #include "core/common/error.h"
 #include "core/run/partial.h"
-#include "test_support.h"
 #include "validation/scenario_fixtures.h"
 
 // The largest single heap allocation while armed: a count that lies must not make the decoder
@@ -57,7 +57,7 @@ std::atomic<std::size_t> g_largest_allocation{0};
   std::free(p);
 }
 
-namespace fragsim::api {
+namespace fragsim::formats {
 namespace {
 
 namespace fs = std::filesystem;
@@ -128,7 +128,7 @@ const Case& make_case(bool stratified) {
   return c;
 }
 
-const PartialIdentity kIdentity{sha256_hex("the scenario file"), 0.25};
+const PartialIdentity kIdentity{api::sha256_hex("the scenario file"), 0.25};
 
 // ---- Bytes ----
 
@@ -767,7 +767,7 @@ TEST_P(PartialFile, FilesRoundTripAndUnreadableOnesNameThePath) {
   const PartialRun back = read_partial_file(file, c().bins, id);
   EXPECT_EQ(id, kIdentity);
   EXPECT_TRUE(encode_partial(back, id) == encode_partial(c().middle(), kIdentity));
-  EXPECT_EQ(testing::read_text(file), encode_partial(c().middle(), kIdentity));
+  EXPECT_EQ(api::testing::read_text(file), encode_partial(c().middle(), kIdentity));
   for (const fs::path& bad : {dir / "missing.fsp", dir}) {
     try {
       (void)read_partial_file(bad, c().bins, id);
@@ -827,4 +827,4 @@ INSTANTIATE_TEST_SUITE_P(Tallies, PartialFile, ::testing::Bool(),
                          });
 
 }  // namespace
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

@@ -1,5 +1,5 @@
 // Atomic output directories: files appear only at commit; failures leave nothing behind.
-#include "api/output_dir.h"
+#include "formats/output_dir.h"
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -8,17 +8,17 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "api/test_support.h"
 #include "small_disk.h"
-#include "test_support.h"
 
-namespace fragsim::api {
+namespace fragsim::formats {
 namespace {
 
 namespace fs = std::filesystem;
 
 class OutputDirTest : public ::testing::Test {
  protected:
-  void SetUp() override { root_ = testing::fresh_test_dir("fragsim_outdir_test_"); }
+  void SetUp() override { root_ = api::testing::fresh_test_dir("fragsim_outdir_test_"); }
   void TearDown() override { fs::remove_all(root_); }
 
   static std::vector<std::string> entries(const fs::path& dir) {
@@ -45,8 +45,8 @@ TEST_F(OutputDirTest, FilesAppearOnlyAtCommitAndNoTemporaryRemains) {
   EXPECT_FALSE(fs::exists(dir / "summary.json"));
   out.commit();
   EXPECT_EQ(entries(dir), (std::vector<std::string>{"results.h5", "summary.json"}));
-  EXPECT_EQ(testing::read_text(dir / "summary.json"), "{}\n");
-  EXPECT_EQ(testing::read_text(dir / "results.h5"), "data");
+  EXPECT_EQ(api::testing::read_text(dir / "summary.json"), "{}\n");
+  EXPECT_EQ(api::testing::read_text(dir / "results.h5"), "data");
 }
 
 // A process killed while staging leaves its temporaries. A restarted one may get the same process
@@ -108,13 +108,13 @@ TEST_F(OutputDirTest, AnExistingDirectoryIsKeptWithItsFiles) {
     out.stage_text("summary.json", "new");
   }
   EXPECT_EQ(entries(dir), (std::vector<std::string>{"notes.txt", "summary.json"}));
-  EXPECT_EQ(testing::read_text(dir / "summary.json"), "old");
+  EXPECT_EQ(api::testing::read_text(dir / "summary.json"), "old");
   {
     OutputDir out(dir);
     out.stage_text("summary.json", "new");
     out.commit();
   }
-  EXPECT_EQ(testing::read_text(dir / "summary.json"), "new");
+  EXPECT_EQ(api::testing::read_text(dir / "summary.json"), "new");
 }
 
 TEST_F(OutputDirTest, AFailingWriterLeavesNoTemporary) {
@@ -195,4 +195,4 @@ TEST_F(OutputDirTest, AFullDiskIsStorageFullWithThePathAndTheBytes) {
 }
 
 }  // namespace
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

@@ -1,6 +1,6 @@
 // results.h5 with the HDF5 C API. Files use the 1.8 object format (readable by HDF5 >= 1.8, h5py,
 // MATLAB) with dense attribute storage, so the scenario JSON can be a root attribute of any size.
-#include "api/results_h5.h"
+#include "formats/results_h5.h"
 
 #include <hdf5.h>
 
@@ -11,10 +11,10 @@
 #include <stdexcept>
 #include <type_traits>
 
-#include "api/h5_writer.h"
 #include "api/machine.h"
+#include "formats/h5_writer.h"
 
-namespace fragsim::api {
+namespace fragsim::formats {
 
 namespace {
 
@@ -218,7 +218,7 @@ void write_hfd(Writer& w, const run::RunResult& r, const scene::Site& site,
   const run::SiteBoundary& b = r.site_boundary;
   const Handle hfd = w.group("/hfd");
   w.attribute(hfd, "bound", b.hfd_cut ? "lower" : "none");
-  w.attribute(hfd, "note", hfd_bound_note(r));
+  w.attribute(hfd, "note", api::hfd_bound_note(r));
   w.scalar("/hfd/hazardous_fragment_distance_m", r.hazardous_fragment_distance_m);
   const std::vector<double> band = {r.hfd_lower_m, r.hfd_upper_m};
   w.dataset("/hfd/band_m", band);
@@ -361,7 +361,7 @@ void write_ground_bracket(Writer& w, const run::GroundBracket& b) {
 
 void write_results_h5(const std::filesystem::path& path, const run::RunResult& r,
                       const scene::Site& site, const run::Scenario& scenario,
-                      const std::string& scenario_json, const Provenance& provenance) {
+                      const std::string& scenario_json, const api::Provenance& provenance) {
   const std::lock_guard<std::mutex> lock(hdf5_mutex());
   const std::size_t m = site.terrain_triangle_count();
   if (r.ptn_density_per_m2.size() != m || r.ptn_std_error_per_m2.size() != m)
@@ -388,13 +388,13 @@ void write_results_h5(const std::filesystem::path& path, const run::RunResult& r
   w.attribute(root, "real_fragments", r.real_fragments);
   w.attribute(root, "cancelled", std::uint8_t{r.cancelled ? std::uint8_t{1} : std::uint8_t{0}});
   w.attribute(root, "scenario_json", scenario_json);
-  w.attribute(root, "created_utc", utc_now_iso8601());
+  w.attribute(root, "created_utc", api::utc_now_iso8601());
   w.attribute(root, "wall_s", r.timing.wall_s);
   w.attribute(root, "threads", std::int32_t{r.timing.threads});
-  w.attribute(root, "machine", machine_description());
+  w.attribute(root, "machine", api::machine_description());
   w.attribute(root, "hfd_bound", r.site_boundary.hfd_cut ? "lower" : "none");
   // The figures exactly as summary.json holds them (the report reads them from here).
-  w.attribute(root, "summary_json", summary_to_json(r, scenario, provenance).dump());
+  w.attribute(root, "summary_json", api::summary_to_json(r, scenario, provenance).dump());
 
   write_terrain(w, site);
 
@@ -600,4 +600,4 @@ std::uint64_t read_attribute_uint64(const std::filesystem::path& path, const std
   return read_attribute_numeric<std::uint64_t>(path, object, attribute, H5T_NATIVE_UINT64);
 }
 
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

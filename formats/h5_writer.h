@@ -1,7 +1,8 @@
 #pragma once
-// HDF5 C API helpers shared by the files api/ writes (results.h5, the VTKHDF files): handles that
-// close themselves, errors as exceptions, C++ types to HDF5 types, and a file writer. Internal to
-// api/ (its .cpp files include it); callers use api/results_h5.h and api/vtkhdf.h.
+// HDF5 C API helpers shared by the HDF5 files fragsim writes (results.h5, compare.h5, the VTKHDF
+// files): handles that close themselves, errors as exceptions, C++ types to HDF5 types, and a
+// file writer. Internal to formats/ and api/ (their .cpp files include it); callers use
+// formats/results_h5.h and formats/vtkhdf.h.
 //
 // Every HDF5 call must hold hdf5_mutex(): the library Debian ships is not thread-safe.
 #include <hdf5.h>
@@ -14,9 +15,9 @@
 #include <string>
 #include <vector>
 
-#include "api/output_dir.h"
+#include "formats/output_dir.h"
 
-namespace fragsim::api::h5 {
+namespace fragsim::formats::h5 {
 
 // The HDF5 library Debian ships is not built thread-safe: every call into it from this file is
 // serialised (fragsimd reads results on request threads while a job writes its own file).
@@ -319,4 +320,4 @@ class Writer {
   hid_t file_ = -1;
 };
 
-}  // namespace fragsim::api::h5
+}  // namespace fragsim::formats::h5

@@ -17,7 +17,7 @@
 #include <string_view>
 #include <vector>
 
-namespace fragsim::api {
+namespace fragsim::formats {
 
 // A write the file system refused for want of space (ENOSPC, or EDQUOT: a quota), with the path
 // written and, when known, the bytes the write needed (-1: unknown). fragsimd reports it as
@@ -94,4 +94,4 @@ std::size_t remove_stale_temporaries(const std::filesystem::path& dir) noexcept;
 // fsync of a file or directory by path; throws std::runtime_error naming it.
 void fsync_path(const std::filesystem::path& path);
 
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

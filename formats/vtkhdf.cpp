@@ -1,10 +1,10 @@
-#include "api/vtkhdf.h"
+#include "formats/vtkhdf.h"
 
 #include <stdexcept>
 
-#include "api/h5_writer.h"
+#include "formats/h5_writer.h"
 
-namespace fragsim::api {
+namespace fragsim::formats {
 
 void VtkUnstructuredGrid::add_cell(std::uint8_t type, std::initializer_list<std::int64_t> ids) {
   connectivity.insert(connectivity.end(), ids.begin(), ids.end());
@@ -61,4 +61,4 @@ void write_vtkhdf(const std::filesystem::path& path, const VtkUnstructuredGrid& 
   w.close();
 }
 
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

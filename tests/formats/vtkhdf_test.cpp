@@ -1,13 +1,13 @@
-// api/vtkhdf: the layout VTK's format specification asks for, read back with HDF5, and arrays
+// formats/vtkhdf: the layout VTK's format specification asks for, read back with HDF5, and arrays
 // that do not fit together refused before anything is written.
-#include "api/vtkhdf.h"
+#include "formats/vtkhdf.h"
 
 #include <gtest/gtest.h>
 
-#include "api/results_h5.h"
 #include "api/test_support.h"
+#include "formats/results_h5.h"
 
-namespace fragsim::api {
+namespace fragsim::formats {
 namespace {
 
 namespace fs = std::filesystem;
@@ -23,7 +23,7 @@ VtkUnstructuredGrid two_triangles() {
 }
 
 TEST(Vtkhdf, LayoutOfTheSpecification) {
-  const fs::path dir = testing::fresh_test_dir("fragsim_vtkhdf_api_");
+  const fs::path dir = api::testing::fresh_test_dir("fragsim_vtkhdf_api_");
   const fs::path f = dir / "g.vtkhdf";
   write_vtkhdf(f, two_triangles());
   EXPECT_EQ(read_attribute_string(f, "/VTKHDF", "Type"), "UnstructuredGrid");
@@ -41,7 +41,7 @@ TEST(Vtkhdf, LayoutOfTheSpecification) {
 }
 
 TEST(Vtkhdf, ArraysThatDoNotFitAreRefusedAndNothingIsWritten) {
-  const fs::path dir = testing::fresh_test_dir("fragsim_vtkhdf_api_");
+  const fs::path dir = api::testing::fresh_test_dir("fragsim_vtkhdf_api_");
   const auto refused = [&](VtkUnstructuredGrid g) {
     EXPECT_THROW(write_vtkhdf(dir / "bad.vtkhdf", g), std::logic_error);
     EXPECT_FALSE(fs::exists(dir / "bad.vtkhdf"));
@@ -65,4 +65,4 @@ TEST(Vtkhdf, ArraysThatDoNotFitAreRefusedAndNothingIsWritten) {
 }
 
 }  // namespace
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

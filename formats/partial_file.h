@@ -17,7 +17,7 @@
 
 #include "core/run/partial.h"
 
-namespace fragsim::api {
+namespace fragsim::formats {
 
 // What a partial must share with the others it is merged with.
 struct PartialIdentity {
@@ -51,4 +51,4 @@ void write_partial_file(const std::filesystem::path& path, const run::PartialRun
 run::PartialRun read_partial_file(const std::filesystem::path& path, std::size_t tally_bins,
                                   PartialIdentity& identity);
 
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

@@ -1,7 +1,7 @@
 #pragma once
 // results.h5: the full fields of one run (HDF5, C API). Layout (docs/scenario.md, "results.h5"):
 //
-//   /                      attributes: file_type "fragsim.results", format_version 1,
+//   /                      attributes: file_type "fragsim.results", format_version (below),
 //                          fragsim_version, git_sha, seed, samples, histories_done,
 //                          real_fragments, cancelled, scenario_json, summary_json and machine
 //                          (format 5), created_utc, wall_s, threads
@@ -39,7 +39,7 @@
 #include "core/run/scenario.h"
 #include "core/scene/site.h"
 
-namespace fragsim::api {
+namespace fragsim::formats {
 
 inline constexpr const char* kResultsFileType = "fragsim.results";
 // 2: /hfd/bound, band_bound, by_sector_bound, boundary_* and left_site_hazardous_* (where the
@@ -56,7 +56,7 @@ inline constexpr int kResultsFormatVersion = 5;
 // std::logic_error when the result does not fit the site (PTN values != terrain triangles).
 void write_results_h5(const std::filesystem::path& path, const run::RunResult& result,
                       const scene::Site& site, const run::Scenario& scenario,
-                      const std::string& scenario_json, const Provenance& provenance);
+                      const std::string& scenario_json, const api::Provenance& provenance);
 
 // ---- Readers (tests, tools). Throw std::runtime_error naming the file and object. ----
 
@@ -84,4 +84,4 @@ std::int64_t read_attribute_int64(const std::filesystem::path& path, const std::
 std::uint64_t read_attribute_uint64(const std::filesystem::path& path, const std::string& object,
                                     const std::string& attribute);
 
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

@@ -1,4 +1,4 @@
-#include "api/output_dir.h"
+#include "formats/output_dir.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <system_error>
 
-namespace fragsim::api {
+namespace fragsim::formats {
 
 namespace {
 
@@ -180,4 +180,4 @@ void OutputDir::discard() noexcept {
   created_dirs_.clear();
 }
 
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

@@ -1,4 +1,4 @@
-#include "api/partial_file.h"
+#include "formats/partial_file.h"
 
 #include <zlib.h>
 
@@ -15,7 +15,7 @@
 #include "core/common/error.h"
 #include "core/run/precision.h"
 
-namespace fragsim::api {
+namespace fragsim::formats {
 
 namespace {
 
@@ -546,4 +546,4 @@ run::PartialRun read_partial_file(const std::filesystem::path& path, std::size_t
   return decode_partial(bytes, tally_bins, identity, path.string());
 }
 
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

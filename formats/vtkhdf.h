@@ -15,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-namespace fragsim::api {
+namespace fragsim::formats {
 
 inline constexpr std::uint8_t kVtkPolyLine = 4;
 inline constexpr std::uint8_t kVtkTriangle = 5;
@@ -37,4 +37,4 @@ struct VtkUnstructuredGrid {
 // fit together (sizes, offsets, indices) and std::runtime_error on HDF5 errors.
 void write_vtkhdf(const std::filesystem::path& path, const VtkUnstructuredGrid& grid);
 
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

@@ -1,18 +1,18 @@
 // results.h5: write a synthetic RunResult on a real (small) site, read every part back.
-#include "api/results_h5.h"
+#include "formats/results_h5.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <stdexcept>
 
-#include "api/h5_writer.h"
-#include "api/output_dir.h"
+#include "api/test_support.h"
+#include "formats/h5_writer.h"
+#include "formats/output_dir.h"
 #include "fragsim/version.h"
 #include "small_disk.h"
-#include "test_support.h"
 
-namespace fragsim::api {
+namespace fragsim::formats {
 namespace {
 
 namespace fs = std::filesystem;
@@ -20,9 +20,9 @@ namespace fs = std::filesystem;
 class ResultsH5 : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = testing::fresh_test_dir("fragsim_h5_test_");
+    dir_ = api::testing::fresh_test_dir("fragsim_h5_test_");
     // A coarse plane far from the origin, so that input != local coordinates.
-    scenario_ = testing::far_plane_scenario();
+    scenario_ = api::testing::far_plane_scenario();
     site_ = scene::Site::build(scenario_.site);
     result_ = make_result();
   }
@@ -46,7 +46,7 @@ class ResultsH5 : public ::testing::Test {
     r.hfd_lower_m = 140.0;
     r.hfd_upper_m = 160.0;
     r.hfd_by_sector_m[7] = 150.0;
-    r.buildings.push_back(testing::example_building());
+    r.buildings.push_back(api::testing::example_building());
     r.outcome_histories = {48, 10, 0, 1942, 0, 0, 0, 3};
     r.outcome_fragments[0] = {24.0, 3.5};
     r.outcome_fragments[1] = {5.0, 1.5};
@@ -106,9 +106,9 @@ class ResultsH5 : public ::testing::Test {
     run::Scenario sc = scenario_;
     sc.settings.record_fragments = record;
     sc.settings.record_trajectories = record;
-    Provenance p = build_provenance();
+    api::Provenance p = api::build_provenance();
     p.scenario_sha256 = std::string(64, 'a');
-    write_results_h5(path, r, *site_, sc, scenario_to_json(sc).dump(), p);
+    write_results_h5(path, r, *site_, sc, api::scenario_to_json(sc).dump(), p);
   }
 
   fs::path dir_;
@@ -121,8 +121,8 @@ class ResultsH5 : public ::testing::Test {
 // lookup3 over a file HDF5 wrote to disk itself (an older fragsimd, tests/server/data) gives the
 // checksum HDF5 stored; a changed byte gives another.
 TEST(H5Image, Lookup3IsTheSuperblockChecksumHdf5Writes) {
-  const std::string file = testing::read_text(
-      testing::source_path("tests/server/data/store-v1/jobs/j_cfdf454a3ec0d3ad/results.h5"));
+  const std::string file = api::testing::read_text(
+      api::testing::source_path("tests/server/data/store-v1/jobs/j_cfdf454a3ec0d3ad/results.h5"));
   ASSERT_GT(file.size(), 48u);
   ASSERT_EQ(file[8], 2) << "superblock version";
   const auto* p = reinterpret_cast<const unsigned char*>(file.data());
@@ -176,10 +176,10 @@ TEST_F(ResultsH5, RootAttributes) {
   EXPECT_EQ(read_attribute_string(f, "/", "file_type"), "fragsim.results");
   EXPECT_EQ(read_attribute_int64(f, "/", "format_version"), 5);
   // summary_json (format 5): summary.json's figures, the same function's output.
-  Provenance p = build_provenance();
+  api::Provenance p = api::build_provenance();
   p.scenario_sha256 = std::string(64, 'a');
   EXPECT_EQ(read_attribute_string(f, "/", "summary_json"),
-            summary_to_json(result_, scenario_, p).dump());
+            api::summary_to_json(result_, scenario_, p).dump());
   EXPECT_EQ(read_attribute_string(f, "/", "hfd_bound"), "none");
   EXPECT_EQ(read_attribute_string(f, "/", "fragsim_version"), kVersion);
   EXPECT_EQ(read_attribute_string(f, "/", "git_sha"), kGitSha);
@@ -197,7 +197,7 @@ TEST_F(ResultsH5, RootAttributes) {
   const auto stored = nlohmann::json::parse(read_attribute_string(f, "/", "scenario_json"));
   run::Scenario sc = scenario_;
   sc.settings.record_fragments = sc.settings.record_trajectories = true;
-  EXPECT_EQ(stored, scenario_to_json(sc));
+  EXPECT_EQ(stored, api::scenario_to_json(sc));
 }
 
 TEST_F(ResultsH5, TerrainInInputCoordinates) {
@@ -422,7 +422,7 @@ TEST_F(ResultsH5, SiteBoundaryFlagsAndLeavers) {
   const fs::path f = write("cut.h5", r);
   EXPECT_EQ(read_attribute_string(f, "/", "hfd_bound"), "lower");
   EXPECT_EQ(read_attribute_string(f, "/hfd", "bound"), "lower");
-  EXPECT_EQ(read_attribute_string(f, "/hfd", "note"), hfd_bound_note(r));
+  EXPECT_EQ(read_attribute_string(f, "/hfd", "note"), api::hfd_bound_note(r));
   EXPECT_EQ(read_dataset_double(f, "/hfd/bound"), std::vector<double>{1.0});
   EXPECT_EQ(read_dataset_double(f, "/hfd/band_bound"), (std::vector<double>{0.0, 1.0}));
   std::vector<double> sectors(36, 0.0);
@@ -528,7 +528,7 @@ TEST_F(ResultsH5, ScenarioJsonAttributeOfAnySize) {
   const std::string big(
       300000, 'x');  // the demo scenario is ~220 kB; attributes > 64 kB need dense storage
   const fs::path f = dir_ / "big_attr.h5";
-  write_results_h5(f, result_, *site_, scenario_, big, build_provenance());
+  write_results_h5(f, result_, *site_, scenario_, big, api::build_provenance());
   EXPECT_EQ(read_attribute_string(f, "/", "scenario_json"), big);
 }
 
@@ -551,4 +551,4 @@ TEST_F(ResultsH5, NeverOverwritesAndReportsMissingObjects) {
 }
 
 }  // namespace
-}  // namespace fragsim::api
+}  // namespace fragsim::formats

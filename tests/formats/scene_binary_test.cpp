@@ -1,8 +1,8 @@
-// The browser's scene format (api/scene_binary.h): header, alignment, arrays that round-trip, a
+// The browser's scene format (formats/scene_binary.h): header, alignment, arrays that round-trip, a
 // site far from (0, 0) kept to float precision through offset_m, a results.h5 read back with its
 // trajectories sampled evenly, each terrain triangle's material (zones) from a site and from a
 // results.h5, and a results.h5 older than format 4 (no /terrain/material) still read.
-#include "api/scene_binary.h"
+#include "formats/scene_binary.h"
 
 #include <gtest/gtest.h>
 #include <hdf5.h>
@@ -11,11 +11,11 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "api/results_h5.h"
+#include "api/test_support.h"
+#include "formats/results_h5.h"
 #include "fragsim/version.h"
-#include "test_support.h"
 
-namespace fragsim::api {
+namespace fragsim::formats {
 namespace {
 
 namespace fs = std::filesystem;
@@ -98,9 +98,9 @@ TEST(SceneBinary, MaterialIndicesAreU8UpTo256NamesElseU16) {
 class SceneFromRun : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = testing::fresh_test_dir("fragsim_scene_test_");
+    dir_ = api::testing::fresh_test_dir("fragsim_scene_test_");
     // A UTM-sized site: float32 alone would keep only 0.25 m here; offset_m keeps 0.1 mm.
-    scenario_ = testing::far_plane_scenario();
+    scenario_ = api::testing::far_plane_scenario();
     scenario_.settings.record_trajectories = true;
     site_ = scene::Site::build(scenario_.site);
   }
@@ -114,7 +114,7 @@ class SceneFromRun : public ::testing::Test {
       r.ptn_density_per_m2.push_back(0.001 * static_cast<double>(t));
       r.ptn_std_error_per_m2.push_back(0.0001 * static_cast<double>(t));
     }
-    r.buildings.push_back(testing::example_building());
+    r.buildings.push_back(api::testing::example_building());
     for (int k = 0; k < trajectories; ++k) {
       run::TrajectoryRecord tr;
       tr.group = static_cast<std::uint32_t>(k % 2);
@@ -128,8 +128,8 @@ class SceneFromRun : public ::testing::Test {
       r.trajectories.push_back(tr);
     }
     const fs::path path = dir_ / ("r" + std::to_string(trajectories) + ".h5");
-    write_results_h5(path, r, *site_, scenario_, scenario_to_json(scenario_).dump(),
-                     build_provenance());
+    write_results_h5(path, r, *site_, scenario_, api::scenario_to_json(scenario_).dump(),
+                     api::build_provenance());
     return path;
   }
 
@@ -263,4 +263,4 @@ TEST_F(SceneFromRun, AFileThatIsNotResultsIsAnError) {
 }
 
 }  // namespace
-}  // namespace fragsim::api
+}  // namespace fragsim::formats
