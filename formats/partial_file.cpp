@@ -11,7 +11,6 @@
 #include <memory>
 #include <type_traits>
 
-#include "api/sha256.h"
 #include "core/common/error.h"
 #include "core/run/precision.h"
 

@@ -11,7 +11,6 @@
 #include <stdexcept>
 #include <type_traits>
 
-#include "api/machine.h"
 #include "formats/h5_writer.h"
 
 namespace fragsim::formats {
@@ -214,11 +213,11 @@ void write_trajectories(Writer& w, const std::vector<run::TrajectoryRecord>& tra
 
 // /hfd: the HFD, its band and sectors, and where the terrain's boundary cuts them.
 void write_hfd(Writer& w, const run::RunResult& r, const scene::Site& site,
-               const run::Scenario& scenario) {
+               const run::Scenario& scenario, const std::string& note) {
   const run::SiteBoundary& b = r.site_boundary;
   const Handle hfd = w.group("/hfd");
   w.attribute(hfd, "bound", b.hfd_cut ? "lower" : "none");
-  w.attribute(hfd, "note", api::hfd_bound_note(r));
+  w.attribute(hfd, "note", note);
   w.scalar("/hfd/hazardous_fragment_distance_m", r.hazardous_fragment_distance_m);
   const std::vector<double> band = {r.hfd_lower_m, r.hfd_upper_m};
   w.dataset("/hfd/band_m", band);
@@ -361,7 +360,7 @@ void write_ground_bracket(Writer& w, const run::GroundBracket& b) {
 
 void write_results_h5(const std::filesystem::path& path, const run::RunResult& r,
                       const scene::Site& site, const run::Scenario& scenario,
-                      const std::string& scenario_json, const api::Provenance& provenance) {
+                      const ResultsTexts& texts) {
   const std::lock_guard<std::mutex> lock(hdf5_mutex());
   const std::size_t m = site.terrain_triangle_count();
   if (r.ptn_density_per_m2.size() != m || r.ptn_std_error_per_m2.size() != m)
@@ -377,9 +376,9 @@ void write_results_h5(const std::filesystem::path& path, const run::RunResult& r
   const hid_t root = w.file();
   w.attribute(root, "file_type", kResultsFileType);
   w.attribute(root, "format_version", std::int32_t{kResultsFormatVersion});
-  w.attribute(root, "fragsim_version", provenance.version);
-  w.attribute(root, "git_sha", provenance.git_sha);
-  if (provenance.scenario_sha256) w.attribute(root, "scenario_sha256", *provenance.scenario_sha256);
+  w.attribute(root, "fragsim_version", texts.version);
+  w.attribute(root, "git_sha", texts.git_sha);
+  if (texts.scenario_sha256) w.attribute(root, "scenario_sha256", *texts.scenario_sha256);
   w.attribute(root, "seed", std::uint64_t{r.seed});
   w.attribute(root, "samples", std::int64_t{r.samples});
   w.attribute(root, "histories_done", std::int64_t{r.histories_done});
@@ -387,14 +386,14 @@ void write_results_h5(const std::filesystem::path& path, const run::RunResult& r
   w.attribute(root, "stop_reason", run::stop_reason_name(r.stop_reason));
   w.attribute(root, "real_fragments", r.real_fragments);
   w.attribute(root, "cancelled", std::uint8_t{r.cancelled ? std::uint8_t{1} : std::uint8_t{0}});
-  w.attribute(root, "scenario_json", scenario_json);
-  w.attribute(root, "created_utc", api::utc_now_iso8601());
+  w.attribute(root, "scenario_json", texts.scenario_json);
+  w.attribute(root, "created_utc", texts.created_utc);
   w.attribute(root, "wall_s", r.timing.wall_s);
   w.attribute(root, "threads", std::int32_t{r.timing.threads});
-  w.attribute(root, "machine", api::machine_description());
+  w.attribute(root, "machine", texts.machine);
   w.attribute(root, "hfd_bound", r.site_boundary.hfd_cut ? "lower" : "none");
   // The figures exactly as summary.json holds them (the report reads them from here).
-  w.attribute(root, "summary_json", api::summary_to_json(r, scenario, provenance).dump());
+  w.attribute(root, "summary_json", texts.summary_json);
 
   write_terrain(w, site);
 
@@ -407,7 +406,7 @@ void write_results_h5(const std::filesystem::path& path, const run::RunResult& r
     w.attribute(ptn, "max_density_per_m2", r.max_ptn_density_per_m2);
     w.attribute(ptn, "max_triangle", std::int64_t{r.max_ptn_triangle});
   }
-  write_hfd(w, r, site, scenario);
+  write_hfd(w, r, site, scenario, texts.hfd_note);
   write_hfd_attribution(w, r, scenario);
   if (r.ground_bracket) write_ground_bracket(w, *r.ground_bracket);
 

@@ -31,10 +31,10 @@
 // bit-identical datasets (timing and the creation time are attributes).
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
-#include "api/summary_json.h"
 #include "core/run/result.h"
 #include "core/run/scenario.h"
 #include "core/scene/site.h"
@@ -52,11 +52,25 @@ inline constexpr const char* kResultsFileType = "fragsim.results";
 // kernel: api/machine.h), read by `fragsim report`.
 inline constexpr int kResultsFormatVersion = 5;
 
+// What results.h5 records beside the run's figures: who wrote it and the contract's texts. The
+// caller makes them (api::results_texts, api/run_outputs.h), so that the file format does not
+// depend on the JSON contract.
+struct ResultsTexts {
+  std::string version;                         // fragsim version (fragsim/version.h)
+  std::string git_sha;                         // of the build
+  std::optional<std::string> scenario_sha256;  // of the scenario file as read, when there is one
+  std::string scenario_json;                   // the normalised scenario
+  std::string summary_json;                    // summary.json's figures, compact
+  std::string hfd_note;     // when the terrain's boundary cuts the HFD (else empty)
+  std::string created_utc;  // ISO 8601
+  std::string machine;      // host, CPU, kernel (api/machine.h)
+};
+
 // Writes a new file at `path` (fails if it exists). Throws std::runtime_error on HDF5 errors and
 // std::logic_error when the result does not fit the site (PTN values != terrain triangles).
 void write_results_h5(const std::filesystem::path& path, const run::RunResult& result,
                       const scene::Site& site, const run::Scenario& scenario,
-                      const std::string& scenario_json, const api::Provenance& provenance);
+                      const ResultsTexts& texts);
 
 // ---- Readers (tests, tools). Throw std::runtime_error naming the file and object. ----
 

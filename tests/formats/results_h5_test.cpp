@@ -6,6 +6,7 @@
 
 #include <stdexcept>
 
+#include "api/run_outputs.h"
 #include "api/test_support.h"
 #include "formats/h5_writer.h"
 #include "formats/output_dir.h"
@@ -108,7 +109,8 @@ class ResultsH5 : public ::testing::Test {
     sc.settings.record_trajectories = record;
     api::Provenance p = api::build_provenance();
     p.scenario_sha256 = std::string(64, 'a');
-    write_results_h5(path, r, *site_, sc, api::scenario_to_json(sc).dump(), p);
+    write_results_h5(path, r, *site_, sc,
+                     api::results_texts(r, sc, api::scenario_to_json(sc).dump(), p));
   }
 
   fs::path dir_;
@@ -528,7 +530,8 @@ TEST_F(ResultsH5, ScenarioJsonAttributeOfAnySize) {
   const std::string big(
       300000, 'x');  // the demo scenario is ~220 kB; attributes > 64 kB need dense storage
   const fs::path f = dir_ / "big_attr.h5";
-  write_results_h5(f, result_, *site_, scenario_, big, api::build_provenance());
+  write_results_h5(f, result_, *site_, scenario_,
+                   api::results_texts(result_, scenario_, big, api::build_provenance()));
   EXPECT_EQ(read_attribute_string(f, "/", "scenario_json"), big);
 }
 

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "api/run_outputs.h"
 #include "api/test_support.h"
 #include "formats/results_h5.h"
 #include "fragsim/version.h"
@@ -128,8 +129,9 @@ class SceneFromRun : public ::testing::Test {
       r.trajectories.push_back(tr);
     }
     const fs::path path = dir_ / ("r" + std::to_string(trajectories) + ".h5");
-    write_results_h5(path, r, *site_, scenario_, api::scenario_to_json(scenario_).dump(),
-                     api::build_provenance());
+    write_results_h5(path, r, *site_, scenario_,
+                     api::results_texts(r, scenario_, api::scenario_to_json(scenario_).dump(),
+                                        api::build_provenance()));
     return path;
   }
 

@@ -15,6 +15,7 @@
 #include <limits>
 #include <map>
 
+#include "api/run_outputs.h"
 #include "api/scenario_json.h"
 #include "api/test_support.h"
 #include "core/common/error.h"
@@ -91,8 +92,9 @@ class PlanBoundaryTest : public ::testing::Test {
     r.hfd_upper_m = f.upper_m;
     r.hfd_by_sector_m = f.by_sector_m;
     const fs::path path = dir_ / name;
-    formats::write_results_h5(path, r, *site, sc, api::scenario_to_json(sc).dump(),
-                              api::build_provenance());
+    formats::write_results_h5(
+        path, r, *site, sc,
+        api::results_texts(r, sc, api::scenario_to_json(sc).dump(), api::build_provenance()));
     return path;
   }
 
