@@ -1,10 +1,10 @@
 #include "cli/args.h"
 
-#include <cerrno>
-#include <cmath>
-#include <cstdlib>
+#include <limits>
 #include <map>
+#include <string_view>
 
+#include "api/command_line.h"
 #include "api/job_request.h"
 #include "api/scenario_json.h"
 #include "core/run/partial.h"
@@ -13,143 +13,107 @@ namespace fragsim::cli {
 
 namespace {
 
-// "--name value" or "--name=value"; advances k past what it consumed.
-bool take_value(const std::vector<std::string>& args, std::size_t& k, const std::string& name,
-                std::string& value) {
-  const std::string& a = args[k];
-  if (a == name) {
-    if (k + 1 >= args.size()) throw UsageError(name + " needs a value");
-    value = args[++k];
-    return true;
-  }
-  if (a.rfind(name + "=", 0) == 0) {
-    value = a.substr(name.size() + 1);
-    return true;
-  }
-  return false;
-}
+using api::ArgReader;
 
-// "--name value" whose value may not be empty ("--name: empty <what>"), into `dest`.
-bool take_nonempty(const std::vector<std::string>& args, std::size_t& k, const std::string& name,
-                   const char* what, std::string& dest) {
-  std::string value;
-  if (!take_value(args, k, name, value)) return false;
-  if (value.empty()) throw UsageError(name + ": empty " + what);
-  dest = value;
-  return true;
-}
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 int parse_threads(const std::string& v) {
-  char* end = nullptr;
-  const long n = std::strtol(v.c_str(), &end, 10);
-  if (v.empty() || *end != '\0' || n < 0 || n > api::kMaxThreads)
-    throw UsageError("--threads: expected an integer in [0, " + std::to_string(api::kMaxThreads) +
-                     "] (0: all hardware threads), got \"" + v + "\"");
-  return static_cast<int>(n);
+  return static_cast<int>(
+      api::integer_option("--threads", v, 0, api::kMaxThreads, " (0: all hardware threads)"));
 }
 
 double parse_scale(const std::string& v) {
-  char* end = nullptr;
-  const double x = std::strtod(v.c_str(), &end);
-  if (v.empty() || *end != '\0' || !std::isfinite(x) || !(x > 0))
-    throw UsageError("--samples-scale: expected a number > 0, got \"" + v + "\"");
-  return x;
+  return api::number_option("--samples-scale", v, "a number", {0.0, true, kInfinity});
 }
 
 // "I/N" with 0 <= I < N <= run::kMaxShards.
 ShardArg parse_shard(const std::string& v) {
   const auto slash = v.find('/');
-  auto num = [&](const std::string& t, std::int64_t& out) {
-    char* end = nullptr;
-    errno = 0;
-    const long long x = std::strtoll(t.c_str(), &end, 10);
-    if (t.empty() || *end != '\0' || errno != 0 || t[0] < '0' || t[0] > '9') return false;
-    out = x;
-    return true;
-  };
-  ShardArg s;
-  if (slash == std::string::npos || !num(v.substr(0, slash), s.index) ||
-      !num(v.substr(slash + 1), s.count) || s.count < 1 || s.count > run::kMaxShards ||
-      s.index >= s.count)
+  const auto index = api::to_integer(v.substr(0, slash));
+  const auto count =
+      slash == std::string::npos ? std::nullopt : api::to_integer(v.substr(slash + 1));
+  if (!index || !count || *index < 0 || *count < 1 || *count > run::kMaxShards || *index >= *count)
     throw UsageError("--shard: expected I/N with 0 <= I < N <= " + std::to_string(run::kMaxShards) +
                      ", got \"" + v + "\"");
-  return s;
+  return {*index, *count};
 }
 
-// --units si|us; true when args[k] was it (k advanced past its value).
-bool take_units(const std::vector<std::string>& args, std::size_t& k, Options& o) {
-  std::string value;
-  if (!take_value(args, k, "--units", value)) return false;
-  const auto units = api::parse_unit_system(value);
-  if (!units) throw UsageError("--units: expected si or us, got \"" + value + "\"");
+// --units si|us.
+bool take_units(ArgReader& r, Options& o) {
+  const auto value = r.take_value("--units");
+  if (!value) return false;
+  const auto units = api::parse_unit_system(*value);
+  if (!units) throw UsageError("--units: expected si or us, got \"" + *value + "\"");
   o.units = *units;
   return true;
 }
 
-// The options run and merge share; true when args[k] was one (k advanced past its value).
-bool take_run_output(const std::vector<std::string>& args, std::size_t& k, Options& o) {
-  std::string value;
-  if (take_nonempty(args, k, "--out", "directory name", o.out)) return true;
-  if (take_units(args, k, o)) return true;
-  if (take_value(args, k, "--samples-scale", value)) {
-    o.samples_scale = parse_scale(value);
+// A value into `dest` when the current word is option `name`.
+bool take_into(ArgReader& r, std::string_view name, std::string_view what, std::string& dest) {
+  auto value = r.take_nonempty(name, what);
+  if (value) dest = std::move(*value);
+  return value.has_value();
+}
+
+// The options run, merge and compare share.
+bool take_run_output(ArgReader& r, Options& o) {
+  if (take_into(r, "--out", "directory name", o.out) || take_units(r, o)) return true;
+  if (const auto v = r.take_value("--samples-scale")) {
+    o.samples_scale = parse_scale(*v);
     return true;
   }
-  if (args[k] == "--quiet" || args[k] == "-q") {
-    o.quiet = true;
-    return true;
-  }
+  if (r.take_flag("--quiet", "-q")) return o.quiet = true;
   return false;
 }
 
-// Options only run takes; true when args[k] was one (k advanced past its value).
-bool take_run_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
-  std::string value;
-  if (take_value(args, k, "--threads", value)) {
-    o.threads = parse_threads(value);
-    return true;
-  }
-  if (take_value(args, k, "--shard", value)) {
-    o.shard = parse_shard(value);
-    return true;
-  }
-  return take_nonempty(args, k, "--progress-file", "file name", o.progress_file);
+bool take_threads(ArgReader& r, Options& o) {
+  const auto v = r.take_value("--threads");
+  if (v) o.threads = parse_threads(*v);
+  return v.has_value();
 }
 
-int parse_priority(const std::string& v) {
-  char* end = nullptr;
-  const long p = std::strtol(v.c_str(), &end, 10);
-  if (v.empty() || *end != '\0' || p < -1000 || p > 1000)
-    throw UsageError("--priority: expected an integer in [-1000, 1000], got \"" + v + "\"");
-  return static_cast<int>(p);
+// Options only run takes.
+bool take_run_option(ArgReader& r, Options& o) {
+  if (take_threads(r, o)) return true;
+  if (const auto v = r.take_value("--shard")) {
+    o.shard = parse_shard(*v);
+    return true;
+  }
+  return take_into(r, "--progress-file", "file name", o.progress_file);
 }
 
-// Options of submit; true when args[k] was one (k advanced past its value).
-bool take_submit_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
-  const std::string& a = args[k];
-  std::string value;
-  if (take_nonempty(args, k, "--out", "directory name", o.out)) return true;
-  if (take_units(args, k, o)) return true;
-  if (take_value(args, k, "--server", value)) {
-    if (value.rfind("http://", 0) != 0 && value.rfind("https://", 0) != 0)
-      throw UsageError("--server: expected http://HOST:PORT, got \"" + value + "\"");
-    o.server = value;
-  } else if (take_value(args, k, "--token-file", value)) {
-    o.token_file = value;
-  } else if (take_value(args, k, "--priority", value)) {
-    o.priority = parse_priority(value);
-  } else if (take_value(args, k, "--idempotency-key", value)) {
-    o.idempotency_key = value;
-  } else if (take_value(args, k, "--compare-with", value)) {
-    if (!api::is_job_id(value))
-      throw UsageError("--compare-with: expected a job id (j_ and 16 hex digits), got \"" + value +
+// --server, --priority and --compare-with: the values submit checks.
+bool take_submit_value(ArgReader& r, Options& o) {
+  if (const auto v = r.take_value("--server")) {
+    if (v->rfind("http://", 0) != 0 && v->rfind("https://", 0) != 0)
+      throw UsageError("--server: expected http://HOST:PORT, got \"" + *v + "\"");
+    o.server = *v;
+  } else if (const auto p = r.take_value("--priority")) {
+    o.priority = static_cast<int>(api::integer_option("--priority", *p, -1000, 1000));
+  } else if (const auto j = r.take_value("--compare-with")) {
+    if (!api::is_job_id(*j))
+      throw UsageError("--compare-with: expected a job id (j_ and 16 hex digits), got \"" + *j +
                        "\"");
-    o.compare_with = value;
-  } else if (a == "--no-wait") {
+    o.compare_with = *j;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// Options of submit.
+bool take_submit_option(ArgReader& r, Options& o) {
+  if (take_into(r, "--out", "directory name", o.out) || take_units(r, o)) return true;
+  if (take_submit_value(r, o)) return true;
+  if (const auto v = r.take_value("--token-file")) {
+    o.token_file = *v;
+  } else if (const auto k = r.take_value("--idempotency-key")) {
+    o.idempotency_key = *k;
+  } else if (r.take_flag("--no-wait")) {
     o.wait = false;
-  } else if (a == "--maps") {
+  } else if (r.take_flag("--maps")) {
     o.maps = true;
-  } else if (a == "--quiet" || a == "-q") {
+  } else if (r.take_flag("--quiet", "-q")) {
     o.quiet = true;
   } else {
     return false;
@@ -158,84 +122,59 @@ bool take_submit_option(const std::vector<std::string>& args, std::size_t& k, Op
 }
 
 // A length option's value: a finite number > 0.
-double positive_metres(const std::string& name, const std::string& value) {
-  char* end = nullptr;
-  const double x = std::strtod(value.c_str(), &end);
-  if (value.empty() || *end != '\0' || !std::isfinite(x) || !(x > 0))
-    throw UsageError(name + ": expected a number > 0, got \"" + value + "\"");
-  return x;
+bool take_metres(ArgReader& r, std::string_view name, std::optional<double>& dest) {
+  const auto v = r.take_value(name);
+  if (v) dest = api::number_option(name, *v, "a number", {0.0, true, kInfinity});
+  return v.has_value();
 }
 
-// Options of export, site import and site export-gis; true when args[k] was one.
-bool take_file_command_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
-  std::string value;
-  if (o.command == Command::kExport && take_value(args, k, "--pixel-m", value)) {
-    o.pixel_m = positive_metres("--pixel-m", value);
+// Options of export, site import, site export-gis, shape import and groups from-munition.
+bool take_file_command_option(ArgReader& r, Options& o) {
+  if (o.command == Command::kExport &&
+      (take_metres(r, "--pixel-m", o.pixel_m) || take_metres(r, "--smoothing-m", o.smoothing_m) ||
+       take_units(r, o)))
     return true;
-  }
-  if (o.command == Command::kExport && take_value(args, k, "--smoothing-m", value)) {
-    o.smoothing_m = positive_metres("--smoothing-m", value);
-    return true;
-  }
-  if (o.command == Command::kExport && take_units(args, k, o)) return true;
-  if (o.command == Command::kShapeImport) return take_nonempty(args, k, "--axes", "axes", o.axes);
-  return take_nonempty(args, k, "--out", "file name", o.out);
+  if (o.command == Command::kShapeImport) return take_into(r, "--axes", "axes", o.axes);
+  return take_into(r, "--out", "file name", o.out);
 }
 
-// Options of report; true when args[k] was one.
-bool take_report_option(const std::vector<std::string>& args, std::size_t& k, Options& o) {
-  if (take_units(args, k, o)) return true;
-  if (take_nonempty(args, k, "--pdf", "file name", o.pdf)) return true;
-  if (take_nonempty(args, k, "--compare", "file name", o.compare)) return true;
-  return take_nonempty(args, k, "--out", "file name", o.out);
+// Options of report.
+bool take_report_option(ArgReader& r, Options& o) {
+  return take_units(r, o) || take_into(r, "--pdf", "file name", o.pdf) ||
+         take_into(r, "--compare", "file name", o.compare) ||
+         take_into(r, "--out", "file name", o.out);
 }
 
-// An option of o.command at args[k], or an operand (the scenario or input file, or merge's
-// partial files); k is advanced past an option's value.
-void take_argument(const std::vector<std::string>& args, std::size_t& k, Options& o) {
-  const std::string& a = args[k];
-  const bool is_option = a.size() > 1 && a[0] == '-';
-  std::string value;
+// An option of o.command at the current word; false when it is none.
+bool take_option(ArgReader& r, Options& o) {
   switch (o.command) {
-    case Command::kRun:
-      if (take_run_output(args, k, o) || take_run_option(args, k, o)) return;
-      break;
-    case Command::kMerge:
-      if (take_run_output(args, k, o)) return;
-      if (!is_option && !o.scenario.empty()) {
-        o.parts.push_back(a);
-        return;
-      }
-      break;
-    case Command::kCompare:
-      if (take_run_output(args, k, o)) return;
-      if (take_value(args, k, "--threads", value)) {
-        o.threads = parse_threads(value);
-        return;
-      }
-      if (!is_option && !o.scenario.empty() && o.variant.empty()) {
-        o.variant = a;
-        return;
-      }
-      break;
-    case Command::kSubmit:
-      if (take_submit_option(args, k, o)) return;
-      break;
-    case Command::kReport:
-      if (take_report_option(args, k, o)) return;
-      break;
+    case Command::kRun: return take_run_output(r, o) || take_run_option(r, o);
+    case Command::kMerge: return take_run_output(r, o);
+    case Command::kCompare: return take_run_output(r, o) || take_threads(r, o);
+    case Command::kSubmit: return take_submit_option(r, o);
+    case Command::kReport: return take_report_option(r, o);
     case Command::kExport:
     case Command::kSiteImport:
     case Command::kSiteExportGis:
     case Command::kShapeImport:
-    case Command::kGroupsFromMunition:
-      if (take_file_command_option(args, k, o)) return;
-      break;
-    default: break;
+    case Command::kGroupsFromMunition: return take_file_command_option(r, o);
+    default: return false;
   }
-  if (is_option) throw UsageError("unknown option \"" + a + "\"");
-  if (!o.scenario.empty()) throw UsageError("more than one scenario file (\"" + a + "\")");
-  o.scenario = a;
+}
+
+// An operand: the scenario or input file, then merge's partial files or compare's variant.
+void take_operand(ArgReader& r, Options& o) {
+  if (r.at_option()) r.unknown_option();
+  std::string a = r.take_operand();
+  if (o.command == Command::kMerge && !o.scenario.empty()) {
+    o.parts.push_back(std::move(a));
+  } else if (o.command == Command::kCompare && !o.scenario.empty() && o.variant.empty()) {
+    o.variant = std::move(a);
+  } else if (!o.scenario.empty()) {
+    throw UsageError("more than one scenario file (\"" + a + "\")");
+  } else {
+    o.scenario = std::move(a);
+  }
 }
 
 // The command named by args[0] (and args[1] for "site ..."); returns the number of words it took.
@@ -320,21 +259,23 @@ void check_complete(const Options& o) {
 Options parse_args(const std::vector<std::string>& args) {
   Options o;
   if (args.empty()) throw UsageError("missing command");
-  const std::size_t first_argument = parse_command(args, o);
+  ArgReader r(args, parse_command(args, o));
   if (o.command == Command::kHelp || o.command == Command::kVersion) return o;
-  for (std::size_t k = first_argument; k < args.size(); ++k) {
-    if (args[k] == "--help" || args[k] == "-h") {
+  while (!r.done()) {
+    if (r.take_flag("--help", "-h")) {
       o.command = Command::kHelp;
       return o;
     }
-    take_argument(args, k, o);
+    if (!take_option(r, o)) take_operand(r, o);
   }
   check_complete(o);
   return o;
 }
 
-const char* usage_text() {
-  return R"(fragsim - Monte Carlo fragment throw over 3-D terrain
+namespace {
+
+// The usage text in three parts: synopsis, commands, options.
+constexpr char kSynopsis[] = R"(fragsim - Monte Carlo fragment throw over 3-D terrain
 
 Usage:
   fragsim run SCENARIO.json --out DIR [--threads N] [--samples-scale X] [--quiet]
@@ -357,8 +298,11 @@ Usage:
                  [--units si|us]
   fragsim --version
   fragsim --help
+An option's value follows it (--out DIR) or joins it (--out=DIR).
 
-Commands:
+)";
+
+constexpr char kCommands[] = R"(Commands:
   run        Validate the scenario, simulate it and write DIR/summary.json and DIR/results.h5.
              The files appear only when the run completes (Ctrl-C cancels: nothing is written).
   merge      Merge the partial files of `run --shard` (docs/cluster.md), in any order, into
@@ -411,7 +355,9 @@ Commands:
              progress is followed and its summary printed (--out DIR also downloads
              summary.json and results.h5). Ctrl-C stops following; the job keeps running.
 
-Options (run):
+)";
+
+constexpr char kOptions[] = R"(Options (run):
   --out DIR           Output directory (created if missing).
   --threads N         Worker threads; overrides settings.threads (0: all hardware threads).
                       Results do not depend on it.
@@ -444,6 +390,12 @@ Exit status: 0 success, 2 invalid input or command line (the message names the f
              1 internal error (submit: server unreachable, job failed), 130 cancelled.
 The scenario format is described in docs/scenario.md.
 )";
+
+}  // namespace
+
+const char* usage_text() {
+  static const std::string text = std::string(kSynopsis) + kCommands + kOptions;
+  return text.c_str();
 }
 
 }  // namespace fragsim::cli

@@ -2,19 +2,16 @@
 // Command-line arguments of `fragsim`.
 #include <cstdint>
 #include <optional>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "api/command_line.h"
 #include "api/units.h"
 
 namespace fragsim::cli {
 
-// A malformed command line (exit code 2, like invalid input).
-class UsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+// A malformed command line (exit code 2, like invalid input); api/command_line.h reads it.
+using UsageError = api::InvocationError;
 
 enum class Command {
   kHelp,

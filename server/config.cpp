@@ -11,11 +11,11 @@
 #include <fstream>
 #include <functional>
 #include <limits>
-#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <vector>
 
+#include "api/command_line.h"
 #include "api/json_fields.h"
 #include "api/scenario_json.h"
 
@@ -29,49 +29,18 @@ constexpr std::int64_t kInt64Max = std::numeric_limits<std::int64_t>::max();
 
 std::int64_t parse_integer(const std::string& text, const std::string& what, std::int64_t lo,
                            std::int64_t hi) {
-  std::size_t used = 0;
-  long long v = 0;
-  try {
-    v = std::stoll(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || text.empty())
-    throw ConfigError(what + ": expected an integer, got \"" + text + "\"");
-  if (v < lo || v > hi)
-    throw ConfigError(what + ": must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
-                      "] (got " + text + ")");
-  return v;
+  return api::integer_option(what, text, lo, hi);
 }
 
 double parse_seconds(const std::string& text, const std::string& what) {
-  std::size_t used = 0;
-  double v = 0.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || text.empty() || !(v > 0.0) || v > 86400.0)
-    throw ConfigError(what + ": expected seconds in (0, 86400], got \"" + text + "\"");
-  return v;
+  return api::number_option(what, text, "seconds", {0.0, true, 86400.0});
 }
 
 // Retention's age limit: days in [0, 36500] (0: none).
 constexpr double kMaxRetainDays = 36500.0;
 
 double parse_days(const std::string& text, const std::string& what) {
-  std::size_t used = 0;
-  double v = -1.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || text.empty() || !(v >= 0.0) || v > kMaxRetainDays)
-    throw ConfigError(what + ": expected days in [0, 36500] (0: no age limit), got \"" + text +
-                      "\"");
-  return v;
+  return api::number_option(what, text, "days", {0.0, false, kMaxRetainDays}, " (0: no age limit)");
 }
 
 void set_listen(const std::string& text, const std::string& what, Config& c) {
@@ -81,8 +50,12 @@ void set_listen(const std::string& text, const std::string& what, Config& c) {
   std::string host = text.substr(0, colon);
   if (host.size() > 2 && host.front() == '[' && host.back() == ']')
     host = host.substr(1, host.size() - 2);  // [::1]:8080
+  const auto port = api::to_integer(std::string_view(text).substr(colon + 1));
+  if (!port || *port < 0 || *port > 65535)
+    throw ConfigError(what + ": expected HOST:PORT with a port in [0, 65535], got \"" + text +
+                      "\"");
   c.listen_host = host;
-  c.listen_port = static_cast<int>(parse_integer(text.substr(colon + 1), what, 0, 65535));
+  c.listen_port = static_cast<int>(*port);
 }
 
 void check_log_level(const std::string& level, const std::string& what) {
@@ -255,107 +228,194 @@ std::vector<Token> read_tokens(const std::string& path) {
 
 namespace {
 
-// Each key of the config file and how it sets the Config (`k` names the key in errors).
-using ConfigSetter = std::function<void(const Json& v, const std::string& k, Config& c)>;
+// One setting of fragsimd: its config-file key, its flag ("--" and the key with '-' for '_',
+// unless named otherwise; "" for a key without one) and how each form sets the Config. The range
+// of a number is written once here, for both forms.
+struct Setting {
+  using FromText = std::function<void(const std::string& text, const std::string& flag, Config&)>;
+  using FromJson = std::function<void(const Json& v, const std::string& key, Config&)>;
+  std::string key;
+  std::string flag;
+  FromText from_text;  // null: no flag
+  FromJson from_json;  // null: no key
+};
 
-const std::map<std::string, ConfigSetter>& config_setters() {
-  auto positive_seconds = [](const Json& v, const std::string& k) {
-    const double s = api::read_number(v, k);
-    api::check_gt(s, 0.0, k);
-    api::check_le(s, 86400.0, k);
-    return s;
-  };
-  static const std::map<std::string, ConfigSetter> setters = {
-      {"listen", [](const Json& v, const std::string& k,
-                    Config& c) { set_listen(api::read_string(v, k), k, c); }},
-      {"data_dir",
-       [](const Json& v, const std::string& k, Config& c) { c.data_dir = api::read_string(v, k); }},
-      {"threads",
+std::string flag_of(const std::string& key) {
+  std::string flag = "--" + key;
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  return flag;
+}
+
+template <class T>
+Setting integer_setting(const std::string& key, T Config::*field, std::int64_t lo,
+                        std::int64_t hi) {
+  return {key, flag_of(key),
+          [=](const std::string& text, const std::string& flag, Config& c) {
+            c.*field = static_cast<T>(parse_integer(text, flag, lo, hi));
+          },
+          [=](const Json& v, const std::string& k, Config& c) {
+            c.*field = static_cast<T>(api::read_integer(v, k, lo, hi));
+          }};
+}
+
+Setting seconds_setting(const std::string& key, double Config::*field) {
+  return {key, flag_of(key),
+          [=](const std::string& text, const std::string& flag, Config& c) {
+            c.*field = parse_seconds(text, flag);
+          },
+          [=](const Json& v, const std::string& k, Config& c) { c.*field = read_seconds(v, k); }};
+}
+
+Setting text_setting(const std::string& key, std::string Config::*field) {
+  return {
+      key, flag_of(key),
+      [=](const std::string& text, const std::string&, Config& c) { c.*field = text; },
+      [=](const Json& v, const std::string& k, Config& c) { c.*field = api::read_string(v, k); }};
+}
+
+// A key whose flag is a switch (--no-auth, --no-ui: see take_switch).
+Setting boolean_key(const std::string& key, bool Config::*field) {
+  return {key, "", nullptr,
+          [=](const Json& v, const std::string& k, Config& c) { c.*field = api::read_bool(v, k); }};
+}
+
+// The settings whose value is more than a number or a name.
+std::vector<Setting> checked_settings() {
+  return {
+      {"listen", "--listen", set_listen,
        [](const Json& v, const std::string& k, Config& c) {
-         c.threads = static_cast<int>(api::read_integer(v, k, 0, api::kMaxThreads));
+         set_listen(api::read_string(v, k), k, c);
        }},
-      {"http_threads",
-       [](const Json& v, const std::string& k, Config& c) {
-         c.http_threads = static_cast<int>(api::read_integer(v, k, 1, 1024));
-       }},
-      {"token_file", [](const Json& v, const std::string& k,
-                        Config& c) { c.token_file = api::read_string(v, k); }},
-      {"auth",
-       [](const Json& v, const std::string& k, Config& c) { c.auth = api::read_bool(v, k); }},
-      {"max_body_bytes",
-       [](const Json& v, const std::string& k, Config& c) {
-         c.max_body_bytes = api::read_integer(v, k, 1024, kInt64Max);
-       }},
-      {"max_samples_per_job",
-       [](const Json& v, const std::string& k, Config& c) {
-         c.max_samples_per_job = api::read_integer(v, k, 1, kInt64Max);
-       }},
-      {"max_terrain_triangles",
-       [](const Json& v, const std::string& k, Config& c) {
-         c.max_terrain_triangles = api::read_integer(v, k, 2, kInt64Max);
-       }},
-      {"max_sites", [](const Json& v, const std::string& k,
-                       Config& c) { c.max_sites = api::read_integer(v, k, 1, kInt64Max); }},
-      {"max_queued_jobs",
-       [](const Json& v, const std::string& k, Config& c) {
-         c.max_queued_jobs = api::read_integer(v, k, 1, kInt64Max);
-       }},
-      {"request_timeout_s",
-       [positive_seconds](const Json& v, const std::string& k, Config& c) {
-         c.request_timeout_s = positive_seconds(v, k);
-       }},
-      {"job_nice",
-       [](const Json& v, const std::string& k, Config& c) {
-         c.job_nice = static_cast<int>(api::read_integer(v, k, 0, 19));
-       }},
-      {"keep_alive_s", [positive_seconds](const Json& v, const std::string& k,
-                                          Config& c) { c.keep_alive_s = positive_seconds(v, k); }},
-      {"max_connections",
-       [](const Json& v, const std::string& k, Config& c) {
-         c.max_connections = api::read_integer(v, k, 1, 1'000'000);
-       }},
-      {"log_level",
+      {"log_level", "--log-level",
+       [](const std::string& text, const std::string& flag, Config& c) {
+         check_log_level(text, flag);
+         c.log_level = text;
+       },
        [](const Json& v, const std::string& k, Config& c) {
          c.log_level = api::read_string(v, k);
          check_log_level(c.log_level, k);
        }},
-      {"max_crashes",
-       [](const Json& v, const std::string& k, Config& c) {
-         c.max_crashes = static_cast<int>(api::read_integer(v, k, 1, 1000));
-       }},
-      {"retain_days",
+      {"retain_days", "--retain-days",
+       [](const std::string& text, const std::string& flag, Config& c) {
+         c.retain_days = parse_days(text, flag);
+       },
        [](const Json& v, const std::string& k, Config& c) {
          c.retain_days = api::read_number(v, k);
          api::check_ge_le(c.retain_days, 0.0, kMaxRetainDays, k);
        }},
-      {"retain_bytes", [](const Json& v, const std::string& k,
-                          Config& c) { c.retain_bytes = api::read_integer(v, k, 0, kInt64Max); }},
-      {"min_free_bytes",
-       [](const Json& v, const std::string& k, Config& c) {
-         c.min_free_bytes = api::read_integer(v, k, 0, kInt64Max);
-       }},
-      {"retain_interval_s",
-       [positive_seconds](const Json& v, const std::string& k, Config& c) {
-         c.retain_interval_s = positive_seconds(v, k);
-       }},
-      {"port_file", [](const Json& v, const std::string& k,
-                       Config& c) { c.port_file = api::read_string(v, k); }},
-      {"ui", [](const Json& v, const std::string& k, Config& c) { c.ui = api::read_bool(v, k); }},
-      {"ui_dir",
-       [](const Json& v, const std::string& k, Config& c) { c.ui_dir = api::read_string(v, k); }},
-      {"backend",
-       [](const Json& v, const std::string&, Config& c) { apply_backend(v, c.backend); }},
-      {"cors_origins",
+      {"cors_origins", "--cors-origin",  // the flag adds one origin; repeatable
+       [](const std::string& text, const std::string& flag, Config& c) {
+         c.cors_origins.push_back(checked_origin(text, flag));
+       },
        [](const Json& v, const std::string& k, Config& c) {
          if (!v.is_array()) throw InputError(k, "expected array of origins");
          c.cors_origins.clear();
          for (std::size_t i = 0; i < v.size(); ++i) {
-           const std::string at = k + "[" + std::to_string(i) + "]";
+           const std::string at = api::index_path(k, i);
            c.cors_origins.push_back(checked_origin(api::read_string(v[i], at), at));
          }
        }},
   };
-  return setters;
+}
+
+// The backend: the key takes a preset name or an object; the flags its kind and two numbers.
+std::vector<Setting> backend_settings() {
+  return {
+      {"backend", "--backend",
+       [](const std::string& text, const std::string&, Config& c) { c.backend.kind = text; },
+       [](const Json& v, const std::string&, Config& c) { apply_backend(v, c.backend); }},
+      {"", "--backend-shards",
+       [](const std::string& text, const std::string& flag, Config& c) {
+         c.backend.shards = static_cast<int>(parse_integer(text, flag, 1, 4096));
+       },
+       nullptr},
+      {"", "--backend-max-jobs",
+       [](const std::string& text, const std::string& flag, Config& c) {
+         c.backend.max_jobs = static_cast<int>(parse_integer(text, flag, 1, 10000));
+       },
+       nullptr},
+  };
+}
+
+// Every setting (docs/http-api.md, "Starting the daemon").
+const std::vector<Setting>& settings() {
+  static const std::vector<Setting> all = [] {
+    std::vector<Setting> s = {
+        text_setting("data_dir", &Config::data_dir),
+        text_setting("token_file", &Config::token_file),
+        text_setting("port_file", &Config::port_file),
+        text_setting("ui_dir", &Config::ui_dir),
+        integer_setting("threads", &Config::threads, 0, api::kMaxThreads),
+        integer_setting("http_threads", &Config::http_threads, 1, 1024),
+        integer_setting("job_nice", &Config::job_nice, 0, 19),
+        integer_setting("max_connections", &Config::max_connections, 1, 1'000'000),
+        integer_setting("max_body_bytes", &Config::max_body_bytes, 1024, kInt64Max),
+        integer_setting("max_samples_per_job", &Config::max_samples_per_job, 1, kInt64Max),
+        integer_setting("max_terrain_triangles", &Config::max_terrain_triangles, 2, kInt64Max),
+        integer_setting("max_sites", &Config::max_sites, 1, kInt64Max),
+        integer_setting("max_queued_jobs", &Config::max_queued_jobs, 1, kInt64Max),
+        integer_setting("max_crashes", &Config::max_crashes, 1, 1000),
+        integer_setting("retain_bytes", &Config::retain_bytes, 0, kInt64Max),
+        integer_setting("min_free_bytes", &Config::min_free_bytes, 0, kInt64Max),
+        seconds_setting("request_timeout_s", &Config::request_timeout_s),
+        seconds_setting("keep_alive_s", &Config::keep_alive_s),
+        seconds_setting("retain_interval_s", &Config::retain_interval_s),
+        boolean_key("auth", &Config::auth),
+        boolean_key("ui", &Config::ui),
+    };
+    for (auto* more : {checked_settings, backend_settings})
+      for (Setting& x : more()) s.push_back(std::move(x));
+    return s;
+  }();
+  return all;
+}
+
+// The settings' keys or flags (for "did you mean").
+std::vector<std::string> names_of(std::string Setting::*name) {
+  std::vector<std::string> names;
+  for (const Setting& x : settings())
+    if (!(x.*name).empty()) names.push_back(x.*name);
+  return names;
+}
+
+// The flags without a value.
+bool take_switch(api::ArgReader& r, Invocation& inv) {
+  if (r.take_flag("--help", "-h")) {
+    inv.help = true;
+  } else if (r.take_flag("--version")) {
+    inv.version = true;
+  } else if (r.take_flag("--no-auth")) {
+    inv.config.auth = false;
+  } else if (r.take_flag("--no-ui")) {
+    inv.config.ui = false;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// One pass over the flags into `inv`; the config files they name are collected, not read.
+void read_flags(const std::vector<std::string>& args, Invocation& inv,
+                std::vector<std::string>& config_files) {
+  api::ArgReader r(args);
+  while (!r.done()) {
+    if (take_switch(r, inv)) continue;
+    if (auto path = r.take_value("--config")) {
+      config_files.push_back(std::move(*path));
+      continue;
+    }
+    const std::string name = r.word().substr(0, r.word().find('='));
+    const auto& all = settings();
+    const auto it = std::find_if(all.begin(), all.end(),
+                                 [&](const Setting& x) { return x.from_text && x.flag == name; });
+    if (it == all.end()) {
+      std::vector<std::string> flags = names_of(&Setting::flag);
+      for (const char* f : {"--config", "--help", "--version", "--no-auth", "--no-ui"})
+        flags.push_back(f);
+      r.unknown_option(flags);
+    }
+    it->from_text(*r.take_value(name), name, inv.config);
+  }
 }
 
 }  // namespace
@@ -369,19 +429,18 @@ void apply_config_file(const std::string& path, Config& c) {
     throw ConfigError(path + ": " + e.what());
   }
   if (!j.is_object()) throw ConfigError(path + ": expected a JSON object");
-  const auto& setters = config_setters();
+  const auto& all = settings();
   try {
     for (const auto& item : j.items()) {
       const std::string& k = item.key();
-      const auto it = setters.find(k);
-      if (it == setters.end()) {
-        std::vector<std::string> keys;
-        for (const auto& [name, set] : setters) keys.push_back(name);
-        const std::string guess = api::suggest_key(k, keys);
+      const auto it = std::find_if(all.begin(), all.end(),
+                                   [&](const Setting& x) { return x.from_json && x.key == k; });
+      if (it == all.end()) {
+        const std::string guess = api::suggest_key(k, names_of(&Setting::key));
         throw InputError(
             k, guess.empty() ? "unknown key" : "unknown key (did you mean \"" + guess + "\"?)");
       }
-      it->second(item.value(), k, c);
+      it->from_json(item.value(), k, c);
     }
   } catch (const InputError& e) {
     throw ConfigError(path + ": " + e.what());
@@ -399,87 +458,14 @@ Invocation parse_command_line(const std::vector<std::string>& command_line) {
     inv.backup_target = args[1];
     args.erase(args.begin(), args.begin() + 2);
   }
-  // The config file first, so that flags override it wherever they stand.
-  for (std::size_t k = 0; k < args.size(); ++k) {
-    if (args[k] == "--config") {
-      if (k + 1 >= args.size()) throw ConfigError("--config: needs a file name");
-      apply_config_file(args[k + 1], inv.config);
-    }
-  }
-  Config& c = inv.config;
-  for (std::size_t k = 0; k < args.size(); ++k) {
-    const std::string& a = args[k];
-    auto value = [&]() -> const std::string& {
-      if (k + 1 >= args.size()) throw ConfigError(a + ": needs a value");
-      return args[++k];
-    };
-    if (a == "--help" || a == "-h") {
-      inv.help = true;
-    } else if (a == "--version") {
-      inv.version = true;
-    } else if (a == "--config") {
-      ++k;
-    } else if (a == "--listen") {
-      set_listen(value(), a, c);
-    } else if (a == "--data-dir") {
-      c.data_dir = value();
-    } else if (a == "--threads") {
-      c.threads = static_cast<int>(parse_integer(value(), a, 0, api::kMaxThreads));
-    } else if (a == "--http-threads") {
-      c.http_threads = static_cast<int>(parse_integer(value(), a, 1, 1024));
-    } else if (a == "--token-file") {
-      c.token_file = value();
-    } else if (a == "--no-auth") {
-      c.auth = false;
-    } else if (a == "--max-body-bytes") {
-      c.max_body_bytes = parse_integer(value(), a, 1024, kInt64Max);
-    } else if (a == "--max-samples-per-job") {
-      c.max_samples_per_job = parse_integer(value(), a, 1, kInt64Max);
-    } else if (a == "--max-terrain-triangles") {
-      c.max_terrain_triangles = parse_integer(value(), a, 2, kInt64Max);
-    } else if (a == "--max-sites") {
-      c.max_sites = parse_integer(value(), a, 1, kInt64Max);
-    } else if (a == "--max-queued-jobs") {
-      c.max_queued_jobs = parse_integer(value(), a, 1, kInt64Max);
-    } else if (a == "--request-timeout-s") {
-      c.request_timeout_s = parse_seconds(value(), a);
-    } else if (a == "--job-nice") {
-      c.job_nice = static_cast<int>(parse_integer(value(), a, 0, 19));
-    } else if (a == "--keep-alive-s") {
-      c.keep_alive_s = parse_seconds(value(), a);
-    } else if (a == "--max-connections") {
-      c.max_connections = parse_integer(value(), a, 1, 1'000'000);
-    } else if (a == "--port-file") {
-      c.port_file = value();
-    } else if (a == "--log-level") {
-      c.log_level = value();
-      check_log_level(c.log_level, a);
-    } else if (a == "--ui-dir") {
-      c.ui_dir = value();
-    } else if (a == "--no-ui") {
-      c.ui = false;
-    } else if (a == "--cors-origin") {
-      c.cors_origins.push_back(checked_origin(value(), a));
-    } else if (a == "--backend") {
-      c.backend.kind = value();
-    } else if (a == "--backend-shards") {
-      c.backend.shards = static_cast<int>(parse_integer(value(), a, 1, 4096));
-    } else if (a == "--backend-max-jobs") {
-      c.backend.max_jobs = static_cast<int>(parse_integer(value(), a, 1, 10000));
-    } else if (a == "--max-crashes") {
-      c.max_crashes = static_cast<int>(parse_integer(value(), a, 1, 1000));
-    } else if (a == "--retain-days") {
-      c.retain_days = parse_days(value(), a);
-    } else if (a == "--retain-bytes") {
-      c.retain_bytes = parse_integer(value(), a, 0, kInt64Max);
-    } else if (a == "--min-free-bytes") {
-      c.min_free_bytes = parse_integer(value(), a, 0, kInt64Max);
-    } else if (a == "--retain-interval-s") {
-      c.retain_interval_s = parse_seconds(value(), a);
-    } else {
-      throw ConfigError(a + ": unknown option");
-    }
-  }
+  // The config files first, so that flags override them wherever they stand: a first pass finds
+  // them (and checks every flag), the second sets the flags over what the files set.
+  Invocation first_pass;
+  std::vector<std::string> config_files;
+  read_flags(args, first_pass, config_files);
+  for (const std::string& path : config_files) apply_config_file(path, inv.config);
+  std::vector<std::string> again;
+  read_flags(args, inv, again);
   return inv;
 }
 
@@ -503,6 +489,7 @@ const char* usage_text() {
          "       fragsimd backup DIR [--data-dir D | --config FILE]\n"
          "                           copy the data directory to DIR while the daemon runs\n"
          "                           (docs/operations.md)\n"
+         "  (a value follows its option, --threads 4, or joins it: --threads=4)\n"
          "  --config FILE            JSON config file (keys: docs/http-api.md); flags override it\n"
          "  --listen HOST:PORT       address (default 127.0.0.1:8080; port 0 = any free port)\n"
          "  --data-dir DIR           queue, sites and results (default ./fragsimd-data)\n"

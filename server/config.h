@@ -3,9 +3,10 @@
 // file. Every key, flag and default is listed in docs/http-api.md ("Starting the daemon").
 #include <cstdint>
 #include <optional>
-#include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "api/command_line.h"
 
 namespace fragsim::server {
 
@@ -91,11 +92,9 @@ struct Invocation {
   std::optional<std::string> backup_target;
 };
 
-// Throws ConfigError (exit 2) naming the flag or key and the problem.
-class ConfigError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+// Thrown (exit 2) naming the flag or key and the problem; the flags are read by
+// api/command_line.h, as fragsim's are.
+using ConfigError = api::InvocationError;
 
 Invocation parse_command_line(const std::vector<std::string>& args);  // without argv[0]
 // Reads a config file into `config` (keys as in docs/http-api.md).

@@ -385,7 +385,7 @@ TEST_F(ShardMerge, BadShardArgumentsAreUsageErrors) {
   EXPECT_EQ(run({"run", kDemo, "--out", out.string(), "--shard=2/2"}).exit_code, 2);
   const CliResult none = run({"run", kDemo, "--out", out.string(), "--shard"});
   EXPECT_EQ(none.exit_code, 2);
-  EXPECT_TRUE(contains(none.err, "--shard needs a value")) << none.err;
+  EXPECT_TRUE(contains(none.err, "--shard: needs a value")) << none.err;
   EXPECT_FALSE(fs::exists(out));
 }
 
@@ -441,7 +441,7 @@ TEST_F(ShardMerge, MergeWithoutPartsOrOutIsAUsageError) {
   EXPECT_TRUE(contains(nothing.err, "missing SCENARIO.json")) << nothing.err;
   const CliResult threads = run({"merge", kDemo, "a.fsp", "--out", out.string(), "--threads", "2"});
   EXPECT_EQ(threads.exit_code, 2) << threads.err;
-  EXPECT_TRUE(contains(threads.err, "unknown option \"--threads\"")) << threads.err;
+  EXPECT_TRUE(contains(threads.err, "--threads: unknown option")) << threads.err;
   EXPECT_FALSE(fs::exists(out));
 }
 

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -222,9 +223,50 @@ TEST(ConfigCommandLine, RangeBoundsAreAccepted) {
 TEST(ConfigCommandLine, MissingValueAndUnknownFlag) {
   EXPECT_EQ(command_line_error({"--threads"}), "--threads: needs a value");
   EXPECT_EQ(command_line_error({"--data-dir"}), "--data-dir: needs a value");
-  EXPECT_EQ(command_line_error({"--config"}), "--config: needs a file name");
-  EXPECT_EQ(command_line_error({"--thread", "4"}), "--thread: unknown option");
+  EXPECT_EQ(command_line_error({"--config"}), "--config: needs a value");
+  EXPECT_EQ(command_line_error({"--thread", "4"}),
+            "--thread: unknown option (did you mean --threads?)");
+  EXPECT_EQ(command_line_error({"--listen=", "x"}), "--listen: expected HOST:PORT, got \"\"");
   EXPECT_EQ(command_line_error({"serve"}), "serve: unknown option");
+}
+
+TEST(ConfigCommandLine, ValuesTakeBothSpellings) {
+  const Config c = parse_command_line({"--threads=4", "--data-dir=/d", "--retain-days=0.5"}).config;
+  EXPECT_EQ(c.threads, 4);
+  EXPECT_EQ(c.data_dir, "/d");
+  EXPECT_EQ(c.retain_days, 0.5);
+  EXPECT_EQ(command_line_error({"--threads=x"}),
+            "--threads: expected an integer in [0, 1024], got \"x\"");
+  EXPECT_EQ(command_line_error({"--frobnicate=1"}), "--frobnicate: unknown option");
+}
+
+// A setting's range is written once for its flag and its config-file key: each bound is taken
+// by both, one step beyond it refused by both.
+TEST_F(ConfigFile, FlagAndKeyShareTheirRanges) {
+  struct Edge {
+    const char* key;
+    const char* ok;
+    const char* bad;
+  };
+  const Edge edges[] = {
+      {"threads", "1024", "1025"},        {"http_threads", "1", "0"},
+      {"job_nice", "19", "20"},           {"max_connections", "1000000", "1000001"},
+      {"max_body_bytes", "1024", "1023"}, {"max_terrain_triangles", "2", "1"},
+      {"max_crashes", "1000", "1001"},    {"retain_bytes", "0", "-1"},
+      {"min_free_bytes", "0", "-1"},      {"request_timeout_s", "86400", "86401"},
+      {"keep_alive_s", "86400", "0"},     {"retain_days", "36500", "36501"},
+  };
+  for (const Edge& e : edges) {
+    std::string flag = std::string("--") + e.key;
+    std::replace(flag.begin(), flag.end(), '_', '-');
+    EXPECT_EQ(command_line_error({flag, e.ok}), "<no error>") << flag;
+    EXPECT_TRUE(starts_with(command_line_error({flag, e.bad}), flag + ": ")) << flag;
+    const std::string key = std::string("\"") + e.key + "\": ";
+    EXPECT_EQ(file_error("{" + key + e.ok + "}"), "<no error>") << e.key;
+    EXPECT_NE(file_error("{" + key + e.bad + "}").find(std::string(e.key) + ": "),
+              std::string::npos)
+        << e.key;
+  }
 }
 
 TEST(ConfigCommandLine, UsageMentionsEveryFlag) {
