@@ -6,14 +6,14 @@
 #include <iostream>
 #include <new>
 
-#include "cli/args.h"
-#include "cli/commands.h"
-#include "cli/signals.h"
+#include "app/args.h"
+#include "app/commands.h"
+#include "app/signals.h"
 #include "core/common/error.h"
 #include "fragsim/version.h"
 
 int main(int argc, char** argv) {
-  using namespace fragsim::cli;
+  using namespace fragsim::app;
   try {
     const Options options = parse_args(std::vector<std::string>(argv + 1, argv + argc));
     switch (options.command) {

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "cli/signals.h"
+#include "app/signals.h"
 #include "mpi/mpi_run.h"
 
 int main(int argc, char** argv) {
@@ -14,9 +14,9 @@ int main(int argc, char** argv) {
   MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
   // mpirun forwards SIGINT/SIGTERM to the ranks: the run stops at the next history, every rank
   // agrees on it and nothing is written.
-  fragsim::cli::install_cancel_handlers();
+  fragsim::app::install_cancel_handlers();
   const std::vector<std::string> args(argv + 1, argv + argc);
-  const int code = fragsim::mpi::run_mpi(args, MPI_COMM_WORLD, fragsim::cli::cancel_flag());
+  const int code = fragsim::mpi::run_mpi(args, MPI_COMM_WORLD, fragsim::app::cancel_flag());
   MPI_Finalize();
   return code;
 }

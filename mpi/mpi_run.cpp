@@ -14,9 +14,9 @@
 #include <optional>
 #include <thread>
 
-#include "cli/args.h"
-#include "cli/commands.h"
-#include "cli/progress.h"
+#include "app/args.h"
+#include "app/commands.h"
+#include "app/progress.h"
 #include "core/common/error.h"
 #include "core/run/partial.h"
 #include "formats/output_dir.h"
@@ -30,14 +30,14 @@ constexpr int kTagSize = 1, kTagBytes = 2;
 
 // Rank 0 reads the scenario file; every rank gets its bytes (no shared file system needed for
 // the input). The status is 0, or 2 when rank 0 could not read it (message printed there).
-int broadcast_scenario(const cli::Options& o, std::string& text, int rank, MPI_Comm comm) {
+int broadcast_scenario(const app::Options& o, std::string& text, int rank, MPI_Comm comm) {
   int status = 0;
   if (rank == 0) {
     try {
-      text = cli::read_file(o.scenario);
+      text = app::read_file(o.scenario);
     } catch (const InputError& e) {
       std::cerr << "error: " << e.what() << "\n";
-      status = cli::kExitInvalidInput;
+      status = app::kExitInvalidInput;
     }
   }
   MPI_Bcast(&status, 1, MPI_INT, 0, comm);
@@ -55,10 +55,10 @@ int broadcast_scenario(const cli::Options& o, std::string& text, int rank, MPI_C
 // Merges the ranks' partials up a binary tree: at step s, rank r with r mod 2s == s sends its
 // partial to r - s. Exact sums make the tree's shape irrelevant to the result. Rank 0 returns
 // the whole run's partial; the others return nothing.
-std::optional<run::PartialRun> reduce_partials(run::PartialRun mine, const cli::Options& o,
-                                               const cli::PreparedRun& p, int rank, int size,
+std::optional<run::PartialRun> reduce_partials(run::PartialRun mine, const app::Options& o,
+                                               const app::PreparedRun& p, int rank, int size,
                                                MPI_Comm comm) {
-  const formats::PartialIdentity id = cli::identity_of(o, p);
+  const formats::PartialIdentity id = app::identity_of(o, p);
   const std::size_t bins = run::tally_bins(p.doc.scenario, *p.site).total;
   for (int step = 1; step < size; step *= 2) {
     if (rank % (2 * step) == step) {
@@ -220,7 +220,7 @@ class MpiBatchExchange : public run::BatchSynchronizer {
 
 // Histories of the whole run when it is not a settings.precision run (whose shards report their
 // totals: every batch it may run): the shards partition each group's samples.
-std::int64_t whole_samples(const cli::PreparedRun& p) {
+std::int64_t whole_samples(const app::PreparedRun& p) {
   std::int64_t n = 0;
   for (const auto& g : p.doc.scenario.groups) n += g.samples;
   return n;
@@ -236,13 +236,13 @@ std::int64_t whole_samples(const cli::PreparedRun& p) {
 // posted its batch's state does not wait for the interval, and when a tick finds every rank
 // posted (and none stopping), the ranks exchange their states at once (all_gather_bytes). A stop
 // aborts the boundary on every rank alike: they all end at the same one.
-run::PartialRun run_shard(const cli::Options& o, const cli::PreparedRun& p, int rank, int size,
+run::PartialRun run_shard(const app::Options& o, const app::PreparedRun& p, int rank, int size,
                           MPI_Comm comm, const std::atomic<bool>& cancel,
-                          cli::ProgressFile& progress, bool& stopped) {
+                          app::ProgressFile& progress, bool& stopped) {
   std::atomic<bool> stop{false};
   std::atomic<std::int64_t> done{0}, total{0};
   const bool divided = p.doc.scenario.settings.precision && size > 1;
-  MpiBatchExchange batches(cli::identity_of(o, p), run::tally_bins(p.doc.scenario, *p.site).total);
+  MpiBatchExchange batches(app::identity_of(o, p), run::tally_bins(p.doc.scenario, *p.site).total);
   run::RunControl control;
   control.cancel = &stop;
   if (divided) control.synchronizer = &batches;
@@ -310,40 +310,40 @@ run::PartialRun as_one_shard(run::PartialRun whole) {
   return whole;
 }
 
-int run_ranks(const cli::Options& o, const cli::PreparedRun& p, int rank, int size, MPI_Comm comm,
+int run_ranks(const app::Options& o, const app::PreparedRun& p, int rank, int size, MPI_Comm comm,
               const std::atomic<bool>& cancel, formats::OutputDir* out) {
-  cli::ProgressFile progress(rank == 0 ? o.progress_file : std::string());
+  app::ProgressFile progress(rank == 0 ? o.progress_file : std::string());
   bool stopped = false;
   run::PartialRun part = run_shard(o, p, rank, size, comm, cancel, progress, stopped);
   if (stopped || part.cancelled) {
     progress.finish("cancelled");
     if (rank == 0) std::cerr << "cancelled: no output written\n";
-    return cli::kExitCancelled;
+    return app::kExitCancelled;
   }
   std::optional<run::PartialRun> whole = reduce_partials(std::move(part), o, p, rank, size, comm);
-  if (!whole) return cli::kExitOk;
+  if (!whole) return app::kExitOk;
   if (o.shard) {  // --shard 0/1: the whole run's partial, for fragsimd or `fragsim merge`
-    const int code = cli::write_partial(o, p, as_one_shard(std::move(*whole)), *out);
-    progress.finish(code == cli::kExitOk ? "done" : "cancelled");
+    const int code = app::write_partial(o, p, as_one_shard(std::move(*whole)), *out);
+    progress.finish(code == app::kExitOk ? "done" : "cancelled");
     return code;
   }
   run::RunResult result = run::finish(p.doc.scenario, *p.site, std::move(*whole));
-  const int code = cli::write_outputs(o, p, result, cancel, *out);
-  progress.finish(code == cli::kExitOk ? "done" : "cancelled");
+  const int code = app::write_outputs(o, p, result, cancel, *out);
+  progress.finish(code == app::kExitOk ? "done" : "cancelled");
   return code;
 }
 
 // Rank 0 makes --out before the run, so that one that cannot be made fails now, not after it
 // (removed again unless the outputs are committed). Every rank returns the same status.
-int open_out(const cli::Options& o, int rank, MPI_Comm comm,
+int open_out(const app::Options& o, int rank, MPI_Comm comm,
              std::unique_ptr<formats::OutputDir>& out) {
   int status = 0;
   if (rank == 0) {
     try {
-      out = cli::open_out(o);
+      out = app::open_out(o);
     } catch (const InputError& e) {
       std::cerr << "error: " << e.what() << "\n";
-      status = cli::kExitInvalidInput;
+      status = app::kExitInvalidInput;
     }
   }
   MPI_Bcast(&status, 1, MPI_INT, 0, comm);
@@ -378,29 +378,29 @@ int run_mpi(const std::vector<std::string>& args, MPI_Comm comm, const std::atom
   MPI_Comm_size(comm, &size);
   // Input errors are found alike on every rank (same arguments, same bytes): each returns 2
   // and only rank 0 speaks. Anything else on one rank would leave the others waiting: abort.
-  cli::Options o;
+  app::Options o;
   std::string text;
   try {
-    o = cli::parse_args(args);
-    if (o.command != cli::Command::kRun)
-      throw cli::UsageError("fragsim-mpi runs one command: run SCENARIO.json --out DIR ...");
+    o = app::parse_args(args);
+    if (o.command != app::Command::kRun)
+      throw app::UsageError("fragsim-mpi runs one command: run SCENARIO.json --out DIR ...");
     if (o.shard && o.shard->count != 1)
-      throw cli::UsageError(
+      throw app::UsageError(
           "--shard: fragsim-mpi divides the histories among its ranks itself (only --shard 0/1 "
           "is taken: the whole run's DIR/partial.fsp instead of the outputs)");
-  } catch (const cli::UsageError& e) {
+  } catch (const app::UsageError& e) {
     if (rank == 0) std::cerr << "error: " << e.what() << "\n";
-    return cli::kExitInvalidInput;
+    return app::kExitInvalidInput;
   }
   if (const int status = broadcast_scenario(o, text, rank, comm); status != 0) return status;
-  std::optional<cli::PreparedRun> p;
+  std::optional<app::PreparedRun> p;
   try {
-    p = cli::prepare_text(o, std::move(text));
+    p = app::prepare_text(o, std::move(text));
   } catch (const InputError& e) {
     if (rank == 0) std::cerr << "error: " << e.what() << "\n";
-    return cli::kExitInvalidInput;
+    return app::kExitInvalidInput;
   }
-  if (rank == 0 && !o.quiet) std::cerr << cli::input_notes(*p);
+  if (rank == 0 && !o.quiet) std::cerr << app::input_notes(*p);
   std::unique_ptr<formats::OutputDir> out;
   if (const int status = open_out(o, rank, comm, out); status != 0) return status;
   try {
@@ -410,8 +410,8 @@ int run_mpi(const std::vector<std::string>& args, MPI_Comm comm, const std::atom
   } catch (...) {
     std::cerr << "error (rank " << rank << "): unknown\n";
   }
-  MPI_Abort(comm, cli::kExitInternal);
-  return cli::kExitInternal;
+  MPI_Abort(comm, app::kExitInternal);
+  return app::kExitInternal;
 }
 
 }  // namespace fragsim::mpi

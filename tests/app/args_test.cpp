@@ -1,13 +1,13 @@
-// The command line of `fragsim` (cli/args.h): each command's operands and options, and the
+// The command line of `fragsim` (app/args.h): each command's operands and options, and the
 // usage errors that name what is wrong (exit code 2 in main).
-#include "cli/args.h"
+#include "app/args.h"
 
 #include <gtest/gtest.h>
 
 #include <string>
 #include <vector>
 
-namespace fragsim::cli {
+namespace fragsim::app {
 namespace {
 
 using Args = std::vector<std::string>;
@@ -177,4 +177,4 @@ TEST(Args, HelpAndVersionWinAndEveryMistakeIsNamed) {
 }
 
 }  // namespace
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

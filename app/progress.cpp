@@ -1,4 +1,4 @@
-#include "cli/progress.h"
+#include "app/progress.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 
 #include "core/run/precision.h"
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 // " batch 4: 7 of 9 targets met, ETA 35 s" (settings.precision).
 std::string precision_progress(const run::PrecisionReport& r) {
@@ -90,4 +90,4 @@ void ProgressFile::write(const char* state) {
   std::filesystem::rename(tmp, path_, ec);
 }
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

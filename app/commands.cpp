@@ -1,4 +1,4 @@
-#include "cli/commands.h"
+#include "app/commands.h"
 
 #include <unistd.h>
 
@@ -21,7 +21,7 @@
 #include "api/scenario_json.h"
 #include "api/sha256.h"
 #include "api/summary_json.h"
-#include "cli/progress.h"
+#include "app/progress.h"
 #include "core/common/error.h"
 #include "core/run/partial.h"
 #include "core/run/precision.h"
@@ -30,7 +30,7 @@
 #include "formats/output_dir.h"
 #include "formats/partial_file.h"
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 std::string read_file(const std::string& path, const std::string& field) {
   std::ifstream in(path, std::ios::binary);
@@ -272,4 +272,4 @@ int merge_command(const Options& o, const std::atomic<bool>& cancel) {
   return write_outputs(o, p, result, cancel, *open_out(o));
 }
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

@@ -1,4 +1,4 @@
-#include "cli/args.h"
+#include "app/args.h"
 
 #include <limits>
 #include <map>
@@ -9,7 +9,7 @@
 #include "api/scenario_json.h"
 #include "core/run/partial.h"
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 namespace {
 
@@ -398,4 +398,4 @@ const char* usage_text() {
   return text.c_str();
 }
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

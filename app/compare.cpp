@@ -8,13 +8,13 @@
 #include "api/compare_json.h"
 #include "api/run_outputs.h"
 #include "api/sha256.h"
-#include "cli/commands.h"
-#include "cli/progress.h"
+#include "app/commands.h"
+#include "app/progress.h"
 #include "core/common/error.h"
 #include "core/run/paired.h"
 #include "gis/results_export.h"
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 namespace {
 
@@ -116,4 +116,4 @@ int compare_command(const Options& o, const std::atomic<bool>& cancel) {
   return kExitOk;
 }
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

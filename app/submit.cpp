@@ -14,7 +14,7 @@
 #include "api/run_outputs.h"
 #include "api/scenario_json.h"
 #include "api/summary_json.h"
-#include "cli/commands.h"
+#include "app/commands.h"
 #include "core/common/error.h"
 #include "formats/output_dir.h"
 
@@ -22,7 +22,7 @@
 // Eigen's parameter names.
 #include <httplib.h>
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 namespace {
 
@@ -261,4 +261,4 @@ int submit_command(const Options& o, const std::atomic<bool>& cancel) {
   }
 }
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

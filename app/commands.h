@@ -1,18 +1,18 @@
 #pragma once
 // The `fragsim` commands. Each returns the process exit code or throws: fragsim::InputError and
-// cli::UsageError mean invalid input (exit 2), anything else an internal error (exit 1).
+// app::UsageError mean invalid input (exit 2), anything else an internal error (exit 1).
 #include <atomic>
 #include <memory>
 #include <string>
 
 #include "api/scenario_json.h"
-#include "cli/args.h"
+#include "app/args.h"
 #include "core/run/result.h"
 #include "core/scene/site.h"
 #include "formats/output_dir.h"
 #include "formats/partial_file.h"
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitInternal = 1;
@@ -71,4 +71,4 @@ int compare_command(const Options& options, const std::atomic<bool>& cancel);
 // Runs the scenario on a fragsimd server; `cancel` stops following (the job keeps running).
 int submit_command(const Options& options, const std::atomic<bool>& cancel);
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

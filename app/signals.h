@@ -4,9 +4,9 @@
 // up); the second takes the default action, i.e. terminates at once.
 #include <atomic>
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 std::atomic<bool>& cancel_flag();
 void install_cancel_handlers();
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

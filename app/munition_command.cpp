@@ -6,11 +6,11 @@
 
 #include "api/munition_json.h"
 #include "api/scenario_json.h"
-#include "cli/commands.h"
+#include "app/commands.h"
 #include "core/common/error.h"
 #include "formats/output_dir.h"
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 namespace {
 
@@ -44,4 +44,4 @@ int groups_from_munition_command(const Options& o) {
   return kExitOk;
 }
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

@@ -9,7 +9,7 @@
 
 #include "core/run/run.h"
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 // " batch 4: 7 of 9 targets met, ETA 35 s" (settings.precision).
 std::string precision_progress(const run::PrecisionReport& r);
@@ -56,4 +56,4 @@ class ProgressFile {
   bool finished_ = false;
 };
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

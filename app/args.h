@@ -8,7 +8,7 @@
 #include "api/command_line.h"
 #include "api/units.h"
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 // A malformed command line (exit code 2, like invalid input); api/command_line.h reads it.
 using UsageError = api::InvocationError;
@@ -70,4 +70,4 @@ Options parse_args(const std::vector<std::string>& args);  // args without argv[
 
 const char* usage_text();
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

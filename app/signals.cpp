@@ -1,9 +1,9 @@
-#include "cli/signals.h"
+#include "app/signals.h"
 
 #include <csignal>
 #include <cstring>
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 namespace {
 
@@ -32,4 +32,4 @@ void install_cancel_handlers() {
   sigaction(SIGTERM, &sa, nullptr);
 }
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app

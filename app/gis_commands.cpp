@@ -5,7 +5,7 @@
 
 #include "api/scenario_json.h"
 #include "api/site_document.h"
-#include "cli/commands.h"
+#include "app/commands.h"
 #include "core/common/error.h"
 #include "core/scene/site.h"
 #include "formats/output_dir.h"
@@ -15,7 +15,7 @@
 #include "gis/site_to_gis.h"
 #include "report/report.h"
 
-namespace fragsim::cli {
+namespace fragsim::app {
 
 namespace {
 
@@ -145,4 +145,4 @@ int report_command(const Options& o) {
   return kExitOk;
 }
 
-}  // namespace fragsim::cli
+}  // namespace fragsim::app
