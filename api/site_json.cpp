@@ -435,6 +435,98 @@ scene::SiteSpec parse_site(const Json& j, const std::string& path,
   return site;
 }
 
+namespace {
+
+Json ring_json(const std::vector<std::array<double, 2>>& ring) {
+  Json out = Json::array();
+  for (const auto& p : ring) out.push_back(vec2_json(p));
+  return out;
+}
+
+Json terrain_json(const scene::TerrainSpec& t) {
+  Json terrain = Json::object();
+  if (const auto* plane = std::get_if<scene::PlaneTerrainSpec>(&t.geometry)) {
+    terrain["plane"] = {{"elevation_m", plane->elevation_m},
+                        {"extent_m", plane->extent_m},
+                        {"cell_m", plane->cell_m}};
+  } else if (const auto* grid = std::get_if<scene::GridTerrainSpec>(&t.geometry)) {
+    terrain["grid"] = {{"origin_m", vec2_json(grid->origin_m)},
+                       {"spacing_m", grid->spacing_m},
+                       {"nx", grid->nx},
+                       {"ny", grid->ny},
+                       {"elevation_m", grid->elevation_m}};
+  } else {
+    terrain["mesh"] = mesh_json(std::get<scene::MeshSpec>(t.geometry), false);
+  }
+  terrain["material"] = t.material;
+  if (!t.triangle_material_names.empty() || !t.triangle_material.empty())
+    terrain["triangle_materials"] = {{"names", t.triangle_material_names},
+                                     {"index", t.triangle_material}};
+  if (!t.zones.empty()) {
+    Json zones = Json::array();
+    for (const auto& z : t.zones)
+      zones.push_back({{"material", z.material}, {"polygon_m", ring_json(z.polygon_m)}});
+    terrain["zones"] = std::move(zones);
+  }
+  return terrain;
+}
+
+// One material; `note` (may be null) says whether its values are illustrative and their source.
+Json material_json(const scene::MaterialSpec& m, const MaterialNotes* note) {
+  Json mj = {{"friction", m.friction},
+             {"rolling_resistance", m.rolling_resistance},
+             {"restitution", restitution_json(m.restitution)}};
+  if (m.penetration_ke_per_area_j_per_m2)
+    mj["penetration"] = {{"ke_per_area_j_per_m2", *m.penetration_ke_per_area_j_per_m2}};
+  if (m.fast_contact) {
+    const scene::FastContactSpec& f = *m.fast_contact;
+    mj["fast_contact"] = {{"bulk_density_kg_m3", f.bulk_density_kg_m3},
+                          {"switch_speed_mps", f.switch_speed_mps},
+                          {"critical_angle_coefficient_deg", f.critical_angle_coefficient_deg},
+                          {"drag_to_lift_ratio", f.drag_to_lift_ratio},
+                          {"roughness_deg", f.roughness_deg},
+                          {"exit_angle_ratio", f.exit_angle_ratio}};
+  }
+  if (!m.ranges.empty()) {
+    Json r = Json::object();
+    for (const auto& [constant, range] : m.ranges) r[constant] = {range[0], range[1]};
+    mj["ranges"] = std::move(r);
+  }
+  if (m.embedment)
+    mj["embedment"] = {{"model", "johnson_reid_1975"},
+                       {"bulk_density_kg_m3", m.embedment->bulk_density_kg_m3},
+                       {"coefficient_deg", m.embedment->coefficient_deg},
+                       {"min_speed_mps", m.embedment->min_speed_mps}};
+  if (note) {
+    mj["illustrative"] = note->illustrative;
+    if (!note->source.empty()) mj["source"] = note->source;
+  }
+  return mj;
+}
+
+Json building_json(const scene::BuildingSpec& b) {
+  Json bj = {{"id", b.id}};
+  if (b.mesh) {
+    bj["mesh"] = mesh_json(*b.mesh, true);
+  } else {
+    bj["footprint_m"] = ring_json(b.footprint_m);
+    // Only when there are holes: a site without them keeps its normalised form (and its id).
+    if (!b.holes_m.empty()) {
+      Json holes = Json::array();
+      for (const auto& ring : b.holes_m) holes.push_back(ring_json(ring));
+      bj["holes_m"] = std::move(holes);
+    }
+    bj["height_m"] = b.height_m;
+    if (b.base_elevation_m) bj["base_elevation_m"] = *b.base_elevation_m;
+  }
+  if (!b.wall.empty()) bj["wall"] = b.wall;
+  if (!b.roof.empty()) bj["roof"] = b.roof;
+  if (!b.window.empty()) bj["window"] = b.window;
+  return bj;
+}
+
+}  // namespace
+
 Json site_to_json(const scene::SiteSpec& site, const std::map<std::string, MaterialNotes>* notes) {
   Json out = Json::object();
   if (site.origin) {
@@ -443,99 +535,18 @@ Json site_to_json(const scene::SiteSpec& site, const std::map<std::string, Mater
                      {"northing_m", site.origin->northing_m},
                      {"elevation_m", site.origin->elevation_m}};
   }
-
-  Json terrain = Json::object();
-  if (const auto* plane = std::get_if<scene::PlaneTerrainSpec>(&site.terrain.geometry)) {
-    terrain["plane"] = {{"elevation_m", plane->elevation_m},
-                        {"extent_m", plane->extent_m},
-                        {"cell_m", plane->cell_m}};
-  } else if (const auto* grid = std::get_if<scene::GridTerrainSpec>(&site.terrain.geometry)) {
-    terrain["grid"] = {{"origin_m", vec2_json(grid->origin_m)},
-                       {"spacing_m", grid->spacing_m},
-                       {"nx", grid->nx},
-                       {"ny", grid->ny},
-                       {"elevation_m", grid->elevation_m}};
-  } else {
-    terrain["mesh"] = mesh_json(std::get<scene::MeshSpec>(site.terrain.geometry), false);
-  }
-  terrain["material"] = site.terrain.material;
-  if (!site.terrain.triangle_material_names.empty() || !site.terrain.triangle_material.empty())
-    terrain["triangle_materials"] = {{"names", site.terrain.triangle_material_names},
-                                     {"index", site.terrain.triangle_material}};
-  if (!site.terrain.zones.empty()) {
-    Json zones = Json::array();
-    for (const auto& z : site.terrain.zones) {
-      Json ring = Json::array();
-      for (const auto& p : z.polygon_m) ring.push_back(vec2_json(p));
-      zones.push_back({{"material", z.material}, {"polygon_m", std::move(ring)}});
-    }
-    terrain["zones"] = std::move(zones);
-  }
-  out["terrain"] = std::move(terrain);
-
+  out["terrain"] = terrain_json(site.terrain);
   Json materials = Json::object();
   for (const auto& [name, m] : site.materials) {
-    Json mj = {{"friction", m.friction},
-               {"rolling_resistance", m.rolling_resistance},
-               {"restitution", restitution_json(m.restitution)}};
-    if (m.penetration_ke_per_area_j_per_m2)
-      mj["penetration"] = {{"ke_per_area_j_per_m2", *m.penetration_ke_per_area_j_per_m2}};
-    if (m.fast_contact) {
-      const scene::FastContactSpec& f = *m.fast_contact;
-      mj["fast_contact"] = {{"bulk_density_kg_m3", f.bulk_density_kg_m3},
-                            {"switch_speed_mps", f.switch_speed_mps},
-                            {"critical_angle_coefficient_deg", f.critical_angle_coefficient_deg},
-                            {"drag_to_lift_ratio", f.drag_to_lift_ratio},
-                            {"roughness_deg", f.roughness_deg},
-                            {"exit_angle_ratio", f.exit_angle_ratio}};
-    }
-    if (!m.ranges.empty()) {
-      Json r = Json::object();
-      for (const auto& [constant, range] : m.ranges) r[constant] = {range[0], range[1]};
-      mj["ranges"] = std::move(r);
-    }
-    if (m.embedment)
-      mj["embedment"] = {{"model", "johnson_reid_1975"},
-                         {"bulk_density_kg_m3", m.embedment->bulk_density_kg_m3},
-                         {"coefficient_deg", m.embedment->coefficient_deg},
-                         {"min_speed_mps", m.embedment->min_speed_mps}};
+    const MaterialNotes* note = nullptr;
     if (notes) {
-      if (const auto it = notes->find(name); it != notes->end()) {
-        mj["illustrative"] = it->second.illustrative;
-        if (!it->second.source.empty()) mj["source"] = it->second.source;
-      }
+      if (const auto it = notes->find(name); it != notes->end()) note = &it->second;
     }
-    materials[name] = std::move(mj);
+    materials[name] = material_json(m, note);
   }
   out["materials"] = std::move(materials);
-
   Json buildings = Json::array();
-  for (const auto& b : site.buildings) {
-    Json bj = {{"id", b.id}};
-    if (b.mesh) {
-      bj["mesh"] = mesh_json(*b.mesh, true);
-    } else {
-      Json footprint = Json::array();
-      for (const auto& p : b.footprint_m) footprint.push_back(vec2_json(p));
-      bj["footprint_m"] = std::move(footprint);
-      // Only when there are holes: a site without them keeps its normalised form (and its id).
-      if (!b.holes_m.empty()) {
-        Json holes = Json::array();
-        for (const auto& ring : b.holes_m) {
-          Json hole = Json::array();
-          for (const auto& p : ring) hole.push_back(vec2_json(p));
-          holes.push_back(std::move(hole));
-        }
-        bj["holes_m"] = std::move(holes);
-      }
-      bj["height_m"] = b.height_m;
-      if (b.base_elevation_m) bj["base_elevation_m"] = *b.base_elevation_m;
-    }
-    if (!b.wall.empty()) bj["wall"] = b.wall;
-    if (!b.roof.empty()) bj["roof"] = b.roof;
-    if (!b.window.empty()) bj["window"] = b.window;
-    buildings.push_back(std::move(bj));
-  }
+  for (const auto& b : site.buildings) buildings.push_back(building_json(b));
   out["buildings"] = std::move(buildings);
   return out;
 }

@@ -281,6 +281,70 @@ Json site_boundary_json(const run::RunResult& r) {
           {"note", note.empty() ? Json(nullptr) : Json(note)}};
 }
 
+Json buildings_json(const run::RunResult& r) {
+  Json buildings = Json::array();
+  for (const auto& b : r.buildings) {
+    Json bj = {{"id", b.id}};
+    bj.update(estimate_pair(b.impacts, b.penetrations));
+    Json by_surface = Json::object();
+    for (const auto s :
+         {scene::SurfaceType::kWall, scene::SurfaceType::kRoof, scene::SurfaceType::kWindow}) {
+      const auto k = static_cast<std::size_t>(s);
+      by_surface[scene::surface_type_name(s)] =
+          estimate_pair(b.impacts_by_surface[k], b.penetrations_by_surface[k]);
+    }
+    bj["by_surface"] = std::move(by_surface);
+    bj["residual_ke_j"] = b.residual_ke_j.mean;
+    bj["residual_ke_std_error_j"] = b.residual_ke_j.std_error;
+    buildings.push_back(std::move(bj));
+  }
+  return buildings;
+}
+
+Json outcomes_json(const run::RunResult& r) {
+  Json outcomes = Json::object();
+  for (int k = 0; k < run::kOutcomeCount; ++k) {
+    const auto o = static_cast<std::size_t>(k);
+    outcomes[run::outcome_name(static_cast<run::Outcome>(k))] = {
+        {"histories", r.outcome_histories[o]},
+        {"fragments", r.outcome_fragments[o].mean},
+        {"fragments_std_error", r.outcome_fragments[o].std_error}};
+  }
+  return outcomes;
+}
+
+Json timing_json(const run::Timing& t, bool profiled) {
+  Json timing = {{"wall_s", t.wall_s},
+                 {"parse_s", t.parse_s},
+                 {"build_s", t.build_s},
+                 {"threads", t.threads},
+                 {"fragments_per_s", t.fragments_per_s},
+                 {"fragments_per_s_per_thread", t.fragments_per_s_per_thread}};
+  if (profiled) {  // only measured with settings.profile
+    timing["integration_s"] = t.integration_s;
+    timing["geometry_s"] = t.geometry_s;
+    timing["tally_s"] = t.tally_s;
+  }
+  return timing;
+}
+
+Json stats_json(const run::RunStats& s) {
+  return {{"rhs_evaluations", s.rhs_evaluations},
+          {"integrator_steps", s.integrator_steps},
+          {"chords", s.chords},
+          {"scene_queries", s.scene_queries},
+          {"chords_skipped", s.chords_skipped},
+          {"ptn_triangle_tests", s.ptn_triangle_tests},
+          {"bounces", s.bounces},
+          {"ground_steps", s.ground_steps},
+          {"ground_impacts", s.ground_impacts},
+          {"takeoffs", s.takeoffs},
+          {"ground_step_caps", s.ground_step_caps},
+          {"energy_rises", s.energy_rises},
+          {"fast_contacts", s.fast_contacts},
+          {"fast_slides", s.fast_slides}};
+}
+
 }  // namespace
 
 std::string hfd_bound_note(const run::RunResult& r) {
@@ -330,65 +394,11 @@ nlohmann::ordered_json summary_to_json(const run::RunResult& r, const run::Scena
     out["max_ptn_location_m"] = nullptr;
   }
 
-  Json buildings = Json::array();
-  for (const auto& b : r.buildings) {
-    Json bj = {{"id", b.id}};
-    bj.update(estimate_pair(b.impacts, b.penetrations));
-    Json by_surface = Json::object();
-    for (const auto s :
-         {scene::SurfaceType::kWall, scene::SurfaceType::kRoof, scene::SurfaceType::kWindow}) {
-      const auto k = static_cast<std::size_t>(s);
-      by_surface[scene::surface_type_name(s)] =
-          estimate_pair(b.impacts_by_surface[k], b.penetrations_by_surface[k]);
-    }
-    bj["by_surface"] = std::move(by_surface);
-    bj["residual_ke_j"] = b.residual_ke_j.mean;
-    bj["residual_ke_std_error_j"] = b.residual_ke_j.std_error;
-    buildings.push_back(std::move(bj));
-  }
-  out["buildings"] = std::move(buildings);
-
-  Json outcomes = Json::object();
-  for (int k = 0; k < run::kOutcomeCount; ++k) {
-    const auto o = static_cast<std::size_t>(k);
-    outcomes[run::outcome_name(static_cast<run::Outcome>(k))] = {
-        {"histories", r.outcome_histories[o]},
-        {"fragments", r.outcome_fragments[o].mean},
-        {"fragments_std_error", r.outcome_fragments[o].std_error}};
-  }
-  out["outcomes"] = std::move(outcomes);
+  out["buildings"] = buildings_json(r);
+  out["outcomes"] = outcomes_json(r);
   if (r.precision) out["precision"] = precision_report_json(*r.precision);
-
-  const run::Timing& t = r.timing;
-  Json timing = {{"wall_s", t.wall_s},
-                 {"parse_s", t.parse_s},
-                 {"build_s", t.build_s},
-                 {"threads", t.threads},
-                 {"fragments_per_s", t.fragments_per_s},
-                 {"fragments_per_s_per_thread", t.fragments_per_s_per_thread}};
-  if (scenario.settings.profile) {  // only measured with settings.profile
-    timing["integration_s"] = t.integration_s;
-    timing["geometry_s"] = t.geometry_s;
-    timing["tally_s"] = t.tally_s;
-  }
-  out["timing"] = std::move(timing);
-
-  const run::RunStats& s = r.stats;
-  out["stats"] = {{"rhs_evaluations", s.rhs_evaluations},
-                  {"integrator_steps", s.integrator_steps},
-                  {"chords", s.chords},
-                  {"scene_queries", s.scene_queries},
-                  {"chords_skipped", s.chords_skipped},
-                  {"ptn_triangle_tests", s.ptn_triangle_tests},
-                  {"bounces", s.bounces},
-                  {"ground_steps", s.ground_steps},
-                  {"ground_impacts", s.ground_impacts},
-                  {"takeoffs", s.takeoffs},
-                  {"ground_step_caps", s.ground_step_caps},
-                  {"energy_rises", s.energy_rises},
-                  {"fast_contacts", s.fast_contacts},
-                  {"fast_slides", s.fast_slides}};
-
+  out["timing"] = timing_json(r.timing, scenario.settings.profile);
+  out["stats"] = stats_json(r.stats);
   Json prov = {{"version", provenance.version}, {"git_sha", provenance.git_sha}};
   if (provenance.scenario_sha256) prov["scenario_sha256"] = *provenance.scenario_sha256;
   out["provenance"] = std::move(prov);

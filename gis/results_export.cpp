@@ -530,9 +530,11 @@ namespace {
 
 // ParaView: terrain, buildings and trajectories as VTKHDF (gis/vtkhdf_export.h); a file with
 // nothing to show is left out and said.
-void stage_paraview(const fs::path& h5, const Vec2& offset,
-                    const std::function<void(const std::string&,
-                                             const std::function<void(const fs::path&)>&)>& stage,
+// Stages one file of the export: its name and its writer (to a temporary path).
+using Stage =
+    std::function<void(const std::string& name, const std::function<void(const fs::path&)>& write)>;
+
+void stage_paraview(const fs::path& h5, const Vec2& offset, const Stage& stage,
                     std::vector<std::string>& notes) {
   const formats::VtkUnstructuredGrid terrain = terrain_vtk(h5, offset);
   stage("terrain.vtkhdf", [&](const fs::path& p) { formats::write_vtkhdf(p, terrain); });
@@ -566,34 +568,94 @@ bool write_difference_map(const fs::path& results_h5, const fs::path& compare_h5
   return true;
 }
 
+namespace {
+
+// Every layer, into one data set (GeoPackage in the site's CRS, KML in WGS 84 through `tr`).
+void write_all_layers(GDALDataset& ds, const ResultsFile& r, const LayerSet& g,
+                      const PlanBoundary& boundary, const OGRSpatialReference* srs,
+                      OGRCoordinateTransformation* tr, api::UnitSystem units) {
+  write_hazard_layer(ds, r, g, srs, tr, units);
+  write_buildings_layer(ds, r, g, srs, tr);
+  write_hfd_layers(ds, r, srs, tr, units);
+  write_boundary_layers(ds, r, boundary, srs, tr, units);
+}
+
+// The site's CRS when PROJ knows it. site.origin.crs is informational in a scenario: a label PROJ
+// does not know (e.g. "local") is treated as no CRS, as the PTN GeoJSON route does, rather than
+// refusing the export.
+std::optional<OGRSpatialReference> site_crs(const ResultsFile& r, ExportReport& report) {
+  if (r.crs.empty()) return std::nullopt;
+  try {
+    auto srs = crs_from_text(r.crs, "site.origin.crs");
+    report.crs = r.crs;
+    return srs;
+  } catch (const InputError&) {
+    report.notes.push_back("site.origin.crs \"" + r.crs +
+                           "\" is not a CRS PROJ knows: read as no CRS");
+  }
+  return std::nullopt;
+}
+
+// What every export holds: the hazard polygons (estimate and ±1 se) and the buildings' plans.
+LayerSet layer_set(const ResultsFile& r, ExportReport& report) {
+  LayerSet g;
+  g.estimate = hazard_area(r, 0.0, &report.hazardous_triangles);
+  g.lower = hazard_area(r, -1.0, nullptr);
+  g.upper = hazard_area(r, 1.0, nullptr);
+  for (const auto& b : r.buildings) g.buildings.push_back(union_of(b.plan));
+  return g;
+}
+
+// A GeoJSON file (RFC 7946 coordinates while `write` runs).
+std::function<void(const fs::path&)> geojson(const std::function<void(GDALDataset&)>& write) {
+  return [write](const fs::path& p) {
+    auto ds = create_vector(p, "GeoJSON");
+    g_rfc7946 = true;
+    try {
+      write(*ds);
+    } catch (...) {
+      g_rfc7946 = false;
+      throw;
+    }
+    g_rfc7946 = false;
+  };
+}
+
+// The files in WGS 84 (GeoJSON and KML), for a site whose CRS PROJ knows.
+void stage_wgs84_files(const Stage& stage, const ResultsFile& r, const LayerSet& g,
+                       const PlanBoundary& boundary, const OGRSpatialReference* site_srs,
+                       api::UnitSystem units) {
+  OGRSpatialReference wgs84 = crs_from_text("EPSG:4326", "wgs84");
+  std::unique_ptr<OGRCoordinateTransformation> to_wgs(
+      OGRCreateCoordinateTransformation(site_srs, &wgs84));
+  if (!to_wgs) throw InputError("site.origin.crs", r.crs + ": no transformation to WGS 84");
+  stage("hazardous_area.geojson",
+        geojson([&](GDALDataset& ds) { write_hazard_layer(ds, r, g, site_srs, nullptr, units); }));
+  stage("buildings.geojson",
+        geojson([&](GDALDataset& ds) { write_buildings_layer(ds, r, g, site_srs, nullptr); }));
+  stage("hazard_boundary.geojson", geojson([&](GDALDataset& ds) {
+          write_boundary_geojson(ds, r, boundary, site_srs, units);
+        }));
+  stage("hazard.kml", [&](const fs::path& p) {
+    auto ds = create_vector(p, "KML");
+    write_all_layers(*ds, r, g, boundary, &wgs84, to_wgs.get(), units);
+  });
+}
+
+}  // namespace
+
 ExportReport export_results(const ExportOptions& o) {
   const ResultsFile r = read_results_file(o.results_h5);
   ExportReport report;
   if (r.hfd_bound == "lower") report.notes.push_back(r.hfd_note);  // on every export, first
-  // site.origin.crs is informational in a scenario: a label PROJ does not know (e.g. "local")
-  // is treated as no CRS, as the PTN GeoJSON route does, rather than refusing the export.
-  std::optional<OGRSpatialReference> srs;
-  if (!r.crs.empty()) {
-    try {
-      srs = crs_from_text(r.crs, "site.origin.crs");
-      report.crs = r.crs;
-    } catch (const InputError&) {
-      report.notes.push_back("site.origin.crs \"" + r.crs +
-                             "\" is not a CRS PROJ knows: read as no CRS");
-    }
-  }
+  const std::optional<OGRSpatialReference> srs = site_crs(r, report);
   const OGRSpatialReference* site_srs = srs ? &*srs : nullptr;
 
   report.pixel_m = o.pixel_m.value_or(default_cell(r));
   const PlanRaster pr = rasterise(r, report.pixel_m, r.grid_origin && !o.pixel_m);
   report.raster_cols = pr.cols;
   report.raster_rows = pr.rows;
-
-  LayerSet g;
-  g.estimate = hazard_area(r, 0.0, &report.hazardous_triangles);
-  g.lower = hazard_area(r, -1.0, nullptr);
-  g.upper = hazard_area(r, 1.0, nullptr);
-  for (const auto& b : r.buildings) g.buildings.push_back(union_of(b.plan));
+  const LayerSet g = layer_set(r, report);
   const PlanBoundary boundary = plan_boundary(r, {o.smoothing_m});
   if (boundary.smoothed.empty())
     report.notes.push_back(
@@ -602,8 +664,9 @@ ExportReport export_results(const ExportOptions& o) {
 
   GdalErrorCapture quiet;  // drivers' warnings (temporary file names) are not the user's
   formats::OutputDir out(o.out_dir);
-  const auto stage = [&](const std::string& name, const std::function<void(const fs::path&)>& w) {
-    out.stage(name, w);
+  const Stage stage = [&](const std::string& name,
+                          const std::function<void(const fs::path&)>& write) {
+    out.stage(name, write);
     report.files.push_back(name);
   };
   stage("ptn_density.tif", [&](const fs::path& p) { write_density_tif(p, pr, r, site_srs); });
@@ -615,55 +678,18 @@ ExportReport export_results(const ExportOptions& o) {
       stage(kDifferenceMapName, [&](const fs::path& p) { write_difference_tif(p, dr, site_srs); });
     }
   }
-  const auto all_layers = [&](GDALDataset& ds, const OGRSpatialReference* s,
-                              OGRCoordinateTransformation* tr) {
-    write_hazard_layer(ds, r, g, s, tr, o.units);
-    write_buildings_layer(ds, r, g, s, tr);
-    write_hfd_layers(ds, r, s, tr, o.units);
-    write_boundary_layers(ds, r, boundary, s, tr, o.units);
-  };
   stage("hazard.gpkg", [&](const fs::path& p) {
     auto ds = create_vector(p, "GPKG");
-    all_layers(*ds, site_srs, nullptr);
+    write_all_layers(*ds, r, g, boundary, site_srs, nullptr, o.units);
   });
   stage_paraview(o.results_h5, r.offset, stage, report.notes);
-  if (!srs) {
+  if (srs) {
+    stage_wgs84_files(stage, r, g, boundary, site_srs, o.units);
+  } else {
     report.notes.push_back(
         "the site has no CRS PROJ knows (site.origin.crs): GeoJSON (RFC 7946) and KML need WGS 84, "
-        "so "
-        "they were not written; the GeoTIFFs and the GeoPackage are in the site's local metres");
-    out.commit();
-    return report;
+        "so they were not written; the GeoTIFFs and the GeoPackage are in the site's local metres");
   }
-  OGRSpatialReference wgs84 = crs_from_text("EPSG:4326", "wgs84");
-  std::unique_ptr<OGRCoordinateTransformation> to_wgs(
-      OGRCreateCoordinateTransformation(site_srs, &wgs84));
-  if (!to_wgs) throw InputError("site.origin.crs", r.crs + ": no transformation to WGS 84");
-  const auto geojson = [&](const std::function<void(GDALDataset&)>& write) {
-    return [&, write](const fs::path& p) {
-      auto ds = create_vector(p, "GeoJSON");
-      g_rfc7946 = true;
-      try {
-        write(*ds);
-      } catch (...) {
-        g_rfc7946 = false;
-        throw;
-      }
-      g_rfc7946 = false;
-    };
-  };
-  stage("hazardous_area.geojson", geojson([&](GDALDataset& ds) {
-          write_hazard_layer(ds, r, g, site_srs, nullptr, o.units);
-        }));
-  stage("buildings.geojson",
-        geojson([&](GDALDataset& ds) { write_buildings_layer(ds, r, g, site_srs, nullptr); }));
-  stage("hazard_boundary.geojson", geojson([&](GDALDataset& ds) {
-          write_boundary_geojson(ds, r, boundary, site_srs, o.units);
-        }));
-  stage("hazard.kml", [&](const fs::path& p) {
-    auto ds = create_vector(p, "KML");
-    all_layers(*ds, &wgs84, to_wgs.get());
-  });
   out.commit();
   return report;
 }

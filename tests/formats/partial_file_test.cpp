@@ -70,18 +70,9 @@ const std::string kWhat = "shards/part-1.fsp";
 
 run::Scenario small_scenario(bool stratified) {
   run::Scenario sc = validation::flat_site_scenario(300.0, 20.0);  // 1800 terrain triangles
-  scene::MaterialSpec wall;
-  wall.penetration_ke_per_area_j_per_m2 = 2.0e5;
-  sc.site.materials["wall"] = wall;
-  sc.site.materials["roof"] = wall;
+  validation::add_wall_and_roof(sc, 2.0e5);
   sc.site.buildings = {validation::box_building("b", 30, -15, 50, 15, 10.0)};
-  auto g = validation::sphere_group(Vec3(0, 0, 1.0), 0.05, 60.0, 500.0, 240);
-  g.mass_kg.kind = fragments::Distribution::Kind::kUniform;
-  g.mass_kg.min = 0.01;
-  g.mass_kg.max = 0.2;
-  g.cd.constant = 0.47;
-  g.direction.elevation_min_deg = -5.0;
-  g.direction.elevation_max_deg = 40.0;
+  auto g = validation::mixed_sphere_group(Vec3(0, 0, 1.0), 0.2, 60.0, 500.0, 240);
   g.direction.azimuth_min_deg = -45.0;
   g.direction.azimuth_max_deg = 45.0;
   auto g2 = g;

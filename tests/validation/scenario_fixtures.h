@@ -71,6 +71,22 @@ inline run::Scenario rolling_sphere_scenario(std::int64_t samples) {
   return sc;
 }
 
+// Steel spheres of uniform mass in [0.01, max_mass_kg] (Cd 0.47) thrown -5 to 40 deg up in every
+// azimuth from `origin`: with box buildings, a small whole-run case where PTN densities, the HFD
+// and building hits are all non-zero (run_fixtures.h, precision_test, partial_file_test).
+inline fragments::FragmentGroupSpec mixed_sphere_group(const Vec3& origin, double max_mass_kg,
+                                                       double speed_mps, double count,
+                                                       std::int64_t samples) {
+  auto g = sphere_group(origin, 0.05, speed_mps, count, samples);
+  g.mass_kg.kind = fragments::Distribution::Kind::kUniform;
+  g.mass_kg.min = 0.01;
+  g.mass_kg.max = max_mass_kg;
+  g.cd.constant = 0.47;
+  g.direction.elevation_min_deg = -5.0;
+  g.direction.elevation_max_deg = 40.0;
+  return g;
+}
+
 // Materials "wall" and "roof" that a fragment penetrates above `ke_per_area_j_per_m2` (normal
 // kinetic energy per presented area), for box_building.
 inline void add_wall_and_roof(run::Scenario& sc, double ke_per_area_j_per_m2) {

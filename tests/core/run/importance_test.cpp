@@ -21,10 +21,7 @@ namespace {
 // few per cent of the launch directions, the case importance sampling is for.
 Scenario fan_scenario(std::uint64_t seed, bool importance) {
   Scenario sc = validation::flat_site_scenario(300.0, 10.0);
-  scene::MaterialSpec wall;
-  wall.penetration_ke_per_area_j_per_m2 = 2.0e6;
-  sc.site.materials["wall"] = wall;
-  sc.site.materials["roof"] = wall;
+  validation::add_wall_and_roof(sc, 2.0e6);
   sc.site.buildings = {validation::box_building("small", 55, -4, 63, 4, 5.0)};
   auto g = validation::sphere_group(Vec3(0, 0, 1.0), 0.05, 150.0, 100.0, 500);
   g.direction.elevation_min_deg = 0.0;

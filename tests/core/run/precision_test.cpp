@@ -16,19 +16,10 @@ namespace {
 // A flat site with two buildings, two groups: a small case with PTN, HFD and building hits.
 Scenario batched_scenario() {
   Scenario sc = validation::flat_site_scenario(300.0, 5.0);
-  scene::MaterialSpec wall;
-  wall.penetration_ke_per_area_j_per_m2 = 2.0e6;
-  sc.site.materials["wall"] = wall;
-  sc.site.materials["roof"] = wall;
+  validation::add_wall_and_roof(sc, 2.0e6);
   sc.site.buildings = {validation::box_building("near", 40, -10, 60, 10, 8.0),
                        validation::box_building("far", -140, 20, -120, 50, 12.0)};
-  auto g = validation::sphere_group(Vec3(0, 0, 1.0), 0.05, 400.0, 200.0, 300);
-  g.mass_kg.kind = fragments::Distribution::Kind::kUniform;
-  g.mass_kg.min = 0.01;
-  g.mass_kg.max = 0.5;
-  g.cd.constant = 0.47;
-  g.direction.elevation_min_deg = -5.0;
-  g.direction.elevation_max_deg = 40.0;
+  auto g = validation::mixed_sphere_group(Vec3(0, 0, 1.0), 0.5, 400.0, 200.0, 300);
   auto g2 = g;
   g2.count = 50.0;
   g2.samples = 101;

@@ -45,10 +45,7 @@ Scenario hilly_scenario(double x0, double y0, double z0) {
   sc.site.terrain.geometry = grid;
   sc.site.terrain.material = "soil";
   sc.site.materials["soil"] = scene::MaterialSpec{};
-  scene::MaterialSpec wall;
-  wall.penetration_ke_per_area_j_per_m2 = 5e5;
-  sc.site.materials["wall"] = wall;
-  sc.site.materials["roof"] = wall;
+  validation::add_wall_and_roof(sc, 5e5);
   auto b1 = validation::box_building("b1", x0 + 60, y0 - 20, x0 + 80, y0 + 20, 10.0);
   auto b2 = validation::box_building("b2", x0 - 150, y0 + 100, x0 - 120, y0 + 140, 6.0);
   b1.base_elevation_m.reset();  // on the terrain
