@@ -16,23 +16,37 @@ std::string quoted(std::string_view text) {
 
 }  // namespace
 
+bool ArgReader::at(std::string_view name) {
+  if (done()) return false;
+  if (word() == name) return true;
+  if (name.size() > 2) tried_.emplace_back(name);  // "-q" and "-h" are never suggested
+  return false;
+}
+
+void ArgReader::advance(std::size_t words) {
+  k_ += words;
+  tried_.clear();
+}
+
 bool ArgReader::take_flag(std::string_view name, std::string_view alias) {
-  if (done() || (word() != name && (alias.empty() || word() != alias))) return false;
-  ++k_;
-  return true;
+  const bool found = at(name) || (!alias.empty() && at(alias));
+  if (found) advance(1);
+  return found;
 }
 
 std::optional<std::string> ArgReader::take_value(std::string_view name) {
+  if (at(name)) {
+    if (k_ + 1 >= words_.size()) throw InvocationError(std::string(name) + ": needs a value");
+    std::string value = words_[k_ + 1];
+    advance(2);
+    return value;
+  }
   if (done()) return std::nullopt;
   const std::string& w = word();
-  if (w == name) {
-    if (k_ + 1 >= words_.size()) throw InvocationError(std::string(name) + ": needs a value");
-    k_ += 2;
-    return words_[k_ - 1];
-  }
   if (w.size() > name.size() && w.compare(0, name.size(), name) == 0 && w[name.size()] == '=') {
-    ++k_;
-    return w.substr(name.size() + 1);
+    std::string value = w.substr(name.size() + 1);
+    advance(1);
+    return value;
   }
   return std::nullopt;
 }
@@ -44,7 +58,8 @@ std::optional<std::string> ArgReader::take_nonempty(std::string_view name, std::
   return value;
 }
 
-void ArgReader::unknown_option(const std::vector<std::string>& accepted) const {
+void ArgReader::unknown_option(std::vector<std::string> accepted) const {
+  accepted.insert(accepted.end(), tried_.begin(), tried_.end());
   const std::string name = word().substr(0, word().find('='));
   const std::string guess = suggest_key(name, accepted);
   throw InvocationError(name + ": unknown option" +

@@ -21,7 +21,9 @@ class InvocationError : public std::runtime_error {
 
 // The words of a command line, read one at a time from `first`. Each take_* call looks at the
 // current word: when it is the option asked for, it consumes the option (and its value) and
-// says so; otherwise it consumes nothing.
+// says so; otherwise it consumes nothing and remembers the name it was asked for, so that an
+// unknown option can be answered with the nearest of the options tried at that word (the
+// options its command takes, without a list to keep in step).
 class ArgReader {
  public:
   explicit ArgReader(const std::vector<std::string>& words, std::size_t first = 0)
@@ -32,7 +34,11 @@ class ArgReader {
   // "-x", "--name", "--name=value"; a lone "-" is an operand.
   bool at_option() const { return word().size() > 1 && word()[0] == '-'; }
   // The current word as an operand.
-  std::string take_operand() { return words_[k_++]; }
+  std::string take_operand() {
+    std::string w = words_[k_];
+    advance(1);
+    return w;
+  }
 
   // An option without a value, under any of its spellings ("--quiet", "-q").
   bool take_flag(std::string_view name, std::string_view alias = {});
@@ -42,12 +48,17 @@ class ArgReader {
   // As take_value, and an empty value is refused: "NAME: empty WHAT" ("empty file name").
   std::optional<std::string> take_nonempty(std::string_view name, std::string_view what);
 
-  // "WORD: unknown option", with the nearest of `accepted` as a suggestion when one is close.
-  [[noreturn]] void unknown_option(const std::vector<std::string>& accepted = {}) const;
+  // "WORD: unknown option", with the nearest of `accepted` and of the names tried at this word
+  // as a suggestion when one is close.
+  [[noreturn]] void unknown_option(std::vector<std::string> accepted = {}) const;
 
  private:
+  bool at(std::string_view name);  // the current word is `name`; else `name` is remembered
+  void advance(std::size_t words);
+
   const std::vector<std::string>& words_;
   std::size_t k_;
+  std::vector<std::string> tried_;  // names asked for at the current word
 };
 
 // Strict numbers: the whole text, no sign '+', no blanks; a number must be finite.

@@ -58,6 +58,25 @@ TEST(ArgReader, ErrorsNameTheOption) {
   EXPECT_EQ(error_of([&] { t.unknown_option({"--zzzzzzzz"}); }), "--thread: unknown option");
 }
 
+// The options tried at a word are the ones its command takes: the nearest is suggested without
+// a list, and a word consumed forgets them.
+TEST(ArgReader, SuggestsTheNearestOptionTriedAtThisWord) {
+  const Words w = {"--quiet", "--samples-scal=2"};
+  ArgReader r(w);
+  EXPECT_FALSE(r.take_value("--samples-scale"));
+  EXPECT_TRUE(r.take_flag("--quiet", "-q"));
+  EXPECT_FALSE(r.take_flag("--quiet", "-q"));
+  EXPECT_FALSE(r.take_value("--out"));
+  EXPECT_EQ(error_of([&] { r.unknown_option(); }), "--samples-scal: unknown option");
+  EXPECT_FALSE(r.take_value("--samples-scale"));
+  EXPECT_EQ(error_of([&] { r.unknown_option(); }),
+            "--samples-scal: unknown option (did you mean --samples-scale?)");
+  const Words short_flag = {"-x"};
+  ArgReader s(short_flag);
+  EXPECT_FALSE(s.take_flag("--quiet", "-q"));
+  EXPECT_EQ(error_of([&] { s.unknown_option(); }), "-x: unknown option");
+}
+
 TEST(CommandLineNumbers, AreStrict) {
   EXPECT_EQ(to_integer("42"), 42);
   EXPECT_EQ(to_integer("-7"), -7);

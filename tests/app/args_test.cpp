@@ -22,6 +22,15 @@ std::string usage_error(const Args& args) {
   return "";
 }
 
+TEST(Args, AnUnknownOptionNamesTheNearestItsCommandTakes) {
+  EXPECT_EQ(usage_error({"run", "s.json", "--out", "d", "--thread", "2"}),
+            "--thread: unknown option (did you mean --threads?)");
+  EXPECT_EQ(usage_error({"export", "r.h5", "--out", "d", "--pixel-n=3"}),
+            "--pixel-n: unknown option (did you mean --pixel-m?)");
+  // --threads is close to nothing submit takes.
+  EXPECT_EQ(usage_error({"submit", "s.json", "--threads", "2"}), "--threads: unknown option");
+}
+
 TEST(Args, RunTakesItsOptionsInBothSpellings) {
   const Options o = parse_args({"run", "s.json", "--out", "d", "--threads=3", "--samples-scale",
                                 "0.5", "--shard", "2/5", "--progress-file=p.json", "-q"});
