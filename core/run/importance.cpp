@@ -42,7 +42,6 @@ DirectionLearner::DirectionLearner(const Scenario& sc, const scene::Site& site,
     if (ring_used_) {
       g.ring_sq.assign(static_cast<std::size_t>(cells_) * kDistanceBins, 0.0);
       g.bin_mean.assign(kDistanceBins, 0.0);
-      g.scratch.assign(kDistanceBins, 0.0);
     }
     prior_.push_back(site_prior(sc.groups[k], site, g.wedge));
   }
@@ -154,7 +153,7 @@ void LearnerInput::clear() {
 void DirectionLearner::add(std::uint32_t group, std::uint32_t cell, double likelihood_ratio,
                            std::int32_t building, const PtnContribution* begin,
                            const PtnContribution* end) {
-  reduce(group, likelihood_ratio, begin, end, entries_);
+  reduce(likelihood_ratio, begin, end, entries_);
   apply(group, cell, likelihood_ratio, building, begin != end, entries_.data(),
         entries_.data() + entries_.size());
 }
@@ -162,7 +161,7 @@ void DirectionLearner::add(std::uint32_t group, std::uint32_t cell, double likel
 void DirectionLearner::observe(std::uint32_t group, std::uint32_t cell, double likelihood_ratio,
                                std::int32_t building, const PtnContribution* begin,
                                const PtnContribution* end, LearnerInput& out) {
-  reduce(group, likelihood_ratio, begin, end, entries_);
+  reduce(likelihood_ratio, begin, end, entries_);
   out.group.push_back(group);
   out.cell.push_back(cell);
   out.likelihood_ratio.push_back(likelihood_ratio);
@@ -198,26 +197,18 @@ void DirectionLearner::replay(const LearnerInput& in) {
   }
 }
 
-// x per distance bin without the likelihood ratio (the density under the group's own p), in the
-// order the bins were first touched.
-void DirectionLearner::reduce(std::uint32_t group, double likelihood_ratio,
-                              const PtnContribution* begin, const PtnContribution* end,
+// Each PTN contribution's x without the likelihood ratio (the density under the group's own p),
+// with its distance bin, in the history's order: one entry per triangle (the fold keeps a
+// triangle's first crossing only), so the squares the learner sums are per triangle, as the
+// target's figure (the relative error of each triangle's density) needs.
+void DirectionLearner::reduce(double likelihood_ratio, const PtnContribution* begin,
+                              const PtnContribution* end,
                               std::vector<std::pair<std::uint16_t, double>>& entries) {
   entries.clear();
-  if (!ring_used_ || begin == end) return;
-  GroupStats& g = groups_[group];
-  std::vector<int>& touched = g.touched;
-  touched.clear();
-  for (const PtnContribution* c = begin; c != end; ++c) {
-    const int bin = distance_bin(distance_m_[c->triangle]);
-    if (g.scratch[static_cast<std::size_t>(bin)] == 0.0) touched.push_back(bin);
-    g.scratch[static_cast<std::size_t>(bin)] += c->value / likelihood_ratio;
-  }
-  for (const int bin : touched) {
-    const auto k = static_cast<std::size_t>(bin);
-    entries.emplace_back(static_cast<std::uint16_t>(bin), g.scratch[k]);
-    g.scratch[k] = 0.0;
-  }
+  if (!ring_used_) return;
+  for (const PtnContribution* c = begin; c != end; ++c)
+    entries.emplace_back(static_cast<std::uint16_t>(distance_bin(distance_m_[c->triangle])),
+                         c->value / likelihood_ratio);
 }
 
 void DirectionLearner::apply(std::uint32_t group, std::uint32_t cell, double likelihood_ratio,
@@ -365,7 +356,8 @@ fragments::DirectionCells DirectionLearner::mixture(const std::vector<double>& s
           settings_.mass_cells, std::move(q)};
 }
 
-std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m) const {
+std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m,
+                                                              double ring_triangles) const {
   std::vector<fragments::DirectionCells> out;
   int ring_lo = 1, ring_hi = 0;  // empty
   if (ring_used_ && hfd_m > 0.0) {
@@ -386,12 +378,16 @@ std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m) cons
     for (int k = ring_lo; k <= ring_hi; ++k) ring_mean += g.bin_mean[static_cast<std::size_t>(k)];
     if (n > 0) ring_mean /= n;
     if (ring_mean > 0.0) {
+      // The mean over the ring's triangles of E[x_t^2 | c] / E[x_t]^2: with the ring's density
+      // spread over T triangles, E[x_t] = E[x_ring] / T, so it is T sum_t E[x_t^2 | c] /
+      // E[x_ring]^2 (docs/precision.md, "Learning q").
+      const double per_triangle = std::max(1.0, ring_triangles) / (ring_mean * ring_mean);
       for (std::size_t c = 0; c < cells; ++c) {
         if (g.n[c] == 0) continue;
         double sq = 0.0;
         for (int k = ring_lo; k <= ring_hi; ++k)
           sq += g.ring_sq[c * kDistanceBins + static_cast<std::size_t>(k)];
-        a[c] += sq / static_cast<double>(g.n[c]) / (ring_mean * ring_mean);
+        a[c] += sq / static_cast<double>(g.n[c]) * per_triangle;
       }
     }
     for (double& v : a) v = std::sqrt(v);

@@ -56,8 +56,11 @@ class DirectionLearner {
   void replay(const LearnerInput& in);
 
   // The densities for the next batch, per group; `hfd_m` places the ring of triangles whose
-  // density decides the HFD ([0.85, 1.15] HFD; none when 0).
-  std::vector<fragments::DirectionCells> plan(double hfd_m) const;
+  // density decides the HFD ([0.85, 1.15] HFD; none when 0), `ring_triangles` is how many
+  // triangles share the ring's density (ring_participation in core/run/precision.h): the ring's
+  // figure is the relative variance of one triangle's density, as the HFD targets read it, not
+  // of the ring's total, which is about that many times smaller.
+  std::vector<fragments::DirectionCells> plan(double hfd_m, double ring_triangles = 1.0) const;
 
   // Bytes of the learning tables for `groups` groups of `cells` cells each with `buildings`
   // buildings (per cell: histories, hits per building, squared ring contributions per distance
@@ -80,9 +83,10 @@ class DirectionLearner {
 
  private:
   static constexpr int kDistanceBins = 300;  // ln-spaced by 5 %: 1 m ... 2e6 m
-  // One history's x per distance bin touched, into `entries` (in the order add() sums them).
-  void reduce(std::uint32_t group, double likelihood_ratio, const PtnContribution* begin,
-              const PtnContribution* end, std::vector<std::pair<std::uint16_t, double>>& entries);
+  // One history's x per PTN contribution with its distance bin, into `entries` (in the order
+  // add() sums them).
+  void reduce(double likelihood_ratio, const PtnContribution* begin, const PtnContribution* end,
+              std::vector<std::pair<std::uint16_t, double>>& entries);
   void apply(std::uint32_t group, std::uint32_t cell, double likelihood_ratio,
              std::int32_t building, bool contributed, const std::pair<std::uint16_t, double>* begin,
              const std::pair<std::uint16_t, double>* end);
@@ -116,9 +120,7 @@ class DirectionLearner {
     std::int64_t histories = 0;
     bool wraps = false;  // the group's azimuth range is the full circle
     std::vector<std::vector<std::uint32_t>> neighbours;  // per cell: itself and its neighbours
-    std::int64_t touching = 0;    // histories that hit a used building or have PTN contributions
-    std::vector<double> scratch;  // per distance bin: this history's x
-    std::vector<int> touched;     // the bins of scratch in use
+    std::int64_t touching = 0;  // histories that hit a used building or have PTN contributions
     std::vector<std::vector<char>> wedge;  // per building and direction cell: faces it
   };
   std::vector<std::pair<std::uint16_t, double>> entries_;  // reduce()'s output, reused

@@ -113,6 +113,17 @@ double ptn_rel_error_near_hfd(const std::vector<double>& density, const std::vec
   return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
 }
 
+double ring_participation(const std::vector<double>& density, const std::vector<double>& distance_m,
+                          double hfd_m) {
+  double sum = 0.0, sum_sq = 0.0;
+  for (std::size_t t = 0; t < density.size(); ++t) {
+    if (!(distance_m[t] >= 0.85 * hfd_m && distance_m[t] <= 1.15 * hfd_m)) continue;
+    sum += density[t];
+    sum_sq += density[t] * density[t];
+  }
+  return hfd_m > 0.0 && sum_sq > 0.0 ? std::max(1.0, sum * sum / sum_sq) : 1.0;
+}
+
 namespace {
 
 // Least-squares slope of y on x; NaN with fewer than two distinct x.

@@ -22,6 +22,7 @@ struct PrecisionSnapshot {
   bool hfd_cut = false, hfd_lower_cut = false, hfd_upper_cut = false;
   int hfd_lower_sectors_cut = 0;
   double ptn_rel_error_at_hfd = 0.0;  // see ptn_rel_error_near_hfd
+  double ring_triangles = 1.0;        // see ring_participation
   struct Building {
     std::string id;
     Estimate impacts, penetrations;
@@ -78,6 +79,13 @@ std::vector<TargetStatus> check_targets(const PrecisionSettings& p, const Precis
 double ptn_rel_error_near_hfd(const std::vector<double>& density, const std::vector<double>& se,
                               const std::vector<double>& distance_m, double threshold,
                               double hfd_m);
+
+// How many terrain triangles share the density of the ring whose centroids lie within
+// [0.85, 1.15] HFD (the importance learner's ring, core/run/importance.h): the participation
+// ratio (sum density)^2 / sum density^2 over them, which is T for T triangles of equal density
+// and less where a few hold most of it. 1 when the ring holds no density (or hfd_m is 0).
+double ring_participation(const std::vector<double>& density, const std::vector<double>& distance_m,
+                          double hfd_m);
 
 // Turns successive checks into a report with an ETA: each figure's error is fitted as
 // c * n^-alpha over its checks so far (least squares in log-log, alpha clamped to [0.25, 1];

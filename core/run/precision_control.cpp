@@ -19,6 +19,7 @@ bool PrecisionControl::batch_done(std::int64_t batches, std::int64_t tallied,
   const std::int64_t histories = tallies_.histories_done;
   const PrecisionSnapshot snap = snapshot(tallied);
   hfd_m_ = snap.hfd_m;
+  ring_triangles_ = snap.ring_triangles;
   auto report = std::make_shared<PrecisionReport>(
       tracker_.update(check_targets(*p_, snap), batches, histories,
                       elapsed > 0.0 ? static_cast<double>(histories_run) / elapsed : 0.0));
@@ -85,6 +86,7 @@ void PrecisionControl::hfd_snapshot(double scale, PrecisionSnapshot& s) const {
   s.hfd_lower_sectors_cut = f.lower_cut.sector_count;
   s.hfd_upper_cut = f.upper_cut.any();
   s.ptn_rel_error_at_hfd = ptn_rel_error_near_hfd(density, se, g.distances(), threshold, s.hfd_m);
+  s.ring_triangles = ring_participation(density, g.distances(), s.hfd_m);
 }
 
 }  // namespace fragsim::run

@@ -33,6 +33,8 @@ class PrecisionControl {
   }
   StopReason reason() const { return reason_; }
   double hfd_m() const { return hfd_m_; }  // at the last boundary (0 unless computed)
+  // ring_participation at the last boundary (1 unless computed)
+  double ring_triangles() const { return ring_triangles_; }
   const std::vector<double>& distances() const {
     static const std::vector<double> none;
     return geometry_ ? geometry_->distances() : none;
@@ -51,6 +53,7 @@ class PrecisionControl {
   PrecisionTracker tracker_;
   StopReason reason_ = StopReason::kSamples;
   double hfd_m_ = 0.0;
+  double ring_triangles_ = 1.0;
   mutable std::mutex mutex_;
   std::shared_ptr<const PrecisionReport> report_;
 };

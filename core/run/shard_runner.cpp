@@ -162,7 +162,9 @@ void ShardRunner::end_batch(bool pilot) {
     pipeline_.finish();
     plans_.abort();
   } else if (learner_) {
-    plans_.publish(batches_, drawable(learner_->plan(precision_.hfd_m()), strata_));
+    plans_.publish(
+        batches_,
+        drawable(learner_->plan(precision_.hfd_m(), precision_.ring_triangles()), strata_));
   }
 }
 

@@ -153,6 +153,50 @@ TEST(DirectionImportance, ThePilotFacesTheBuildingsSeenFromTheLaunchOrigin) {
   }
 }
 
+// A study that names both kinds of target: the ring's figure is the relative variance of one
+// triangle's density (what ptn_rel_error_at_hfd reads), T times that of the ring's total when T
+// triangles share the ring. Synthetic histories, all with likelihood ratio 1: the building's 12
+// facing cells (azimuth cells 17 and 18) each see n_w histories and h_w hits; cell B (elevation
+// 2, azimuth 0) sees n_B histories, each adding x = 1 to two neighbouring ring triangles (of
+// 50, in turn: the squares are summed per triangle, 2 per history, not per distance bin). Then
+//   a_w = rho / E[hit]^2,  rho = lambda h_w / n_w + (1 - lambda) E[hit] N / 12,
+//   lambda = 12 h_w / (12 h_w + 5),  E[hit] = 12 h_w / n,
+//   a_B = T sum_t E[x_t^2 | B] / E[x_ring]^2 = 2 T / (2 n_B / n)^2,
+// and above the defensive share q_B : q_w = sqrt(a_B) : sqrt(a_w) (neither is raised by a
+// neighbour: docs/precision.md, "Learning q").
+TEST(DirectionImportance, TheRingIsWeighedPerTriangleAgainstTheBuildings) {
+  Scenario sc = fan_scenario(1, true);
+  sc.settings.precision->ptn_rel_error_at_hfd = 0.01;
+  const auto site = scene::Site::build(sc.site);
+  constexpr std::uint32_t kRing = 50;  // triangles 0 .. 49 at the HFD, the others far out
+  std::vector<double> distance(site->terrain_triangle_count(), 5.0e4);
+  std::fill(distance.begin(), distance.begin() + kRing, 100.0);
+  constexpr int kNw = 40, kHw = 2, kNb = 60;
+  const std::uint32_t cell_b = 2 * 36 + 0;
+  for (const double ring_triangles : {1.0, 10.0, 50.0}) {
+    DirectionLearner learner(sc, *site, distance);
+    for (int i = 0; i < 6; ++i)
+      for (const std::uint32_t j : {17u, 18u})
+        for (int k = 0; k < kNw; ++k)
+          learner.add(0, static_cast<std::uint32_t>(i * 36) + j, 1.0, k < kHw ? 0 : -1, nullptr,
+                      nullptr);
+    for (int k = 0; k < kNb; ++k) {
+      const std::uint32_t t = static_cast<std::uint32_t>(k) % kRing;
+      const PtnContribution c[2] = {{t, 1.0}, {(t + 1) % kRing, 1.0}};
+      learner.add(0, cell_b, 1.0, -1, c, c + 2);
+    }
+    const auto q = learner.plan(100.0, ring_triangles)[0];
+    const double n = 12.0 * kNw + kNb, cells = q.cells(), hits = 12.0 * kHw;
+    const double mean = hits / n, lambda = hits / (hits + 5.0);
+    const double a_w = (lambda * kHw / kNw + (1.0 - lambda) * mean * cells / 12.0) / (mean * mean);
+    const double a_b = ring_triangles * 2.0 / ((2.0 * kNb / n) * (2.0 * kNb / n));
+    const double touching = hits + kNb;
+    const double floor = (1.0 - 0.7 * touching / (touching + 5.0)) / cells;
+    const double ratio = (q.probability(cell_b) - floor) / (q.probability(17) - floor);
+    EXPECT_NEAR(ratio, std::sqrt(a_b / a_w), 1e-9 * std::sqrt(a_b / a_w)) << ring_triangles;
+  }
+}
+
 // A building no history can reach (behind a forward fan): its zero-count bound allows for the
 // defensive share, since importance sampling may have sent only delta of the plain share of
 // histories its way: 3 count / (K s delta), not 3 count / (K s).

@@ -381,6 +381,19 @@ TEST(PrecisionTargets, PtnErrorNearTheHfdIsTheRmsOverTheOuterHazardousTriangles)
   EXPECT_EQ(ptn_rel_error_near_hfd(density, se, distance, 0.01, 0.0), 0.0);
 }
 
+// The importance learner's ring [0.85, 1.15] HFD: T triangles of equal density count T, a ring
+// whose density one triangle holds counts about 1, an empty ring 1.
+TEST(PrecisionTargets, RingParticipationCountsTheTrianglesThatShareTheRingsDensity) {
+  const std::vector<double> distance = {50.0, 86.0, 100.0, 114.0, 120.0};
+  EXPECT_DOUBLE_EQ(ring_participation({9.0, 1.0, 1.0, 1.0, 9.0}, distance, 100.0), 3.0);
+  EXPECT_NEAR(ring_participation({0.0, 1.0, 1e-6, 0.0, 5.0}, distance, 100.0), 1.0, 1e-5);
+  // Two equal and one of half their density: (2.5)^2 / 2.25.
+  EXPECT_DOUBLE_EQ(ring_participation({0.0, 1.0, 1.0, 0.5, 0.0}, distance, 100.0),
+                   2.5 * 2.5 / 2.25);
+  EXPECT_EQ(ring_participation({1.0, 0.0, 0.0, 0.0, 1.0}, distance, 100.0), 1.0);
+  EXPECT_EQ(ring_participation({1.0, 1.0, 1.0, 1.0, 1.0}, distance, 0.0), 1.0);
+}
+
 // Five checks at n = 1000 ... 5000 histories of a figure whose error is error(n), 1000 histories/s.
 template <class Error>
 PrecisionReport track(Error error, double allowed) {
