@@ -280,6 +280,30 @@ std::vector<double> DirectionLearner::spread_to_neighbours(const std::vector<dou
   return out;
 }
 
+// E[sum_t x_t^2 | c] over the ring's bins [lo, hi] per cell, shrunk toward its neighbourhood's
+// as the buildings' hit rates are (smoothed_hit_rates, the same A = kPriorHistories):
+//   (S_c + A Sbar_c) / (n_c + A),  Sbar_c = sum of S over the neighbourhood / its histories.
+// A few per cent of the histories reach the ring, so a cell's own S rests on a handful of them;
+// a cell no history has visited takes its neighbourhood's value.
+std::vector<double> DirectionLearner::ring_second_moments(const GroupStats& g, int lo,
+                                                          int hi) const {
+  const auto cells = static_cast<std::size_t>(cells_);
+  std::vector<double> own(cells, 0.0), out(cells, 0.0);
+  for (std::size_t c = 0; c < cells; ++c)
+    for (int k = lo; k <= hi; ++k)
+      own[c] += g.ring_sq[c * kDistanceBins + static_cast<std::size_t>(k)];
+  for (std::size_t c = 0; c < cells; ++c) {
+    double sum = 0.0, n = 0.0;
+    for (const std::uint32_t nb : g.neighbours[c]) {
+      sum += own[nb];
+      n += static_cast<double>(g.n[nb]);
+    }
+    const double bar = n > 0.0 ? sum / n : 0.0;
+    out[c] = (own[c] + kPriorHistories * bar) / (static_cast<double>(g.n[c]) + kPriorHistories);
+  }
+  return out;
+}
+
 // A building's hit rate per cell, shrunk toward its neighbourhood's (empirical Bayes):
 //   r_c = (hits_c + A rbar_c) / (n_c + A),  rbar_c = hits / histories over the neighbourhood,
 // A = kPriorHistories. A cell at the edge of a building's region, where hits are rarer and none
@@ -382,13 +406,8 @@ std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m,
       // spread over T triangles, E[x_t] = E[x_ring] / T, so it is T sum_t E[x_t^2 | c] /
       // E[x_ring]^2 (docs/precision.md, "Learning q").
       const double per_triangle = std::max(1.0, ring_triangles) / (ring_mean * ring_mean);
-      for (std::size_t c = 0; c < cells; ++c) {
-        if (g.n[c] == 0) continue;
-        double sq = 0.0;
-        for (int k = ring_lo; k <= ring_hi; ++k)
-          sq += g.ring_sq[c * kDistanceBins + static_cast<std::size_t>(k)];
-        a[c] += sq / static_cast<double>(g.n[c]) * per_triangle;
-      }
+      const std::vector<double> sq = ring_second_moments(g, ring_lo, ring_hi);
+      for (std::size_t c = 0; c < cells; ++c) a[c] += sq[c] * per_triangle;
     }
     for (double& v : a) v = std::sqrt(v);
     a = spread_to_neighbours(a, g);

@@ -110,6 +110,7 @@ class DirectionLearner {
   std::vector<std::vector<std::uint32_t>> neighbour_lists(bool wraps) const;
   std::vector<double> spread_to_neighbours(const std::vector<double>& s, const GroupStats& g) const;
   std::vector<double> smoothed_hit_rates(const GroupStats& g, std::size_t building) const;
+  std::vector<double> ring_second_moments(const GroupStats& g, int lo, int hi) const;
   std::vector<double> building_rates(const GroupStats& g, std::size_t building, double mean) const;
   struct GroupStats {
     std::vector<std::int64_t> n;        // per cell: histories

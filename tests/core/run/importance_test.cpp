@@ -197,6 +197,35 @@ TEST(DirectionImportance, TheRingIsWeighedPerTriangleAgainstTheBuildings) {
   }
 }
 
+// The ring's second moments are shrunk toward the neighbourhood's, as the buildings' hit rates
+// are: with the HFD target alone and ring contributions from one cell B only, B keeps its own
+// value (its neighbourhood's average is its own), a neighbour of B that no history visited takes
+// B's, and a cell two steps away (no history in its neighbourhood) only the neighbour floor, half
+// of its neighbours' s (docs/precision.md, "Learning q").
+TEST(DirectionImportance, AnUnvisitedCellTakesItsNeighbourhoodsRingMoments) {
+  Scenario sc = fan_scenario(1, true);
+  sc.settings.precision->building_rel_error.reset();
+  sc.settings.precision->ptn_rel_error_at_hfd = 0.01;
+  const auto site = scene::Site::build(sc.site);
+  std::vector<double> distance(site->terrain_triangle_count(), 5.0e4);
+  std::fill(distance.begin(), distance.begin() + 10, 100.0);
+  DirectionLearner learner(sc, *site, distance);
+  const std::uint32_t cell_b = 2 * 36 + 5;
+  for (int k = 0; k < 30; ++k) {
+    const PtnContribution c{static_cast<std::uint32_t>(k % 10), 1.0 + 0.1 * k};
+    learner.add(0, cell_b, 1.0, -1, &c, &c + 1);
+  }
+  const auto q = learner.plan(100.0, 10.0)[0];
+  const double touching = 30.0;
+  const double floor = (1.0 - 0.7 * touching / (touching + 5.0)) / q.cells();
+  const double b = q.probability(cell_b) - floor;
+  ASSERT_GT(b, 0.0);
+  EXPECT_NEAR(q.probability(cell_b + 1) - floor, b, 1e-12);        // azimuth neighbour
+  EXPECT_NEAR(q.probability(cell_b + 36) - floor, b, 1e-12);       // elevation neighbour
+  EXPECT_NEAR(q.probability(cell_b + 2) - floor, 0.5 * b, 1e-12);  // two steps: the floor
+  EXPECT_NEAR(q.probability(cell_b + 10), floor, 1e-12);           // beyond: the defensive share
+}
+
 // A building no history can reach (behind a forward fan): its zero-count bound allows for the
 // defensive share, since importance sampling may have sent only delta of the plain share of
 // histories its way: 3 count / (K s delta), not 3 count / (K s).
