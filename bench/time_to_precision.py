@@ -188,6 +188,10 @@ METHODS = {
 }
 
 
+# Column headers are 10 characters wide: names that would read alike there.
+SHORT = {"importance_sobol": "imp_sobol"}
+
+
 def SOBOL(a):
     return dict({"method": "sobol"}, **({"replicates": a.replicates} if a.replicates else {}))
 
@@ -251,7 +255,7 @@ def report(a, methods, runs, ptn):
     figs = {m: figures(s) for m, (s, _) in runs.items()}
     rest = methods[1:]
     print(f"{'figure':44s} {'plain mean ± se':>22s} {'T5 plain s':>10s} " +
-          " ".join(f"{m[:10] + ' gain':>15s} {'z':>5s}" for m in rest))
+          " ".join(f"{SHORT.get(m, m)[:10] + ' gain':>15s} {'z':>5s}" for m in rest))
     gains = {m: [] for m in rest}
     study = {m: 0.0 for m in methods}  # the slowest building figure
     for name, (mp, sp, absolute) in figs["plain"].items():
