@@ -280,19 +280,17 @@ std::vector<double> DirectionLearner::spread_to_neighbours(const std::vector<dou
   return out;
 }
 
-// E[sum_t x_t^2 | c] over the ring's bins [lo, hi] per cell, shrunk toward its neighbourhood's
-// as the buildings' hit rates are (smoothed_hit_rates, the same A = kPriorHistories):
-//   (S_c + A Sbar_c) / (n_c + A),  Sbar_c = sum of S over the neighbourhood / its histories.
-// A few per cent of the histories reach the ring, so a cell's own S rests on a handful of them;
-// a cell no history has visited takes its neighbourhood's value.
-std::vector<double> DirectionLearner::ring_second_moments(const GroupStats& g, int lo,
-                                                          int hi) const {
-  const auto cells = static_cast<std::size_t>(cells_);
-  std::vector<double> own(cells, 0.0), out(cells, 0.0);
-  for (std::size_t c = 0; c < cells; ++c)
-    for (int k = lo; k <= hi; ++k)
-      own[c] += g.ring_sq[c * kDistanceBins + static_cast<std::size_t>(k)];
-  for (std::size_t c = 0; c < cells; ++c) {
+// Per cell, a sum over its histories turned into a per-history value shrunk toward its
+// neighbourhood's (empirical Bayes):
+//   (own_c + A bar_c) / (n_c + A),  bar_c = sum of own / sum of histories over the neighbourhood,
+// A = kPriorHistories. A cell at the edge of a figure's region, where the figure is rarer and may
+// not have been seen yet, keeps a value in proportion to what its neighbours show (instead of
+// only the defensive share, whose histories would carry likelihood ratios of 1/delta); a cell no
+// history has visited takes its neighbourhood's value.
+std::vector<double> DirectionLearner::shrunk_to_neighbourhood(
+    const GroupStats& g, const std::vector<double>& own) const {
+  std::vector<double> out(own.size(), 0.0);
+  for (std::size_t c = 0; c < own.size(); ++c) {
     double sum = 0.0, n = 0.0;
     for (const std::uint32_t nb : g.neighbours[c]) {
       sum += own[nb];
@@ -304,25 +302,24 @@ std::vector<double> DirectionLearner::ring_second_moments(const GroupStats& g, i
   return out;
 }
 
-// A building's hit rate per cell, shrunk toward its neighbourhood's (empirical Bayes):
-//   r_c = (hits_c + A rbar_c) / (n_c + A),  rbar_c = hits / histories over the neighbourhood,
-// A = kPriorHistories. A cell at the edge of a building's region, where hits are rarer and none
-// may have been seen yet, then keeps a share in proportion to what its neighbours show, instead
-// of only the defensive share (whose hits would carry likelihood ratios of 1/delta).
+// E[sum_t x_t^2 | c] over the ring's bins [lo, hi], shrunk as the buildings' hit rates are: a few
+// per cent of the histories reach the ring, so a cell's own sum rests on a handful of them.
+std::vector<double> DirectionLearner::ring_second_moments(const GroupStats& g, int lo,
+                                                          int hi) const {
+  std::vector<double> own(static_cast<std::size_t>(cells_), 0.0);
+  for (std::size_t c = 0; c < own.size(); ++c)
+    for (int k = lo; k <= hi; ++k)
+      own[c] += g.ring_sq[c * kDistanceBins + static_cast<std::size_t>(k)];
+  return shrunk_to_neighbourhood(g, own);
+}
+
+// A building's hit rate per cell, shrunk toward its neighbourhood's rate.
 std::vector<double> DirectionLearner::smoothed_hit_rates(const GroupStats& g,
                                                          std::size_t building) const {
-  std::vector<double> r(static_cast<std::size_t>(cells_), 0.0);
-  for (std::size_t c = 0; c < r.size(); ++c) {
-    double hits = 0.0, n = 0.0;
-    for (const std::uint32_t nb : g.neighbours[c]) {
-      hits += static_cast<double>(g.hits[nb * buildings_ + building]);
-      n += static_cast<double>(g.n[nb]);
-    }
-    const double rbar = n > 0.0 ? hits / n : 0.0;
-    r[c] = (static_cast<double>(g.hits[c * buildings_ + building]) + kPriorHistories * rbar) /
-           (static_cast<double>(g.n[c]) + kPriorHistories);
-  }
-  return r;
+  std::vector<double> hits(static_cast<std::size_t>(cells_), 0.0);
+  for (std::size_t c = 0; c < hits.size(); ++c)
+    hits[c] = static_cast<double>(g.hits[c * buildings_ + building]);
+  return shrunk_to_neighbourhood(g, hits);
 }
 
 // A building's hit rates for the plan: the learnt rates (smoothed_hit_rates) blended with the

@@ -60,7 +60,7 @@ class DirectionLearner {
   // triangles share the ring's density (ring_participation in core/run/precision.h): the ring's
   // figure is the relative variance of one triangle's density, as the HFD targets read it, not
   // of the ring's total, which is about that many times smaller.
-  std::vector<fragments::DirectionCells> plan(double hfd_m, double ring_triangles = 1.0) const;
+  std::vector<fragments::DirectionCells> plan(double hfd_m, double ring_triangles) const;
 
   // Bytes of the learning tables for `groups` groups of `cells` cells each with `buildings`
   // buildings (per cell: histories, hits per building, squared ring contributions per distance
@@ -111,6 +111,8 @@ class DirectionLearner {
   std::vector<double> spread_to_neighbours(const std::vector<double>& s, const GroupStats& g) const;
   std::vector<double> smoothed_hit_rates(const GroupStats& g, std::size_t building) const;
   std::vector<double> ring_second_moments(const GroupStats& g, int lo, int hi) const;
+  std::vector<double> shrunk_to_neighbourhood(const GroupStats& g,
+                                              const std::vector<double>& own) const;
   std::vector<double> building_rates(const GroupStats& g, std::size_t building, double mean) const;
   struct GroupStats {
     std::vector<std::int64_t> n;        // per cell: histories
