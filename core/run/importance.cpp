@@ -5,6 +5,7 @@
 
 #include "core/common/error.h"
 #include "core/fragments/sampling.h"
+#include "core/run/precision.h"
 
 namespace fragsim::run {
 
@@ -382,8 +383,8 @@ std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m,
   std::vector<fragments::DirectionCells> out;
   int ring_lo = 1, ring_hi = 0;  // empty
   if (ring_used_ && hfd_m > 0.0) {
-    ring_lo = distance_bin(0.85 * hfd_m);
-    ring_hi = distance_bin(1.15 * hfd_m);
+    ring_lo = distance_bin(kRingInner * hfd_m);
+    ring_hi = distance_bin(kRingOuter * hfd_m);
   }
   const auto cells = static_cast<std::size_t>(cells_);
   for (const GroupStats& g : groups_) {

@@ -56,10 +56,10 @@ class DirectionLearner {
   void replay(const LearnerInput& in);
 
   // The densities for the next batch, per group; `hfd_m` places the ring of triangles whose
-  // density decides the HFD ([0.85, 1.15] HFD; none when 0), `ring_triangles` is how many
-  // triangles share the ring's density (ring_participation in core/run/precision.h): the ring's
-  // figure is the relative variance of one triangle's density, as the HFD targets read it, not
-  // of the ring's total, which is about that many times smaller.
+  // density decides the HFD ([kRingInner, kRingOuter] HFD, core/run/precision.h; none when 0),
+  // `ring_triangles` is how many triangles share the ring's density (ring_participation in
+  // core/run/precision.h): the ring's figure is the relative variance of one triangle's density, as
+  // the HFD targets read it, not of the ring's total, which is about that many times smaller.
   std::vector<fragments::DirectionCells> plan(double hfd_m, double ring_triangles) const;
 
   // Bytes of the learning tables for `groups` groups of `cells` cells each with `buildings`

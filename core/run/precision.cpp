@@ -117,7 +117,7 @@ double ring_participation(const std::vector<double>& density, const std::vector<
                           double hfd_m) {
   double sum = 0.0, sum_sq = 0.0;
   for (std::size_t t = 0; t < density.size(); ++t) {
-    if (!(distance_m[t] >= 0.85 * hfd_m && distance_m[t] <= 1.15 * hfd_m)) continue;
+    if (!(distance_m[t] >= kRingInner * hfd_m && distance_m[t] <= kRingOuter * hfd_m)) continue;
     sum += density[t];
     sum_sq += density[t] * density[t];
   }

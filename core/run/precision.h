@@ -80,10 +80,15 @@ double ptn_rel_error_near_hfd(const std::vector<double>& density, const std::vec
                               const std::vector<double>& distance_m, double threshold,
                               double hfd_m);
 
+// The ring of triangles whose density decides the HFD, as the importance learner aims at it:
+// centroid distance within [kRingInner, kRingOuter] x HFD.
+inline constexpr double kRingInner = 0.85, kRingOuter = 1.15;
+
 // How many terrain triangles share the density of the ring whose centroids lie within
-// [0.85, 1.15] HFD (the importance learner's ring, core/run/importance.h): the participation
-// ratio (sum density)^2 / sum density^2 over them, which is T for T triangles of equal density
-// and less where a few hold most of it. 1 when the ring holds no density (or hfd_m is 0).
+// [kRingInner, kRingOuter] HFD (the importance learner's ring, core/run/importance.h): the
+// participation ratio (sum density)^2 / sum density^2 over them, which is T for T triangles of
+// equal density and less where a few hold most of it. 1 when the ring holds no density (or hfd_m is
+// 0).
 double ring_participation(const std::vector<double>& density, const std::vector<double>& distance_m,
                           double hfd_m);
 
