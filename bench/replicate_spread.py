@@ -68,6 +68,15 @@ def run(a, scenario, settings, seed, out):
     return h5(res, "/ptn/density_per_m2"), h5(res, "/ptn/std_error_per_m2"), cpu, res
 
 
+def bias(dens, first, m, sel):
+    """The ring's total density, mean over the seeds, against the first method's: their ratio
+    and z = difference / combined standard error of the two means over the seeds (unbiased
+    methods: |z| mostly below 2)."""
+    a, b = dens[first][:, sel].sum(1), dens[m][:, sel].sum(1)
+    se = np.sqrt(a.var(ddof=1) / len(a) + b.var(ddof=1) / len(b))
+    return f"total {b.mean() / a.mean():.3f} x {first}'s, z {(b.mean() - a.mean()) / se:+.2f}"
+
+
 def main():
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -117,7 +126,7 @@ def main():
             se2 = (ses[m][:, sel] ** 2).mean()
             print(f"  {m:12s} variance {var:.3e}  reported se^2 {se2:.3e}  spread/se "
                   f"{np.sqrt(var / se2):.2f}  gain per history {base / var:6.2f}  in CPU time "
-                  f"{base * cpu[names[0]] / (var * cpu[m]):6.2f}")
+                  f"{base * cpu[names[0]] / (var * cpu[m]):6.2f}  {bias(dens, names[0], m, sel)}")
     return 0
 
 

@@ -15,7 +15,10 @@ PrecisionControl::PrecisionControl(const Scenario& sc, const scene::Site& site,
 bool PrecisionControl::batch_done(std::int64_t batches, std::int64_t tallied,
                                   std::int64_t histories_run, double elapsed) {
   if (p_ == nullptr) return true;  // one batch
-  if (tallied == 0) return false;  // the pilot: nothing to check yet
+  if (tallied == 0) {  // the pilot: nothing to check yet; its density places the first ring
+    if (wants_pilot_density()) pilot_ring();
+    return false;
+  }
   const std::int64_t histories = tallies_.histories_done;
   const PrecisionSnapshot snap = snapshot(tallied);
   hfd_m_ = snap.hfd_m;
@@ -38,6 +41,22 @@ bool PrecisionControl::batch_done(std::int64_t batches, std::int64_t tallied,
     report_ = std::move(report);
   }
   return reason_ != StopReason::kSamples;
+}
+
+bool PrecisionControl::wants_pilot_density() const {
+  return p_ != nullptr && p_->direction_importance && geometry_ &&
+         (p_->hfd_half_band_m || p_->hfd_half_band_rel || p_->ptn_rel_error_at_hfd ||
+          !p_->has_targets());
+}
+
+// The pilot's HFD and the triangles sharing its ring, from its own density (folded for this,
+// Reducer::fold_pilot): without them the first learnt batch would have no ring to aim at and
+// would be drawn, for the HFD, as without importance sampling.
+void PrecisionControl::pilot_ring() {
+  PrecisionSnapshot s;
+  hfd_snapshot(1.0, s);
+  hfd_m_ = s.hfd_m;
+  ring_triangles_ = s.ring_triangles;
 }
 
 PrecisionSnapshot PrecisionControl::snapshot(std::int64_t batches) const {

@@ -35,6 +35,9 @@ class PrecisionControl {
   double hfd_m() const { return hfd_m_; }  // at the last boundary (0 unless computed)
   // ring_participation at the last boundary (1 unless computed)
   double ring_triangles() const { return ring_triangles_; }
+  // Under direction importance sampling with the HFD ring among the learnt figures: the pilot's
+  // terrain density is folded (Reducer::fold_pilot) and read at its boundary for the first ring.
+  bool wants_pilot_density() const;
   const std::vector<double>& distances() const {
     static const std::vector<double> none;
     return geometry_ ? geometry_->distances() : none;
@@ -43,6 +46,7 @@ class PrecisionControl {
  private:
   PrecisionSnapshot snapshot(std::int64_t batches) const;
   void hfd_snapshot(double scale, PrecisionSnapshot& s) const;
+  void pilot_ring();
 
   const Scenario& sc_;
   const scene::Site& site_;

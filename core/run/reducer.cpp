@@ -34,6 +34,18 @@ Reducer::Reducer(const Scenario& sc, const scene::Site& site, const LaunchStrata
 }
 
 void Reducer::fold(ChunkOutput& c) {
+  fold_histories(c, false);
+  out_.histories_done += c.count;
+  add_records_and_stats(c);
+}
+
+void Reducer::fold_pilot(const ChunkOutput& c) {
+  fold_histories(c, true);
+}
+
+// The chunk's histories into the tally; `density_only`: the terrain's PTN density alone (the
+// pilot's, fold_pilot()).
+void Reducer::fold_histories(const ChunkOutput& c, bool density_only) {
   tally::StratifiedTally& t = out_.tally;
   const std::int64_t samples = samples_[c.group];
   const std::int64_t batch = c.first_history / samples;
@@ -42,22 +54,29 @@ void Reducer::fold(ChunkOutput& c) {
   for (std::int64_t i = 0; i < c.count; ++i) {
     start_strata(c.group, batch, first + i, i == 0);
     const std::uint32_t end = c.ptn_end[static_cast<std::size_t>(i)];
-    for (std::uint32_t k = begin; k < end; ++k) add_ptn(c.ptn[k], c.group);
+    for (std::uint32_t k = begin; k < end; ++k) {
+      if (density_only)
+        add(bins_.terrain + c.ptn[k].triangle, c.ptn[k].value);
+      else
+        add_ptn(c.ptn[k], c.group);
+    }
     begin = end;
-    const auto h = static_cast<std::size_t>(i);
-    const double w = c.weights[h];  // with the likelihood ratio
-    if (c.building_index[h] >= 0)
-      add_building(c.buildings[static_cast<std::size_t>(c.building_index[h])], w);
-    const auto o = static_cast<std::size_t>(c.outcomes[h]);
-    add(bins_.outcomes + o, w);
-    ++out_.outcome_histories[o];
-    if (c.exit_sector[h] >= 0) add_left_hazardous(c.exit_sector[h], w);
+    if (!density_only) add_outcomes(c, static_cast<std::size_t>(i));
     if (strata_.unit_ends(c.group, first + i)) unit_done();
   }
   if (!unit_.bins().empty()) throw std::logic_error("Reducer: a chunk ends inside a Sobol block");
   for (std::size_t k = 0; k < t.partitions(); ++k) t.flush(k);
-  out_.histories_done += c.count;
-  add_records_and_stats(c);
+}
+
+// History h's building hit, outcome and exit from the site.
+void Reducer::add_outcomes(const ChunkOutput& c, std::size_t h) {
+  const double w = c.weights[h];  // with the likelihood ratio
+  if (c.building_index[h] >= 0)
+    add_building(c.buildings[static_cast<std::size_t>(c.building_index[h])], w);
+  const auto o = static_cast<std::size_t>(c.outcomes[h]);
+  add(bins_.outcomes + o, w);
+  ++out_.outcome_histories[o];
+  if (c.exit_sector[h] >= 0) add_left_hazardous(c.exit_sector[h], w);
 }
 
 // Names each partition's stratum at history i (within its batch) when one starts there (or

@@ -22,8 +22,13 @@ class Reducer {
   // Tallies a chunk's histories (their PTN contributions, building hits, outcomes, exits) and
   // appends its records, trajectories, statistics and timings.
   void fold(ChunkOutput& c);
+  // A pilot's chunk under direction importance sampling: its terrain PTN density alone, for the
+  // pilot's HFD (PrecisionControl::batch_done at the pilot's boundary); the caller clears it.
+  void fold_pilot(const ChunkOutput& c);
 
  private:
+  void fold_histories(const ChunkOutput& c, bool density_only);
+  void add_outcomes(const ChunkOutput& c, std::size_t h);
   void start_strata(std::uint32_t g, std::int64_t batch, std::int64_t i, bool chunk_start);
   void add(std::size_t bin, double x);
   void unit_done();

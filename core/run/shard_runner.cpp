@@ -142,6 +142,7 @@ void ShardRunner::fold(ChunkOutput& c) {
   folded_ += c.count;
   if (pilot) {
     part_.pilot_histories += c.count;
+    if (precision_.wants_pilot_density()) reducer_.fold_pilot(c);
   } else {
     if (control_.on_chunk) control_.on_chunk(c);
     reducer_.fold(c);
@@ -162,6 +163,10 @@ void ShardRunner::end_batch(bool pilot) {
     pipeline_.finish();
     plans_.abort();
   } else if (learner_) {
+    if (pilot) {  // its density has placed the HFD ring (PrecisionControl::batch_done)
+      part_.tally.clear();
+      global_.tally.clear();
+    }
     plans_.publish(
         batches_,
         drawable(learner_->plan(precision_.hfd_m(), precision_.ring_triangles()), strata_));
@@ -257,6 +262,7 @@ PartialRun ShardRunner::finish() {
   PartialRun& part = part_;
   part.cancelled = !pipeline_.finished() && (cancelled() || pipeline_.stopped());
   part.tallied_batches = batches_ - pilot_batches_;
+  if (learner_ && part.tallied_batches == 0) part.tally.clear();  // a pilot's density only
   // A shard without histories has no batch to fold (unless the shards run each batch together).
   const bool idle = plan_.chunks.empty() && sync_ == nullptr;
   part.batches = idle && !part.cancelled ? 1 : batches_;
