@@ -378,8 +378,8 @@ fragments::DirectionCells DirectionLearner::mixture(const std::vector<double>& s
           settings_.mass_cells, std::move(q)};
 }
 
-std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m, double ring_triangles,
-                                                              const FigureWeights& weights) const {
+std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m,
+                                                              double ring_triangles) const {
   std::vector<fragments::DirectionCells> out;
   int ring_lo = 1, ring_hi = 0;  // empty
   if (ring_used_ && hfd_m > 0.0) {
@@ -394,8 +394,7 @@ std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m, doub
       const double mean = g.building_mean[b] / n;  // E_p[hit]
       if (!building_used_[b] || !(mean > 0.0)) continue;
       const std::vector<double> rate = building_rates(g, b, mean);
-      const double w = weights.of_building(b) / (mean * mean);
-      for (std::size_t c = 0; c < cells; ++c) a[c] += rate[c] * w;
+      for (std::size_t c = 0; c < cells; ++c) a[c] += rate[c] / (mean * mean);
     }
     double ring_mean = 0.0;
     for (int k = ring_lo; k <= ring_hi; ++k) ring_mean += g.bin_mean[static_cast<std::size_t>(k)];
@@ -404,8 +403,7 @@ std::vector<fragments::DirectionCells> DirectionLearner::plan(double hfd_m, doub
       // The mean over the ring's triangles of E[x_t^2 | c] / E[x_t]^2: with the ring's density
       // spread over T triangles, E[x_t] = E[x_ring] / T, so it is T sum_t E[x_t^2 | c] /
       // E[x_ring]^2 (docs/precision.md, "Learning q").
-      const double per_triangle =
-          weights.ring * std::max(1.0, ring_triangles) / (ring_mean * ring_mean);
+      const double per_triangle = std::max(1.0, ring_triangles) / (ring_mean * ring_mean);
       const std::vector<double> sq = ring_second_moments(g, ring_lo, ring_hi);
       for (std::size_t c = 0; c < cells; ++c) a[c] += sq[c] * per_triangle;
     }

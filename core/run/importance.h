@@ -16,7 +16,6 @@
 
 #include "core/fragments/direction_cells.h"
 #include "core/run/history.h"
-#include "core/run/precision.h"
 #include "core/run/scenario.h"
 #include "core/scene/site.h"
 
@@ -61,9 +60,7 @@ class DirectionLearner {
   // `ring_triangles` is how many triangles share the ring's density (ring_participation in
   // core/run/precision.h): the ring's figure is the relative variance of one triangle's density, as
   // the HFD targets read it, not of the ring's total, which is about that many times smaller.
-  // `weights`: how much each figure counts (figure_weights in core/run/precision.h).
-  std::vector<fragments::DirectionCells> plan(double hfd_m, double ring_triangles,
-                                              const FigureWeights& weights) const;
+  std::vector<fragments::DirectionCells> plan(double hfd_m, double ring_triangles) const;
 
   // Bytes of the learning tables for `groups` groups of `cells` cells each with `buildings`
   // buildings (per cell: histories, hits per building, squared ring contributions per distance

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <string>
-#include <unordered_map>
 
 namespace fragsim::run {
 
@@ -96,46 +95,6 @@ std::vector<TargetStatus> check_targets(const PrecisionSettings& p, const Precis
     }
   }
   return out;
-}
-
-namespace {
-
-// (value / allowed)^2; +inf when nothing allows a value yet (a relative target on a figure no
-// history has touched); 0 for an unmeetable target (more histories cannot help it).
-double need(const TargetStatus& t) {
-  if (t.unmeetable) return 0.0;
-  if (!(t.allowed > 0.0)) return kInf;
-  const double r = t.value / t.allowed;
-  return r * r;
-}
-
-}  // namespace
-
-FigureWeights figure_weights(const std::vector<TargetStatus>& targets,
-                             const std::vector<std::string>& building_ids) {
-  std::unordered_map<std::string, std::size_t> index;
-  for (std::size_t b = 0; b < building_ids.size(); ++b) index.emplace(building_ids[b], b);
-  std::vector<double> building(building_ids.size(), -1.0);  // -1: no target
-  double ring = -1.0, largest = 0.0;
-  for (const TargetStatus& t : targets) {
-    const double n = need(t);
-    double* slot = &ring;
-    if (!t.building.empty()) {
-      const auto it = index.find(t.building);
-      if (it == index.end()) continue;
-      slot = &building[it->second];
-    }
-    *slot = std::max(*slot, n);
-    if (std::isfinite(n)) largest = std::max(largest, n);
-  }
-  FigureWeights w;
-  auto weight = [&](double n) {
-    if (n < 0.0 || !(largest > 0.0)) return 1.0;  // no target, or nothing measured yet
-    return std::min(n, largest) / largest;
-  };
-  w.ring = weight(ring);
-  for (const double n : building) w.building.push_back(weight(n));
-  return w;
 }
 
 double ptn_rel_error_near_hfd(const std::vector<double>& density, const std::vector<double>& se,

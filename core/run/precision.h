@@ -92,23 +92,6 @@ inline constexpr double kRingInner = 0.85, kRingOuter = 1.15;
 double ring_participation(const std::vector<double>& density, const std::vector<double>& distance_m,
                           double hfd_m);
 
-// How much each figure the importance learner aims at counts in its plan (DirectionLearner::plan,
-// docs/precision.md "Learning q"): each figure's need (value / allowed)^2 at the last check, the
-// factor by which its histories fall short of its target, relative to the largest need, so that
-// the figure furthest from its target gets the most of the learnt share: a study is done when its
-// slowest figure is (the need to the power 0.5 and 2 was tried: docs/benchmarks.md §8). A
-// building's need is the larger of its impacts' and penetrations', the ring's that of the HFD
-// targets. The weight is 1 for a figure without a target, for every figure while no need is
-// finite, and for a figure no history has touched under a relative target alone (its need is
-// unbounded); 0 for an unmeetable one (more histories cannot help it).
-struct FigureWeights {
-  std::vector<double> building;  // per building of the site (empty: 1 each)
-  double ring = 1.0;
-  double of_building(std::size_t b) const { return b < building.size() ? building[b] : 1.0; }
-};
-FigureWeights figure_weights(const std::vector<TargetStatus>& targets,
-                             const std::vector<std::string>& building_ids);
-
 // Turns successive checks into a report with an ETA: each figure's error is fitted as
 // c * n^-alpha over its checks so far (least squares in log-log, alpha clamped to [0.25, 1];
 // 0.5, the Monte Carlo rate, until three checks are available), and extrapolated to its target.

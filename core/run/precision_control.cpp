@@ -7,7 +7,6 @@ PrecisionControl::PrecisionControl(const Scenario& sc, const scene::Site& site,
     : sc_(sc), site_(site), tallies_(tallies), bins_(tally_bins(sc, site)) {
   if (!sc.settings.precision) return;
   p_ = &*sc.settings.precision;
-  for (const auto& b : site.buildings()) building_ids_.push_back(b.id);
   if (p_->hfd_half_band_m || p_->hfd_half_band_rel || p_->ptn_rel_error_at_hfd ||
       p_->direction_importance)
     geometry_.emplace(site, site.to_local(hfd_origin_input(sc, site)), true);
@@ -24,10 +23,8 @@ bool PrecisionControl::batch_done(std::int64_t batches, std::int64_t tallied,
   const PrecisionSnapshot snap = snapshot(tallied);
   hfd_m_ = snap.hfd_m;
   ring_triangles_ = snap.ring_triangles;
-  std::vector<TargetStatus> targets = check_targets(*p_, snap);
-  figure_weights_ = run::figure_weights(targets, building_ids_);
   auto report = std::make_shared<PrecisionReport>(
-      tracker_.update(std::move(targets), batches, histories,
+      tracker_.update(check_targets(*p_, snap), batches, histories,
                       elapsed > 0.0 ? static_cast<double>(histories_run) / elapsed : 0.0));
   const bool settled = p_->has_targets() && tallied >= p_->min_batches;
   if (settled && report->all_met) {

@@ -6,7 +6,6 @@
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <string>
 #include <vector>
 
 #include "core/run/hfd.h"
@@ -36,8 +35,6 @@ class PrecisionControl {
   double hfd_m() const { return hfd_m_; }  // at the last boundary (0 unless computed)
   // ring_participation at the last boundary (1 unless computed)
   double ring_triangles() const { return ring_triangles_; }
-  // figure_weights at the last boundary (1 each unless computed)
-  const FigureWeights& figure_weights() const { return figure_weights_; }
   // Under direction importance sampling with the HFD ring among the learnt figures: the pilot's
   // terrain density is folded (Reducer::fold_pilot) and read at its boundary for the first ring.
   bool wants_pilot_density() const;
@@ -61,8 +58,6 @@ class PrecisionControl {
   StopReason reason_ = StopReason::kSamples;
   double hfd_m_ = 0.0;
   double ring_triangles_ = 1.0;
-  FigureWeights figure_weights_;
-  std::vector<std::string> building_ids_;
   mutable std::mutex mutex_;
   std::shared_ptr<const PrecisionReport> report_;
 };

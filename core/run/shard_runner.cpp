@@ -167,10 +167,9 @@ void ShardRunner::end_batch(bool pilot) {
       part_.tally.clear();
       global_.tally.clear();
     }
-    plans_.publish(batches_,
-                   drawable(learner_->plan(precision_.hfd_m(), precision_.ring_triangles(),
-                                           precision_.figure_weights()),
-                            strata_));
+    plans_.publish(
+        batches_,
+        drawable(learner_->plan(precision_.hfd_m(), precision_.ring_triangles()), strata_));
   }
 }
 

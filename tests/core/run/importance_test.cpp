@@ -249,24 +249,15 @@ TEST(DirectionImportance, TheRingIsWeighedPerTriangleAgainstTheBuildings) {
       const PtnContribution c[2] = {{t, 1.0}, {(t + 1) % kRing, 1.0}};
       learner.add(0, cell_b, 1.0, -1, c, c + 2);
     }
-    // The figure weights (figure_weights, core/run/precision.h) scale each figure's term.
-    FigureWeights weights;
-    weights.building = {0.25};
-    weights.ring = 0.5;
-    for (const FigureWeights& w : {FigureWeights{}, weights}) {
-      const auto q = learner.plan(100.0, ring_triangles, w)[0];
-      const double n = 12.0 * kNw + kNb, cells = q.cells(), hits = 12.0 * kHw;
-      const double mean = hits / n, lambda = hits / (hits + 5.0);
-      const double a_w = w.of_building(0) *
-                         (lambda * kHw / kNw + (1.0 - lambda) * mean * cells / 12.0) /
-                         (mean * mean);
-      const double a_b = w.ring * ring_triangles * 2.0 / ((2.0 * kNb / n) * (2.0 * kNb / n));
-      const double touching = hits + kNb;
-      const double floor = (1.0 - 0.7 * touching / (touching + 5.0)) / cells;
-      const double ratio = (q.probability(cell_b) - floor) / (q.probability(17) - floor);
-      EXPECT_NEAR(ratio, std::sqrt(a_b / a_w), 1e-9 * std::sqrt(a_b / a_w))
-          << ring_triangles << " " << w.ring;
-    }
+    const auto q = learner.plan(100.0, ring_triangles)[0];
+    const double n = 12.0 * kNw + kNb, cells = q.cells(), hits = 12.0 * kHw;
+    const double mean = hits / n, lambda = hits / (hits + 5.0);
+    const double a_w = (lambda * kHw / kNw + (1.0 - lambda) * mean * cells / 12.0) / (mean * mean);
+    const double a_b = ring_triangles * 2.0 / ((2.0 * kNb / n) * (2.0 * kNb / n));
+    const double touching = hits + kNb;
+    const double floor = (1.0 - 0.7 * touching / (touching + 5.0)) / cells;
+    const double ratio = (q.probability(cell_b) - floor) / (q.probability(17) - floor);
+    EXPECT_NEAR(ratio, std::sqrt(a_b / a_w), 1e-9 * std::sqrt(a_b / a_w)) << ring_triangles;
   }
 }
 
@@ -288,7 +279,7 @@ TEST(DirectionImportance, AnUnvisitedCellTakesItsNeighbourhoodsRingMoments) {
     const PtnContribution c{static_cast<std::uint32_t>(k % 10), 1.0 + 0.1 * k};
     learner.add(0, cell_b, 1.0, -1, &c, &c + 1);
   }
-  const auto q = learner.plan(100.0, 10.0, FigureWeights{})[0];
+  const auto q = learner.plan(100.0, 10.0)[0];
   const double touching = 30.0;
   const double floor = (1.0 - 0.7 * touching / (touching + 5.0)) / q.cells();
   const double b = q.probability(cell_b) - floor;

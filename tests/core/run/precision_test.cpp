@@ -6,7 +6,6 @@
 
 #include <cmath>
 #include <cstring>
-#include <limits>
 
 #include "core/run/run.h"
 #include "validation/scenario_fixtures.h"
@@ -393,45 +392,6 @@ TEST(PrecisionTargets, RingParticipationCountsTheTrianglesThatShareTheRingsDensi
                    2.5 * 2.5 / 2.25);
   EXPECT_EQ(ring_participation({1.0, 0.0, 0.0, 0.0, 1.0}, distance, 100.0), 1.0);
   EXPECT_EQ(ring_participation({1.0, 1.0, 1.0, 1.0, 1.0}, distance, 0.0), 1.0);
-}
-
-// The learner's figure weights: each figure's (value / allowed)^2 against the largest.
-TEST(PrecisionTargets, FigureWeightsFollowEachFiguresNeed) {
-  auto target = [](const char* figure, const char* building, double value, double allowed) {
-    TargetStatus t;
-    t.figure = figure;
-    t.building = building;
-    t.value = value;
-    t.allowed = allowed;
-    return t;
-  };
-  const std::vector<std::string> ids = {"A", "B", "C", "D"};
-  const FigureWeights w = figure_weights(
-      {target("ptn_rel_error_at_hfd", "", 0.2, 0.05),   // need 16: the largest
-       target("building_impacts", "A", 0.2, 0.1),       // need 4
-       target("building_penetrations", "A", 0.1, 0.1),  // 1: A takes its larger need
-       target("building_impacts", "B", 0.05, 0.1),      // 0.25: met
-       target("building_impacts", "D", 0.0,
-              -std::numeric_limits<double>::infinity()),    // nothing seen, relative only
-       target("building_impacts", "elsewhere", 9.0, 1.0)},  // not a building of the site
-      ids);
-  EXPECT_DOUBLE_EQ(w.ring, 1.0);
-  ASSERT_EQ(w.building.size(), 4u);
-  EXPECT_DOUBLE_EQ(w.building[0], 4.0 / 16.0);
-  EXPECT_DOUBLE_EQ(w.building[1], 0.25 / 16.0);
-  EXPECT_DOUBLE_EQ(w.building[2], 1.0);  // no target
-  EXPECT_DOUBLE_EQ(w.building[3], 1.0);  // unbounded need: as the neediest
-  EXPECT_DOUBLE_EQ(w.of_building(7), 1.0);
-
-  TargetStatus cut = target("ptn_rel_error_at_hfd", "", 0.3, 0.05);
-  cut.unmeetable = true;  // more histories cannot help it
-  const FigureWeights u = figure_weights({cut, target("building_impacts", "A", 0.2, 0.1)}, ids);
-  EXPECT_DOUBLE_EQ(u.ring, 0.0);
-  EXPECT_DOUBLE_EQ(u.building[0], 1.0);
-  // No finite need yet: every figure counts fully.
-  const FigureWeights none = figure_weights({target("building_impacts", "A", 0.0, 0.0)}, ids);
-  EXPECT_DOUBLE_EQ(none.ring, 1.0);
-  EXPECT_DOUBLE_EQ(none.building[0], 1.0);
 }
 
 // Five checks at n = 1000 ... 5000 histories of a figure whose error is error(n), 1000 histories/s.
