@@ -17,6 +17,18 @@
 namespace fragsim::run {
 namespace {
 
+// One group on one thread with `seed`, and `p` as settings.precision (direction importance
+// sampling with `cells` when `importance`).
+Scenario one_group(Scenario sc, const fragments::FragmentGroupSpec& g, std::uint64_t seed,
+                   PrecisionSettings p, bool importance, const DirectionImportanceSettings& cells) {
+  sc.groups = {g};
+  sc.settings.seed = seed;
+  sc.settings.threads = 1;
+  if (importance) p.direction_importance = cells;
+  sc.settings.precision = p;
+  return sc;
+}
+
 // A fan of fragments over a flat site with a small building 60 m away: the building subtends a
 // few per cent of the launch directions, the case importance sampling is for.
 Scenario fan_scenario(std::uint64_t seed, bool importance) {
@@ -26,16 +38,11 @@ Scenario fan_scenario(std::uint64_t seed, bool importance) {
   auto g = validation::sphere_group(Vec3(0, 0, 1.0), 0.05, 150.0, 100.0, 500);
   g.direction.elevation_min_deg = 0.0;
   g.direction.elevation_max_deg = 30.0;
-  sc.groups = {g};
-  sc.settings.seed = seed;
-  sc.settings.threads = 1;
   PrecisionSettings p;
   p.max_batches = 8;  // batch 0 is plain: over 8 batches the variance ratio can reach 8
   p.min_batches = 8;
   p.building_rel_error = 0.01;  // names the building as the figure; never met in 8 batches
-  if (importance) p.direction_importance = DirectionImportanceSettings{6, 36, 1, 0.3, 1};
-  sc.settings.precision = p;
-  return sc;
+  return one_group(sc, g, seed, p, importance, DirectionImportanceSettings{6, 36, 1, 0.3, 1});
 }
 
 struct Spread {
@@ -139,15 +146,10 @@ Scenario ring_scenario(std::uint64_t seed, bool importance, std::int64_t batches
   g.cd.constant = 0.47;
   g.direction.elevation_min_deg = 0.0;
   g.direction.elevation_max_deg = 80.0;
-  sc.groups = {g};
-  sc.settings.seed = seed;
-  sc.settings.threads = 1;
   PrecisionSettings p;
   p.max_batches = p.min_batches = batches;
   p.ptn_rel_error_at_hfd = 1e-9;  // names the ring; never met
-  if (importance) p.direction_importance = DirectionImportanceSettings{16, 12, 1, 0.3, 1};
-  sc.settings.precision = p;
-  return sc;
+  return one_group(sc, g, seed, p, importance, DirectionImportanceSettings{16, 12, 1, 0.3, 1});
 }
 
 double ring_rel_error(const RunResult& r) {
