@@ -87,59 +87,90 @@ class Dopri5 {
     h_next_ = h0 > 0.0 ? std::min(h0, opt_.h_max) : initial_step();
   }
 
+  // One attempt's stages k1..k7 and its 5th-order result y1 (k7 = f(t0 + h, y1)).
+  // Left uninitialised (zeroing both sets showed in profiles: one integrator per history):
+  // reset() sets y1 and k7 of the accepted set, and nothing reads the rest before a step.
+  struct Stages {
+    Vec k1, k2, k3, k4, k5, k6, k7, y1;
+  };
+
   // Take one accepted step, never past t_end. Returns false (state unchanged) when t() >= t_end
   // or the step size underflows h_min.
   bool step(double t_end) {
-    using namespace dopri5_tableau;
     if (!(t_ < t_end)) return false;
+    Trial trial = first_trial(t_end);
+    for (;;) {
+      if (!size_trial(trial)) return false;
+      // FSAL: dy() = f(t_, y()) is the first stage.
+      const double err = attempt(t_, y(), dy(), trial.h, trial_stages(), true);
+      switch (conclude(trial, err)) {
+        case Verdict::kAccepted: return true;
+        case Verdict::kFailed: return false;
+        case Verdict::kRetry: break;
+      }
+    }
+  }
+
+  // The same step in halves, for a caller that computes the attempts itself (the lane kernel,
+  // core/flight/lanes.h): `first_trial`, then per attempt `size_trial` (false: no step possible),
+  // the attempt from (t(), y(), dy()) over trial.h into trial_stages() (y1 and k7 included),
+  // `count_attempt()`, and `conclude` with its error norm. step() is exactly this loop.
+  struct Trial {
+    double t_end, h;
+    bool last = false;
+    int rejections = 0;
+  };
+  enum class Verdict { kAccepted, kRetry, kFailed };
+  Trial first_trial(double t_end) const { return {t_end, std::min(h_next_, opt_.h_max)}; }
+  bool size_trial(Trial& trial) const {
+    if (!(trial.h >= opt_.h_min)) return false;  // also catches NaN
+    // Stretch the last step by up to 1 % rather than leave a sliver before t_end (Hairer).
+    trial.last = false;
+    if (t_ + 1.01 * trial.h >= trial.t_end) {
+      trial.h = trial.t_end - t_;
+      trial.last = true;
+    }
+    return true;
+  }
+  Stages& trial_stages() { return stages_[1 - acc_]; }
+  void count_attempt() { rhs_evals_ += 6; }
+  Verdict conclude(Trial& trial, double err) {
     // PI step-size control (Gustafsson 1991, ACM TOMS 17; in the form of Hairer's DOPRI5 code,
     // whose "beta" damps step-size oscillation): h_new = h / fac with
     // fac = err^(1/5 - 0.75 beta) / err_old^beta / safety, fac limited to [1/facmax, 1/facmin].
     constexpr double kSafety = 0.9, kFacMin = 0.2, kFacMax = 10.0, kBeta = 0.04;
     constexpr double kExpo1 = 0.2 - 0.75 * kBeta;
-    double h = std::min(h_next_, opt_.h_max);
-    int rejections = 0;
-    for (;;) {
-      if (!(h >= opt_.h_min)) return false;  // also catches NaN
-      // Stretch the last step by up to 1 % rather than leave a sliver before t_end (Hairer).
-      bool last = false;
-      if (t_ + 1.01 * h >= t_end) {
-        h = t_end - t_;
-        last = true;
-      }
-      // FSAL: dy() = f(t_, y()) is the first stage.
-      Stages& next = stages_[1 - acc_];
-      const double err = attempt(t_, y(), dy(), h, next, true);
-      if (err <= 1.0) {
-        // err^expo1 / err_old^beta as one exp of logs (pow twice per step showed in profiles);
-        // err = 0 (e.g. a polynomial solution) gives log = -inf, fac = 0, clamped below.
-        const double log_err = std::log(err);
-        double fac = std::exp(kExpo1 * log_err - kBeta * log_facold_);
-        fac = std::clamp(fac / kSafety, 1.0 / kFacMax, 1.0 / kFacMin);
-        double h_new = h / fac;
-        if (rejected_last_) h_new = std::min(h_new, h);  // no growth right after a rejection
-        log_facold_ = std::max(log_err, kLogErrFloor);   // err_old >= 1e-4 as in Hairer's code
-        rejected_last_ = false;
-        t_prev_ = t_;
-        y_prev_ = y();
-        t_ = last ? t_end : t_ + h;
-        h_ = t_ - t_prev_;
-        acc_ = 1 - acc_;  // the attempt's stages (with y1 and k7 = f(t, y1)) are the step's
-        dense_ready_ = false;
-        h_next_ = h_new;
-        ++accepted_;
-        return true;
-      }
-      ++rejected_;
-      rejected_last_ = true;
-      if (++rejections > opt_.max_rejections_per_step) {
-        h_next_ = h;
-        return false;
-      }
-      // NaN/Inf error (e.g. the right-hand side blew up): shrink by the largest allowed factor.
-      const double fac11 = std::isfinite(err) ? std::pow(err, kExpo1) : 1.0 / kFacMin;
-      h /= std::min(1.0 / kFacMin, fac11 / kSafety);
+    const double h = trial.h;
+    if (err <= 1.0) {
+      // err^expo1 / err_old^beta as one exp of logs (pow twice per step showed in profiles);
+      // err = 0 (e.g. a polynomial solution) gives log = -inf, fac = 0, clamped below.
+      const double log_err = std::log(err);
+      double fac = std::exp(kExpo1 * log_err - kBeta * log_facold_);
+      fac = std::clamp(fac / kSafety, 1.0 / kFacMax, 1.0 / kFacMin);
+      double h_new = h / fac;
+      if (rejected_last_) h_new = std::min(h_new, h);  // no growth right after a rejection
+      log_facold_ = std::max(log_err, kLogErrFloor);   // err_old >= 1e-4 as in Hairer's code
+      rejected_last_ = false;
+      t_prev_ = t_;
+      y_prev_ = y();
+      t_ = trial.last ? trial.t_end : t_ + h;
+      h_ = t_ - t_prev_;
+      acc_ = 1 - acc_;  // the attempt's stages (with y1 and k7 = f(t, y1)) are the step's
+      dense_ready_ = false;
+      h_next_ = h_new;
+      ++accepted_;
+      return Verdict::kAccepted;
     }
+    ++rejected_;
+    rejected_last_ = true;
+    if (++trial.rejections > opt_.max_rejections_per_step) {
+      h_next_ = h;
+      return Verdict::kFailed;
+    }
+    // NaN/Inf error (e.g. the right-hand side blew up): shrink by the largest allowed factor.
+    const double fac11 = std::isfinite(err) ? std::pow(err, kExpo1) : 1.0 / kFacMin;
+    trial.h = h / std::min(1.0 / kFacMin, fac11 / kSafety);
+    return Verdict::kRetry;
   }
 
   // Retake the last accepted step but end it at t_stop in (t_prev, t]: state becomes the step's
@@ -200,31 +231,11 @@ class Dopri5 {
     return {y_prev_, r2_, r3_, r4_, r5_, t_prev_, h_};
   }
 
-  double next_step_size() const { return h_next_; }  // proposal for the next step
-  // Counters accumulate over the object's lifetime (reset() does not clear them).
-  long rhs_evaluations() const { return rhs_evals_; }
-  long steps_accepted() const { return accepted_; }
-  long steps_rejected() const { return rejected_; }
-  const Rhs& rhs() const { return rhs_; }
-  const Dopri5Options& options() const { return opt_; }
-
- private:
-  // One attempt's stages k1..k7 and its 5th-order result y1 (k7 = f(t0 + h, y1)).
-  // Left uninitialised (zeroing both sets showed in profiles: one integrator per history):
-  // reset() sets y1 and k7 of the accepted set, and nothing reads the rest before a step.
-  struct Stages {
-    Vec k1, k2, k3, k4, k5, k6, k7, y1;
-  };
-
-  // RMS of v_i / (atol + rtol * max(|a_i|, |b_i|)).
-  double scaled_rms(const Vec& v, const Vec& a, const Vec& b) const {
-    const Vec sc = (opt_.atol + opt_.rtol * a.cwiseAbs().cwiseMax(b.cwiseAbs()).array()).matrix();
-    return std::sqrt(v.cwiseQuotient(sc).squaredNorm() / static_cast<double>(N));
-  }
-
   // One DOPRI5 step of size h from (t0, y0) with f0 = f(t0, y0) into `k`: the stages, the
   // 5th-order result k.y1 and k.k7 = f(t0 + h, y1). Returns the scaled error norm when `estimate`
   // is set (else 0). f0 and y0 must not be in `k`.
+  // Public for the lane kernel (core/flight/lanes.h), whose tests and benchmark compare every
+  // lane with it bit for bit; it changes only the counter of right-hand sides.
   double attempt(double t0, const Vec& y0, const Vec& f0, double h, Stages& k, bool estimate) {
     using namespace dopri5_tableau;
     k.k1 = f0;
@@ -241,6 +252,21 @@ class Dopri5 {
     return scaled_rms(err, y0, k.y1);
   }
 
+  // RMS of v_i / (atol + rtol * max(|a_i|, |b_i|)).
+  double scaled_rms(const Vec& v, const Vec& a, const Vec& b) const {
+    const Vec sc = (opt_.atol + opt_.rtol * a.cwiseAbs().cwiseMax(b.cwiseAbs()).array()).matrix();
+    return std::sqrt(v.cwiseQuotient(sc).squaredNorm() / static_cast<double>(N));
+  }
+
+  double next_step_size() const { return h_next_; }  // proposal for the next step
+  // Counters accumulate over the object's lifetime (reset() does not clear them).
+  long rhs_evaluations() const { return rhs_evals_; }
+  long steps_accepted() const { return accepted_; }
+  long steps_rejected() const { return rejected_; }
+  const Rhs& rhs() const { return rhs_; }
+  const Dopri5Options& options() const { return opt_; }
+
+ private:
   // Coefficients of the continuous extension for the accepted step [t_prev_, t_], built on the
   // first call after the step (the stages stay until the next accepted step). The test inline,
   // the build out of line (a call for every dense evaluation showed in profiles).

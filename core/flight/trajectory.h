@@ -107,7 +107,9 @@ class TrajectoryIntegrator {
   // control already resolves within 1e-6.
   static constexpr double kApexHorizontalRatio = 0.1;
 
- private:
+ public:
+  // The right-hand sides are public for the lane kernel's tests and benchmark
+  // (core/flight/lanes.h), which compare it with DOPRI5 on these bit for bit.
   using Vec6 = Eigen::Matrix<double, 6, 1>;
   using Vec7 = Eigen::Matrix<double, 7, 1>;
   // Right-hand side in t, (p, v)' = (v, a(p, v)). Holds its own copy of the model (two pointers
@@ -137,6 +139,7 @@ class TrajectoryIntegrator {
     }
   };
 
+ private:
   // Private Methods
   bool arc_step(double t_end);
   void start_time_phase(double t0, const Vec3& p, const Vec3& v, double h0 = 0.0);
