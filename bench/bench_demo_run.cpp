@@ -17,9 +17,12 @@
 //
 //   build/bench/bench_demo_run [scenario.json] [--repeat N] [--rtol-sweep] [--bounce]
 //                              [--samples-scale X] [--one-thread] [--rigid-ground]
-//                              [--bounce-ratio]
+//                              [--bounce-ratio] [--serial-histories] [--lanes-ratio]
 //
 // --one-thread: only the 1-thread runs (no all-threads run, no profiled run).
+// --serial-histories: one history at a time per thread (RunControl::serial_histories), instead of
+// flight::kLanes histories in lanes (core/run/lane_runner.h); --lanes-ratio runs the two in
+// alternation on 1 thread and prints the ratio of the best throughputs (same results).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -83,6 +86,37 @@ void print_results(const run::RunResult& r) {
   std::printf("\n");
 }
 
+// RunControl of every run (--serial-histories).
+run::RunControl g_control;
+
+// One history at a time against histories in lanes, in alternation, 1 thread, best of `rounds`
+// each (CPU time); the two must give the same figures.
+void lanes_ratio(run::Scenario sc, const std::shared_ptr<const scene::Site>& site, int rounds) {
+  sc.settings.threads = 1;
+  sc.settings.profile = false;
+  double best[2] = {0.0, 0.0};
+  run::RunResult last[2];
+  for (int k = 0; k < rounds; ++k) {
+    for (int lanes = 0; lanes < 2; ++lanes) {
+      run::RunControl control;
+      control.serial_histories = lanes == 0;
+      const std::clock_t c0 = std::clock();
+      last[lanes] = run::run(sc, site, control);
+      const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
+      best[lanes] = std::max(best[lanes], static_cast<double>(last[lanes].histories_done) / cpu_s);
+    }
+  }
+  const bool same =
+      last[0].hazardous_fragment_distance_m == last[1].hazardous_fragment_distance_m &&
+      last[0].ptn_density_per_m2 == last[1].ptn_density_per_m2 &&
+      last[0].stats.rhs_evaluations == last[1].stats.rhs_evaluations;
+  print_results(last[1]);
+  std::printf(
+      "best of %d (CPU time, 1 thread): one history at a time %.0f/s, in lanes %.0f/s, "
+      "ratio %.3f; results %s\n",
+      rounds, best[0], best[1], best[1] / best[0], same ? "identical" : "DIFFERENT");
+}
+
 // Bounce off and on in alternation, 1 thread, best of `rounds` each (CPU time: steadier than
 // wall time on a shared machine).
 void bounce_ratio(run::Scenario sc, const std::shared_ptr<const scene::Site>& site, int rounds) {
@@ -94,7 +128,7 @@ void bounce_ratio(run::Scenario sc, const std::shared_ptr<const scene::Site>& si
     for (int on = 0; on < 2; ++on) {
       sc.settings.bounce = on == 1;
       const std::clock_t c0 = std::clock();
-      last[on] = run::run(sc, site);
+      last[on] = run::run(sc, site, g_control);
       const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
       const double rate = static_cast<double>(last[on].histories_done) / cpu_s;
       best[on] = std::max(best[on], rate);
@@ -128,7 +162,7 @@ void sweep_rtol(run::Scenario sc, const std::shared_ptr<const scene::Site>& site
   sc.settings.threads = 1;
   sc.settings.profile = false;
   sc.settings.rtol = 1e-10;
-  const run::RunResult ref = run::run(sc, site);
+  const run::RunResult ref = run::run(sc, site, g_control);
   std::printf(
       "\n# rtol sweep, 1 thread, reference rtol 1e-10: HFD %.2f m, max density %.4f /m2, "
       "building impacts %.4f\n",
@@ -138,7 +172,7 @@ void sweep_rtol(run::Scenario sc, const std::shared_ptr<const scene::Site>& site
       "HFD se band (m)\n");
   for (double rtol : {1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8}) {
     sc.settings.rtol = rtol;
-    const run::RunResult r = run::run(sc, site);
+    const run::RunResult r = run::run(sc, site, g_control);
     const double n = static_cast<double>(r.histories_done);
     std::printf("%.0e  %11.2f  %8.1f  %8.3f  %12.3e  %11.3e  %.1f .. %.1f\n", rtol,
                 1e6 * r.timing.wall_s / n, static_cast<double>(r.stats.rhs_evaluations) / n,
@@ -155,7 +189,7 @@ int main(int argc, char** argv) {
   int repeat = 3;
   bool one_thread = false;
   bool rtol_sweep = false;
-  bool bounce = false, rigid_ground = false, ratio = false;
+  bool bounce = false, rigid_ground = false, ratio = false, lanes = false;
   double samples_scale = 1.0;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
@@ -170,6 +204,10 @@ int main(int argc, char** argv) {
       rigid_ground = true;
     } else if (std::strcmp(argv[i], "--bounce-ratio") == 0) {
       ratio = true;
+    } else if (std::strcmp(argv[i], "--serial-histories") == 0) {
+      g_control.serial_histories = true;
+    } else if (std::strcmp(argv[i], "--lanes-ratio") == 0) {
+      lanes = true;
     } else if (std::strcmp(argv[i], "--samples-scale") == 0 && i + 1 < argc) {
       samples_scale = std::atof(argv[++i]);
     } else {
@@ -204,6 +242,10 @@ int main(int argc, char** argv) {
     bounce_ratio(sc, site, repeat);
     return 0;
   }
+  if (lanes) {
+    lanes_ratio(sc, site, repeat);
+    return 0;
+  }
 
   const int all = static_cast<int>(std::thread::hardware_concurrency());
   for (int threads : {1, all}) {
@@ -214,7 +256,7 @@ int main(int argc, char** argv) {
       sc.settings.threads = threads;
       sc.settings.profile = false;
       const std::clock_t c0 = std::clock();
-      run::RunResult r = run::run(sc, site);
+      run::RunResult r = run::run(sc, site, g_control);
       const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
       if (k == 0 || cpu_s < best_cpu_s) best_cpu_s = cpu_s;
       if (k == 0 || r.timing.wall_s < best.timing.wall_s) best = std::move(r);
@@ -228,7 +270,7 @@ int main(int argc, char** argv) {
   if (one_thread) return 0;
   sc.settings.threads = 1;
   sc.settings.profile = true;
-  const run::RunResult p = run::run(sc, site);
+  const run::RunResult p = run::run(sc, site, g_control);
   const double split = p.timing.integration_s + p.timing.geometry_s + p.timing.tally_s;
   std::printf(
       "profile (1 thread)     wall %.3f s: integration %.3f s (%.0f%%), geometry %.3f s "

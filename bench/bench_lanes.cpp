@@ -42,7 +42,9 @@ struct Fragment {
 std::vector<Fragment> make_fragments(int n, const Atmosphere& air, const DragCoefficient& plate,
                                      const DragCoefficient& closure, const DragCoefficient& aft) {
   std::mt19937_64 rng(20261130);
-  auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<>(lo, hi)(rng); };
+  auto uniform = [&](double lo, double hi) {
+    return std::uniform_real_distribution<>(lo, hi)(rng);
+  };
   auto normal = [&](double mean, double sd, double lo, double hi) {
     for (;;) {
       const double x = std::normal_distribution<>(mean, sd)(rng);
@@ -144,10 +146,11 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+using LaneKernel = void (*)(const LaneIO (&)[kLanes], double, double);
+
 template <int N, class Ode>
-void compare(const char* name, const Recorded<N>& r,
-             void (*kernel)(const LaneModels&, double, double, bool, LaneAttempt<N>&),
-             const char* kernel_name, int repeat) {
+void compare(const char* name, const Recorded<N>& r, LaneKernel kernel, const char* kernel_name,
+             int repeat) {
   using Rhs = std::conditional_t<N == 7, TrajectoryIntegrator::ArcRhs, TrajectoryIntegrator::Rhs>;
   Dopri5Options opt;
   opt.rtol = opt.atol = kRtol;
@@ -168,35 +171,34 @@ void compare(const char* name, const Recorded<N>& r,
   }
   double best_lanes = 1e30;
   long differ = 0;
-  LaneAttempt<N> a{};
+  std::vector<typename Ode::Stages> stages(kLanes);
+  double err[kLanes];
   for (int rep = 0; rep < repeat; ++rep) {
     const auto t0 = std::chrono::steady_clock::now();
     for (std::size_t i = 0; i < n; i += kLanes) {
-      LaneModels m{};
-      for (int l = 0; l < kLanes; ++l) {
-        m.model[l] = r.model[i + l];
-        for (int c = 0; c < N; ++c) {
-          a.y0.c[c][l] = r.y0[i + l][c];
-          a.f0.c[c][l] = r.f0[i + l][c];
-        }
-        a.h[l] = r.h[i + l];
-      }
-      kernel(m, kRtol, kRtol, true, a);
+      LaneIO io[kLanes];
+      for (int l = 0; l < kLanes; ++l)
+        io[l] = {r.model[i + l], r.y0[i + l].data(),  r.f0[i + l].data(),
+                 r.h[i + l],     stages[l].k1.data(), &err[l],
+                 N == 6};
+      kernel(io, kRtol, kRtol);
       if (rep == 0) {
         for (int l = 0; l < kLanes; ++l) {
-          const double y = a.y1.c[0][l] + a.k7.c[N - 1][l];
-          differ += std::bit_cast<std::uint64_t>(a.err[l]) !=
-                        std::bit_cast<std::uint64_t>(scalar_err[i + l]) ||
-                    std::bit_cast<std::uint64_t>(y) != std::bit_cast<std::uint64_t>(scalar_y[i + l]);
+          const double y = stages[l].y1[0] + stages[l].k7[N - 1];
+          differ +=
+              std::bit_cast<std::uint64_t>(err[l]) !=
+                  std::bit_cast<std::uint64_t>(scalar_err[i + l]) ||
+              std::bit_cast<std::uint64_t>(y) != std::bit_cast<std::uint64_t>(scalar_y[i + l]);
         }
       }
     }
     best_lanes = std::min(best_lanes, seconds_since(t0));
   }
-  std::printf("%-12s %-5s attempts %8zu   scalar %6.1f ns   lanes %6.1f ns   speed-up %.2f x   "
-              "lanes differing from scalar: %ld\n",
-              name, kernel_name, n, 1e9 * best_scalar / static_cast<double>(n),
-              1e9 * best_lanes / static_cast<double>(n), best_scalar / best_lanes, differ);
+  std::printf(
+      "%-12s %-5s attempts %8zu   scalar %6.1f ns   lanes %6.1f ns   speed-up %.2f x   "
+      "lanes differing from scalar: %ld\n",
+      name, kernel_name, n, 1e9 * best_scalar / static_cast<double>(n),
+      1e9 * best_lanes / static_cast<double>(n), best_scalar / best_lanes, differ);
 }
 
 // Whole flights, one at a time against kLanes at a time in lockstep: every lane steps its own
@@ -214,8 +216,8 @@ template <int N>
 bool flight_over(const FlightModel& m, const Eigen::Matrix<double, N, 1>& y, double t) {
   if (y[2] < 0.0) return true;
   if constexpr (N == 7) {
-    const Vec3 drag = m.acceleration(y.template head<3>(), y.template segment<3>(3)) +
-                      Vec3(0, 0, m.gravity_mps2);
+    const Vec3 drag =
+        m.acceleration(y.template head<3>(), y.template segment<3>(3)) + Vec3(0, 0, m.gravity_mps2);
     return !(drag.norm() >= m.gravity_mps2);
   } else {
     return t >= 120.0;
@@ -240,7 +242,8 @@ std::vector<Eigen::Matrix<double, N, 1>> fly_serial(const std::vector<Flight<N>>
   std::vector<Eigen::Matrix<double, N, 1>> end(flights.size());
   for (std::size_t i = 0; i < flights.size(); ++i) {
     auto ode = start<N, Ode>(flights[i]);
-    while (!flight_over<N>(*flights[i].model, ode->y(), ode->t()) && ode->step(N == 7 ? 1e9 : kEnd)) {
+    while (!flight_over<N>(*flights[i].model, ode->y(), ode->t()) &&
+           ode->step(N == 7 ? 1e9 : kEnd)) {
     }
     attempts += (ode->rhs_evaluations() - 1) / 6;  // less reset()'s evaluations (see below)
     end[i] = ode->y();
@@ -249,9 +252,8 @@ std::vector<Eigen::Matrix<double, N, 1>> fly_serial(const std::vector<Flight<N>>
 }
 
 template <int N, class Ode>
-std::vector<Eigen::Matrix<double, N, 1>> fly_lockstep(
-    const std::vector<Flight<N>>& flights,
-    void (*kernel)(const LaneModels&, double, double, bool, LaneAttempt<N>&), double& occupancy) {
+std::vector<Eigen::Matrix<double, N, 1>> fly_lockstep(const std::vector<Flight<N>>& flights,
+                                                      LaneKernel kernel, double& occupancy) {
   struct Lane {
     std::unique_ptr<Ode> ode;
     std::size_t flight = 0;
@@ -283,42 +285,35 @@ std::vector<Eigen::Matrix<double, N, 1>> fly_lockstep(
     }
   };
   for (Lane& lane : lanes) take_next(lane);
-  LaneAttempt<N> a{};
   long calls = 0, used = 0;
+  typename Ode::Stages scratch;
+  double scratch_err;
   for (;;) {
     int first_busy = -1;
     for (int l = 0; l < kLanes; ++l)
       if (lanes[l].busy && first_busy < 0) first_busy = l;
     if (first_busy < 0) break;
-    LaneModels m{};
+    LaneIO io[kLanes];
+    double err[kLanes];
     for (int l = 0; l < kLanes; ++l) {
-      const Lane& lane = lanes[lanes[l].busy ? l : first_busy];  // idle lanes repeat a busy one
-      m.model[l] = &lane.ode->rhs().model;
-      for (int c = 0; c < N; ++c) {
-        a.y0.c[c][l] = lane.ode->y()[c];
-        a.f0.c[c][l] = lane.ode->dy()[c];
-      }
-      a.h[l] = lane.trial.h;
-      used += lanes[l].busy;
+      const bool busy = lanes[l].busy;
+      Lane& lane = lanes[busy ? l : first_busy];  // idle lanes repeat a busy one
+      io[l] = {&lane.ode->rhs().model,
+               lane.ode->y().data(),
+               lane.ode->dy().data(),
+               lane.trial.h,
+               busy ? lane.ode->trial_stages().k1.data() : scratch.k1.data(),
+               busy ? &err[l] : &scratch_err,
+               N == 6};
+      used += busy;
     }
     ++calls;
-    kernel(m, kRtol, kRtol, true, a);
+    kernel(io, kRtol, kRtol);
     for (int l = 0; l < kLanes; ++l) {
       Lane& lane = lanes[l];
       if (!lane.busy) continue;
-      typename Ode::Stages& k = lane.ode->trial_stages();
-      for (int c = 0; c < N; ++c) {
-        k.k1[c] = a.f0.c[c][l];
-        k.k2[c] = a.k2.c[c][l];
-        k.k3[c] = a.k3.c[c][l];
-        k.k4[c] = a.k4.c[c][l];
-        k.k5[c] = a.k5.c[c][l];
-        k.k6[c] = a.k6.c[c][l];
-        k.k7[c] = a.k7.c[c][l];
-        k.y1[c] = a.y1.c[c][l];
-      }
       lane.ode->count_attempt();
-      const auto verdict = lane.ode->conclude(lane.trial, a.err[l]);
+      const auto verdict = lane.ode->conclude(lane.trial, err[l]);
       bool over = verdict == Ode::Verdict::kFailed;
       if (verdict == Ode::Verdict::kAccepted) {
         over = flight_over<N>(*flights[lane.flight].model, lane.ode->y(), lane.ode->t()) ||
@@ -337,8 +332,7 @@ std::vector<Eigen::Matrix<double, N, 1>> fly_lockstep(
 }
 
 template <int N, class Ode>
-void compare_flights(const char* name, const std::vector<Flight<N>>& flights,
-                     void (*kernel)(const LaneModels&, double, double, bool, LaneAttempt<N>&),
+void compare_flights(const char* name, const std::vector<Flight<N>>& flights, LaneKernel kernel,
                      const char* kernel_name, int repeat) {
   double best_serial = 1e30, best_lanes = 1e30, occupancy = 0.0;
   long attempts = 0;
@@ -355,13 +349,15 @@ void compare_flights(const char* name, const std::vector<Flight<N>>& flights,
   long differ = 0;
   for (std::size_t i = 0; i < flights.size(); ++i)
     for (int c = 0; c < N; ++c)
-      differ += std::bit_cast<std::uint64_t>(serial[i][c]) != std::bit_cast<std::uint64_t>(lanes[i][c]);
-  std::printf("%-12s %-5s flights %7zu  attempts %8ld   one at a time %6.1f ns   lockstep %6.1f ns"
-              " per attempt   speed-up %.2f x   lanes busy %.1f %%   end values differing: %ld\n",
-              name, kernel_name, flights.size(), attempts,
-              1e9 * best_serial / static_cast<double>(attempts),
-              1e9 * best_lanes / static_cast<double>(attempts), best_serial / best_lanes,
-              100.0 * occupancy, differ);
+      differ +=
+          std::bit_cast<std::uint64_t>(serial[i][c]) != std::bit_cast<std::uint64_t>(lanes[i][c]);
+  std::printf(
+      "%-12s %-5s flights %7zu  attempts %8ld   one at a time %6.1f ns   lockstep %6.1f ns"
+      " per attempt   speed-up %.2f x   lanes busy %.1f %%   end values differing: %ld\n",
+      name, kernel_name, flights.size(), attempts,
+      1e9 * best_serial / static_cast<double>(attempts),
+      1e9 * best_lanes / static_cast<double>(attempts), best_serial / best_lanes, 100.0 * occupancy,
+      differ);
 }
 
 }  // namespace
@@ -379,9 +375,10 @@ int main(int argc, char** argv) {
   Recorded<7> arc;
   Recorded<6> time;
   record(fragments, arc, time);
-  std::printf("# %d illustrative demo-like fragments, rtol %.0e; %zu attempts in s, %zu in t; "
-              "AVX2 %s; best of 5\n",
-              n, kRtol, arc.h.size(), time.h.size(), lanes_have_avx2() ? "yes" : "no");
+  std::printf(
+      "# %d illustrative demo-like fragments, rtol %.0e; %zu attempts in s, %zu in t; "
+      "AVX2 %s; best of 5\n",
+      n, kRtol, arc.h.size(), time.h.size(), lanes_have_avx2() ? "yes" : "no");
   constexpr int kRepeat = 5;
   // Phase starts: launch for s, and each recorded t-phase's first state for t.
   std::vector<Flight<7>> arc_flights;
@@ -392,9 +389,11 @@ int main(int argc, char** argv) {
   }
   std::vector<Flight<6>> time_flights;
   for (std::size_t i = 0; i < time.h.size(); ++i)
-    if (i == 0 || time.model[i] != time.model[i - 1]) time_flights.push_back({time.model[i], time.y0[i]});
+    if (i == 0 || time.model[i] != time.model[i - 1])
+      time_flights.push_back({time.model[i], time.y0[i]});
   compare<7, ArcOde>("path length", arc, &attempt_lanes_sse2, "sse2", kRepeat);
-  if (lanes_have_avx2()) compare<7, ArcOde>("path length", arc, &attempt_lanes_avx2, "avx2", kRepeat);
+  if (lanes_have_avx2())
+    compare<7, ArcOde>("path length", arc, &attempt_lanes_avx2, "avx2", kRepeat);
   compare<6, TimeOde>("time", time, &attempt_lanes_sse2, "sse2", kRepeat);
   if (lanes_have_avx2()) compare<6, TimeOde>("time", time, &attempt_lanes_avx2, "avx2", kRepeat);
   std::printf("# whole flights of each phase, one at a time against %d in lockstep\n", kLanes);

@@ -22,6 +22,8 @@
 #include <string>
 #include <utility>
 
+#include "core/flight/lanes.h"
+
 namespace fragsim::flight {
 
 struct Dopri5Options {
@@ -102,7 +104,9 @@ class Dopri5 {
     for (;;) {
       if (!size_trial(trial)) return false;
       // FSAL: dy() = f(t_, y()) is the first stage.
-      const double err = attempt(t_, y(), dy(), trial.h, trial_stages(), true);
+      double err;
+      if (!attempt_in_lanes(trial.h, err))
+        err = attempt(t_, y(), dy(), trial.h, trial_stages(), true);
       switch (conclude(trial, err)) {
         case Verdict::kAccepted: return true;
         case Verdict::kFailed: return false;
@@ -133,6 +137,24 @@ class Dopri5 {
     return true;
   }
   Stages& trial_stages() { return stages_[1 - acc_]; }
+  // A right-hand side with `kLaneState` (TrajectoryIntegrator's, core/flight/lanes.h) posts its
+  // attempts to the thread's lane runner when one is set and takes the model; true when it did.
+  bool attempt_in_lanes(double h, double& err) {
+    if constexpr (requires { Rhs::kLaneState; }) {
+      AttemptLanes* lanes = thread_attempt_lanes;
+      if (lanes == nullptr) return false;
+      static_assert(sizeof(Stages) == 8 * N * sizeof(double), "stages must be contiguous");
+      if (!lanes->attempt(rhs_.model, N, y().data(), dy().data(), h, opt_.rtol, opt_.atol,
+                          trial_stages().k1.data(), err))
+        return false;
+      count_attempt();
+      return true;
+    } else {
+      (void)h;
+      (void)err;
+      return false;
+    }
+  }
   void count_attempt() { rhs_evals_ += 6; }
   Verdict conclude(Trial& trial, double err) {
     // PI step-size control (Gustafsson 1991, ACM TOMS 17; in the form of Hairer's DOPRI5 code,

@@ -1,62 +1,60 @@
 #pragma once
-// One DOPRI5 attempt for kLanes independent drag flights at once (SIMD over histories), giving in
-// every lane the same bits as Dopri5::attempt on TrajectoryIntegrator's right-hand sides
-// (Rhs in time, ArcRhs in path length): the same IEEE operations on the same operands in the same
-// order, lane by lane. The arithmetic runs on kLanes-wide vectors (AVX2 when the CPU has it,
-// chosen at run time, otherwise SSE2 pairs); the table lookups (density, speed of sound, Cd(Mach))
-// are the scalar inline functions, once per lane. Neither build contracts a * b + c into an FMA,
-// so both give the same bits.
+// SIMD over histories: one DOPRI5 attempt for kLanes independent drag flights at once, each lane
+// in path length s (TrajectoryIntegrator::ArcRhs, state p, v, t) or in time (::Rhs, state p, v),
+// giving in every lane the same bits as Dopri5::attempt on that right-hand side: the same IEEE
+// operations on the same operands in the same order, lane by lane. A time lane rides in the
+// 7-wide arithmetic with dt/ds = 1 (multiplying by 1 is exact) and its own 6-component error
+// norm. The arithmetic runs on kLanes-wide vectors (AVX2 when the CPU has it, chosen at run time,
+// otherwise SSE2 pairs); the table lookups (density, speed of sound, Cd(Mach)) are the scalar
+// inline functions, once per lane. Neither build contracts a * b + c into an FMA.
 //
-// Status (docs/benchmarks.md §1, "SIMD over histories: the attempt alone"): measured against the
-// scalar attempt by bench/bench_lanes.cpp and checked bit for bit by
-// tests/core/flight/lanes_test.cpp; the history loop does not call it yet (it takes one history
-// at a time, docs/architecture.md).
+// Who calls it: core/run/lane_runner.h runs kLanes histories on fibers and hands the attempts
+// their integrators post through `thread_attempt_lanes` to this kernel (docs/architecture.md,
+// "Histories in lanes"). Measured: docs/benchmarks.md §1 and bench/bench_lanes.cpp.
 #include "core/flight/flight_model.h"
 
 namespace fragsim::flight {
 
 inline constexpr int kLanes = 4;
 
-// An attempt's state vectors, component-major: c[i][lane].
-template <int N>
-struct LaneVectors {
-  alignas(32) double c[N][kLanes];
+// One lane's attempt, read and written in place: from y0 with f0 = f(y0) (n = 7 values in s, 6
+// in time) over h to the stages k1, k3..k7 and the 5th-order result y1, written at
+// stages[j * n + i] for stage j = 0..7 (k1..k7, y1; k2, j = 1, is not written: nothing reads it
+// after the attempt), and the error norm (RMS of err_i / (atol + rtol max(|y0_i|, |y1_i|))).
+struct LaneIO {
+  const FlightModel* model;
+  const double* y0;
+  const double* f0;
+  double h;
+  double* stages;
+  double* err;
+  bool in_time;
 };
 
-// The lanes' flights. Every lane needs drag (an atmosphere, a Cd and an area > 0), and all lanes
-// share one atmosphere (so one wind); `lanes_supported` says whether a set qualifies. Lanes may
-// differ in Cd, area, mass, gravity and altitude offset.
-struct LaneModels {
-  const FlightModel* model[kLanes];
-};
-bool lanes_supported(const LaneModels& models);
+// True when the model can go into a lane: it has drag (an atmosphere, a Cd and an area > 0).
+// All lanes of one call must share one atmosphere (one wind); they may differ in Cd, area, mass,
+// gravity and altitude offset.
+bool lane_ready(const FlightModel& model);
 
-// Inputs and outputs of one attempt per lane: from y0 with f0 = f(y0) over h (per lane) to the
-// stages k2..k7, the 5th-order result y1 (k7 = f(y1)) and, with `estimate`, the error norm
-// (RMS of err_i / (atol + rtol max(|y0_i|, |y1_i|))), as Dopri5::attempt returns it.
-template <int N>
-struct LaneAttempt {
-  LaneVectors<N> y0, f0;
-  alignas(32) double h[kLanes];
-  LaneVectors<N> k2, k3, k4, k5, k6, k7, y1;
-  alignas(32) double err[kLanes];
-};
-
-// In path length s (state p, v, t; ArcRhs) and in time (state p, v; Rhs). rtol and atol as in
-// Dopri5Options. The dispatching entry points pick AVX2 when the CPU has it.
-void attempt_lanes(const LaneModels& models, double rtol, double atol, bool estimate,
-                   LaneAttempt<7>& a);
-void attempt_lanes(const LaneModels& models, double rtol, double atol, bool estimate,
-                   LaneAttempt<6>& a);
-// The two builds, for the benchmark and the tests (the AVX2 one only where the CPU has it).
+// The attempt for kLanes lanes with one rtol and atol (Dopri5Options). Picks AVX2 when the CPU
+// has it. Idle lanes may repeat a busy lane's inputs with outputs to scratch.
+void attempt_lanes(const LaneIO (&io)[kLanes], double rtol, double atol);
+// The two builds, for the tests and the benchmark (the AVX2 one only where the CPU has it).
 bool lanes_have_avx2();
-void attempt_lanes_avx2(const LaneModels& models, double rtol, double atol, bool estimate,
-                        LaneAttempt<7>& a);
-void attempt_lanes_avx2(const LaneModels& models, double rtol, double atol, bool estimate,
-                        LaneAttempt<6>& a);
-void attempt_lanes_sse2(const LaneModels& models, double rtol, double atol, bool estimate,
-                        LaneAttempt<7>& a);
-void attempt_lanes_sse2(const LaneModels& models, double rtol, double atol, bool estimate,
-                        LaneAttempt<6>& a);
+void attempt_lanes_avx2(const LaneIO (&io)[kLanes], double rtol, double atol);
+void attempt_lanes_sse2(const LaneIO (&io)[kLanes], double rtol, double atol);
+
+// A thread's lane runner. When set, Dopri5 on TrajectoryIntegrator's right-hand sides posts each
+// step attempt to it instead of computing it (`stages` as in LaneIO, of a Dopri5::Stages);
+// attempt() returns false when it does not take the attempt, and the caller computes it.
+class AttemptLanes {
+ public:
+  virtual bool attempt(const FlightModel& model, int n, const double* y0, const double* f0,
+                       double h, double rtol, double atol, double* stages, double& err) = 0;
+
+ protected:
+  ~AttemptLanes() = default;
+};
+inline thread_local AttemptLanes* thread_attempt_lanes = nullptr;
 
 }  // namespace fragsim::flight

@@ -115,6 +115,7 @@ class TrajectoryIntegrator {
   // Right-hand side in t, (p, v)' = (v, a(p, v)). Holds its own copy of the model (two pointers
   // and a few numbers) so that the integrator can be copied freely.
   struct Rhs {
+    static constexpr int kLaneState = 6;  // its attempts may go to a lane (core/flight/lanes.h)
     FlightModel model;
     Vec6 operator()(double /*t*/, const Vec6& y) const {
       Vec6 dy;
@@ -125,6 +126,7 @@ class TrajectoryIntegrator {
   };
   // Right-hand side in s, (p, v, t)' = (v, a, 1) / |v_rel|.
   struct ArcRhs {
+    static constexpr int kLaneState = 7;
     FlightModel model;
     // Forced inline (GCC otherwise calls it: +8 % instructions in the s-phase, callgrind).
     [[gnu::always_inline]] Vec7 operator()(double /*s*/, const Vec7& y) const {

@@ -35,6 +35,9 @@ struct RunControl {
   // the next batch's launch densities are decided from the merge (core/run/partial.h). Null: the
   // shard decides alone (one shard: the whole run).
   BatchSynchronizer* synchronizer = nullptr;
+  // One history at a time per worker instead of flight::kLanes in lanes (core/run/lane_runner.h).
+  // The results are the same bits either way; tests compare the two, benchmarks time them.
+  bool serial_histories = false;
 };
 
 }  // namespace fragsim::run

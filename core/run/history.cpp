@@ -424,6 +424,42 @@ RunContext::RunContext(const Scenario& sc, const scene::Site& s)
   still_air = sc.atmosphere.wind_mps.squaredNorm() == 0.0;
 }
 
+void append_histories(ChunkOutput& to, ChunkOutput& piece) {
+  const auto ptn_base = static_cast<std::uint32_t>(to.ptn.size());
+  for (const std::uint32_t end : piece.ptn_end) to.ptn_end.push_back(ptn_base + end);
+  to.ptn.insert(to.ptn.end(), piece.ptn.begin(), piece.ptn.end());
+  const auto building_base = static_cast<std::int32_t>(to.buildings.size());
+  for (const std::int32_t b : piece.building_index)
+    to.building_index.push_back(b < 0 ? -1 : building_base + b);
+  to.buildings.insert(to.buildings.end(), piece.buildings.begin(), piece.buildings.end());
+  to.outcomes.insert(to.outcomes.end(), piece.outcomes.begin(), piece.outcomes.end());
+  to.exit_sector.insert(to.exit_sector.end(), piece.exit_sector.begin(), piece.exit_sector.end());
+  to.weights.insert(to.weights.end(), piece.weights.begin(), piece.weights.end());
+  to.cells.insert(to.cells.end(), piece.cells.begin(), piece.cells.end());
+  for (auto& r : piece.records) to.records.push_back(std::move(r));
+  for (auto& t : piece.trajectories) to.trajectories.push_back(std::move(t));
+  to.stats += piece.stats;
+  to.integration_s += piece.integration_s;
+  to.geometry_s += piece.geometry_s;
+  to.tally_s += piece.tally_s;
+  clear_histories(piece);
+}
+
+void clear_histories(ChunkOutput& piece) {
+  piece.ptn_end.clear();
+  piece.ptn.clear();
+  piece.building_index.clear();
+  piece.buildings.clear();
+  piece.outcomes.clear();
+  piece.exit_sector.clear();
+  piece.weights.clear();
+  piece.cells.clear();
+  piece.records.clear();
+  piece.trajectories.clear();
+  piece.stats = RunStats{};
+  piece.integration_s = piece.geometry_s = piece.tally_s = 0.0;
+}
+
 void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,
                       bool record_trajectory, HistoryScratch& scratch, ChunkOutput& out,
                       const fragments::DirectionCells* cells,

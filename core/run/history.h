@@ -76,6 +76,14 @@ struct HistoryScratch {
   std::uint32_t stamp = 0;
 };
 
+// Appends the histories simulated into `piece` (a ChunkOutput that was empty) to `to`, exactly
+// as if they had been simulated into `to`, and empties `piece` (its capacity kept). Histories in
+// lanes (core/run/lane_runner.h) end out of order; each writes into its own piece, appended in
+// history order.
+void append_histories(ChunkOutput& to, ChunkOutput& piece);
+// Empties what histories write into a ChunkOutput (its per-history arrays, stats and timers).
+void clear_histories(ChunkOutput& piece);
+
 // `cells`: the group's launch-direction cells for this batch (importance sampling), or null;
 // `stratum`: the history's launch stratum (settings.stratified_launch), or null.
 void simulate_history(const RunContext& ctx, std::uint32_t group, std::int64_t history,

@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "core/common/error.h"
+#include "core/run/lane_runner.h"
 
 namespace fragsim::run {
 
@@ -120,19 +121,56 @@ bool ShardRunner::simulate_chunk(std::int64_t k, const SamplingPlans::Cells* cel
   const std::int64_t first = batch_first + cs.first;
   const Settings& st = sc_.settings;
   out = chunk_output(cs, first, group);
-  for (std::int64_t h = first; h < first + cs.count; ++h) {
-    if (cancelled()) {
-      pipeline_.stop();
-      return false;
-    }
+  // History h into `into`, with `scratch`; false when the run is cancelled.
+  auto history = [&](std::int64_t h, HistoryScratch& hs, ChunkOutput& into) {
+    if (cancelled()) return false;
     const bool record = st.record_trajectories && batch == (learner_ ? 1 : 0) &&
                         group_offset_[cs.group] + h < st.max_recorded_trajectories;
     const fragments::LaunchStratum ls =
         strata_.on() ? strata_.of(cs.group, h - batch_first, batch) : fragments::LaunchStratum{};
-    simulate_history(ctx_, cs.group, h, record, scratch, out, cells ? &(*cells)[cs.group] : nullptr,
+    simulate_history(ctx_, cs.group, h, record, hs, into, cells ? &(*cells)[cs.group] : nullptr,
                      strata_.on() ? &ls : nullptr);
+    return true;
+  };
+  bool complete = true;
+  if (control_.serial_histories || !kHistoryLanesBuilt) {
+    for (std::int64_t h = first; h < first + cs.count && complete; ++h)
+      complete = history(h, scratch, out);
+  } else {
+    complete = simulate_in_lanes(first, cs.count, history, out);
   }
-  return true;
+  if (!complete) pipeline_.stop();
+  return complete;
+}
+
+// The chunk's histories flight::kLanes at a time (core/run/lane_runner.h), each into its own
+// piece of output, appended to `out` in history order. The runner, the lanes' scratch and the
+// pieces are the worker thread's, kept between chunks and runs.
+bool ShardRunner::simulate_in_lanes(
+    std::int64_t first, std::int64_t count,
+    const std::function<bool(std::int64_t, HistoryScratch&, ChunkOutput&)>& history,
+    ChunkOutput& out) {
+  struct Lanes {
+    LaneRunner runner;
+    HistoryScratch scratch[flight::kLanes];
+    std::vector<ChunkOutput> pieces;
+  };
+  static thread_local Lanes lanes;
+  if (lanes.pieces.size() < static_cast<std::size_t>(count))
+    lanes.pieces.resize(static_cast<std::size_t>(count));
+  // A cancelled or failed chunk leaves pieces unappended: none may reach the next chunk.
+  for (std::int64_t i = 0; i < count; ++i)
+    clear_histories(lanes.pieces[static_cast<std::size_t>(i)]);
+  bool complete = true;
+  lanes.runner.run(
+      count,
+      [&](std::int64_t i, int lane) {
+        complete = complete && history(first + i, lanes.scratch[lane],
+                                       lanes.pieces[static_cast<std::size_t>(i)]);
+        return complete;
+      },
+      [&](std::int64_t i) { append_histories(out, lanes.pieces[static_cast<std::size_t>(i)]); });
+  return complete;
 }
 
 // Under the fold's lock, in chunk order (never after the pipeline is finished).

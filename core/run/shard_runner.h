@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -51,6 +52,10 @@ class ShardRunner {
   bool batch_cells(std::int64_t batch, const SamplingPlans::Cells*& cells);
   bool simulate_chunk(std::int64_t k, const SamplingPlans::Cells* cells, HistoryScratch& scratch,
                       ChunkOutput& out);
+  bool simulate_in_lanes(
+      std::int64_t first, std::int64_t count,
+      const std::function<bool(std::int64_t, HistoryScratch&, ChunkOutput&)>& history,
+      ChunkOutput& out);
   void fold(ChunkOutput& c);
   void end_batch(bool pilot);
   bool exchange_batch(double& elapsed);

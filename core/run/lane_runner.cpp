@@ -1,0 +1,174 @@
+#include "core/run/lane_runner.h"
+
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <new>
+#include <utility>
+
+namespace fragsim::run {
+
+namespace ctx = boost::context;
+
+// One stack per lane, mapped once for the runner's life (a thread's), with an inaccessible page
+// below it: an overflow faults instead of writing over the heap. A history needs a few tens of
+// kB (Embree's traversal stack is the largest user); 1 MiB is reserved, and only touched pages
+// take memory.
+class LaneRunner::Stacks {
+ public:
+  static constexpr std::size_t kStackBytes = std::size_t{1} << 20;
+  Stacks() {
+    page_ = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+    for (void*& m : maps_) {
+      m = mmap(nullptr, page_ + kStackBytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS,
+               -1, 0);
+      if (m == MAP_FAILED) {
+        m = nullptr;
+        throw std::bad_alloc();
+      }
+      mprotect(m, page_, PROT_NONE);
+    }
+  }
+  ~Stacks() {
+    for (void* m : maps_)
+      if (m != nullptr) munmap(m, page_ + kStackBytes);
+  }
+  Stacks(const Stacks&) = delete;
+  Stacks& operator=(const Stacks&) = delete;
+  // Boost.Context's stack allocator for lane l: hands out the lane's stack, keeps it after.
+  struct Allocator {
+    void* top;
+    ctx::stack_context allocate() {
+      ctx::stack_context sc;
+      sc.size = kStackBytes;
+      sc.sp = top;
+      return sc;
+    }
+    void deallocate(ctx::stack_context&) noexcept {}
+  };
+  Allocator allocator(int lane) const {
+    return {static_cast<char*>(maps_[lane]) + page_ + kStackBytes};
+  }
+
+ private:
+  std::size_t page_ = 4096;
+  void* maps_[flight::kLanes] = {};
+};
+
+LaneRunner::LaneRunner() : stacks_(std::make_unique<Stacks>()) {}
+LaneRunner::~LaneRunner() = default;
+
+// Called by a history's integrator on its lane's fiber: post the attempt, yield to the
+// scheduler, and return once the kernel has written the stages and the error.
+bool LaneRunner::attempt(const flight::FlightModel& model, int n, const double* y0,
+                         const double* f0, double h, double rtol, double atol, double* stages,
+                         double& err) {
+  if (current_ < 0 || !flight::lane_ready(model)) return false;
+  const int me = current_;
+  Lane& lane = lanes_[me];
+  lane.io = {&model, y0, f0, h, stages, &err, n == 6};
+  lane.rtol = rtol;
+  lane.atol = atol;
+  lane.waiting = true;
+  lane.back = std::move(lane.back).resume();
+  current_ = me;
+  return true;
+}
+
+// One kernel call per set of waiting lanes that share an atmosphere and tolerances (in a run:
+// all of them). Idle lanes repeat the first waiting lane's inputs into scratch outputs.
+void LaneRunner::compute_waiting() {
+  double scratch_stages[8 * 7], scratch_err;
+  for (;;) {
+    int first = -1;
+    for (int l = 0; l < flight::kLanes && first < 0; ++l)
+      if (lanes_[l].waiting) first = l;
+    if (first < 0) return;
+    const Lane& key = lanes_[first];
+    flight::LaneIO io[flight::kLanes];
+    int taken[flight::kLanes], k = 0;
+    for (int l = 0; l < flight::kLanes; ++l) {
+      const Lane& lane = lanes_[l];
+      if (lane.waiting && lane.io.model->atmosphere == key.io.model->atmosphere &&
+          lane.rtol == key.rtol && lane.atol == key.atol)
+        taken[k++] = l;
+    }
+    for (int j = 0; j < flight::kLanes; ++j) {
+      io[j] = lanes_[taken[j < k ? j : 0]].io;
+      if (j >= k) {
+        io[j].stages = scratch_stages;
+        io[j].err = &scratch_err;
+      }
+    }
+    flight::attempt_lanes(io, key.rtol, key.atol);
+    ++kernel_calls_;
+    lane_attempts_ += k;
+    for (int j = 0; j < k; ++j) lanes_[taken[j]].waiting = false;
+  }
+}
+
+void LaneRunner::finish_job(std::int64_t i) {
+  finished_[static_cast<std::size_t>(i)] = true;
+  while (flushed_ < n_ && finished_[static_cast<std::size_t>(flushed_)]) (*done_)(flushed_++);
+}
+
+// A lane's fiber: jobs until none is left or the run stops. An exception ends the lane's work
+// and is kept for run(); Boost's forced unwinding (a fiber destroyed while suspended) passes.
+void LaneRunner::lane_body(int lane) {
+  while (!stop_ && next_ < n_) {
+    const std::int64_t i = next_++;
+    try {
+      if (!(*job_)(i, lane)) stop_ = true;
+    } catch (const ctx::detail::forced_unwind&) {
+      throw;
+    } catch (...) {
+      if (!error_) error_ = std::current_exception();
+      stop_ = true;
+      return;
+    }
+    current_ = lane;
+    finish_job(i);
+  }
+}
+
+void LaneRunner::run(std::int64_t n, const std::function<bool(std::int64_t, int)>& job,
+                     const std::function<void(std::int64_t)>& done) {
+  n_ = n;
+  next_ = flushed_ = 0;
+  stop_ = false;
+  error_ = nullptr;
+  finished_.assign(static_cast<std::size_t>(n), false);
+  job_ = &job;
+  done_ = &done;
+  flight::AttemptLanes* const outer = flight::thread_attempt_lanes;
+  flight::thread_attempt_lanes = this;
+  for (int l = 0; l < flight::kLanes; ++l) {
+    lanes_[l].waiting = false;
+    lanes_[l].fiber = ctx::fiber(std::allocator_arg, stacks_->allocator(l),
+                                 [this, l](ctx::fiber&& back) {
+                                   lanes_[l].back = std::move(back);
+                                   lane_body(l);
+                                   return std::move(lanes_[l].back);
+                                 });
+  }
+  for (;;) {
+    bool live = false;
+    for (int l = 0; l < flight::kLanes; ++l) {
+      Lane& lane = lanes_[l];
+      if (lane.fiber && !lane.waiting) {
+        current_ = l;
+        lane.fiber = std::move(lane.fiber).resume();
+        current_ = -1;
+      }
+      live = live || static_cast<bool>(lane.fiber);
+    }
+    if (!live) break;
+    compute_waiting();
+  }
+  flight::thread_attempt_lanes = outer;
+  job_ = nullptr;
+  done_ = nullptr;
+  if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+}
+
+}  // namespace fragsim::run
