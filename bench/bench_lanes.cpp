@@ -313,6 +313,7 @@ std::vector<Eigen::Matrix<double, N, 1>> fly_lockstep(const std::vector<Flight<N
       Lane& lane = lanes[l];
       if (!lane.busy) continue;
       lane.ode->count_attempt();
+      lane.ode->trial_stages().has_dense_sum = true;
       const auto verdict = lane.ode->conclude(lane.trial, err[l]);
       bool over = verdict == Ode::Verdict::kFailed;
       if (verdict == Ode::Verdict::kAccepted) {

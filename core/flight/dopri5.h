@@ -92,8 +92,11 @@ class Dopri5 {
   // One attempt's stages k1..k7 and its 5th-order result y1 (k7 = f(t0 + h, y1)).
   // Left uninitialised (zeroing both sets showed in profiles: one integrator per history):
   // reset() sets y1 and k7 of the accepted set, and nothing reads the rest before a step.
+  // A lane's attempt (core/flight/lanes.h) writes k1, k7, y1 and dense_sum = sum_i d_i k_i (the
+  // continuous extension's r5 / h, summed as build_dense sums it) instead of k2..k6.
   struct Stages {
-    Vec k1, k2, k3, k4, k5, k6, k7, y1;
+    Vec k1, k2, k3, k4, k5, k6, k7, y1, dense_sum;
+    bool has_dense_sum = false;
   };
 
   // Take one accepted step, never past t_end. Returns false (state unchanged) when t() >= t_end
@@ -143,10 +146,11 @@ class Dopri5 {
     if constexpr (requires { Rhs::kLaneState; }) {
       AttemptLanes* lanes = thread_attempt_lanes;
       if (lanes == nullptr) return false;
-      static_assert(sizeof(Stages) == 8 * N * sizeof(double), "stages must be contiguous");
+      Stages& k = trial_stages();
       if (!lanes->attempt(rhs_.model, N, y().data(), dy().data(), h, opt_.rtol, opt_.atol,
-                          trial_stages().k1.data(), err))
+                          {k.k1.data(), k.k7.data(), k.y1.data(), k.dense_sum.data()}, err))
         return false;
+      k.has_dense_sum = true;
       count_attempt();
       return true;
     } else {
@@ -261,6 +265,7 @@ class Dopri5 {
   double attempt(double t0, const Vec& y0, const Vec& f0, double h, Stages& k, bool estimate) {
     using namespace dopri5_tableau;
     k.k1 = f0;
+    k.has_dense_sum = false;
     k.k2 = rhs_(t0 + c2 * h, y0 + h * (a21 * k.k1));
     k.k3 = rhs_(t0 + c3 * h, y0 + h * (a31 * k.k1 + a32 * k.k2));
     k.k4 = rhs_(t0 + c4 * h, y0 + h * (a41 * k.k1 + a42 * k.k2 + a43 * k.k3));
@@ -301,7 +306,10 @@ class Dopri5 {
     r2_ = k.y1 - y_prev_;
     r3_ = h_ * k.k1 - r2_;
     r4_ = r2_ - h_ * k.k7 - r3_;
-    r5_ = h_ * (d1 * k.k1 + d3 * k.k3 + d4 * k.k4 + d5 * k.k5 + d6 * k.k6 + d7 * k.k7);
+    if (k.has_dense_sum)
+      r5_ = h_ * k.dense_sum;
+    else
+      r5_ = h_ * (d1 * k.k1 + d3 * k.k3 + d4 * k.k4 + d5 * k.k5 + d6 * k.k6 + d7 * k.k7);
     dense_ready_ = true;
   }
 

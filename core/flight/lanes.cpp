@@ -155,17 +155,19 @@ FRAGSIM_LANE_INLINE void attempt(const LaneIO (&io)[kLanes], double rtol, double
   const V norm = error_norm(err, y0, y1, rtol, atol, c.in_time);
   for (int l = 0; l < kLanes; ++l) {
     const int n = io[l].in_time ? 6 : 7;
-    double* s = io[l].stages;
+    const LaneOut& o = io[l].out;
     for (int i = 0; i < n; ++i) {
-      s[0 * n + i] = k1[i][l];
-      s[2 * n + i] = k3[i][l];
-      s[3 * n + i] = k4[i][l];
-      s[4 * n + i] = k5[i][l];
-      s[5 * n + i] = k6[i][l];
-      s[6 * n + i] = k7[i][l];
-      s[7 * n + i] = y1[i][l];
+      o.k1[i] = io[l].f0[i];
+      o.k7[i] = k7[i][l];
+      o.y1[i] = y1[i][l];
     }
     *io[l].err = norm[l];
+  }
+  // Dopri5::build_dense's sum, in its order (d2 = 0).
+  for (int i = 0; i < 7; ++i) {
+    const V d = d1 * k1[i] + d3 * k3[i] + d4 * k4[i] + d5 * k5[i] + d6 * k6[i] + d7 * k7[i];
+    for (int l = 0; l < kLanes; ++l)
+      if (i < 6 || !io[l].in_time) io[l].out.dense_sum[i] = d[l];
   }
 }
 

@@ -17,16 +17,21 @@ namespace fragsim::flight {
 
 inline constexpr int kLanes = 4;
 
-// One lane's attempt, read and written in place: from y0 with f0 = f(y0) (n = 7 values in s, 6
-// in time) over h to the stages k1, k3..k7 and the 5th-order result y1, written at
-// stages[j * n + i] for stage j = 0..7 (k1..k7, y1; k2, j = 1, is not written: nothing reads it
-// after the attempt), and the error norm (RMS of err_i / (atol + rtol max(|y0_i|, |y1_i|))).
+// Where a lane's attempt writes its results (n = 7 values each in s, 6 in time): k1 (= f0), k7 =
+// f(y1), the 5th-order result y1, and dense_sum = d1 k1 + d3 k3 + ... + d7 k7, the continuous
+// extension's sum (Dopri5::build_dense multiplies it by the step). The stages k2..k6 themselves
+// are not written: nothing else reads them after the attempt.
+struct LaneOut {
+  double *k1, *k7, *y1, *dense_sum;
+};
+// One lane's attempt, read and written in place: from y0 with f0 = f(y0) over h, and the error
+// norm (RMS of err_i / (atol + rtol max(|y0_i|, |y1_i|))) into *err.
 struct LaneIO {
   const FlightModel* model;
   const double* y0;
   const double* f0;
   double h;
-  double* stages;
+  LaneOut out;
   double* err;
   bool in_time;
 };
@@ -45,12 +50,12 @@ void attempt_lanes_avx2(const LaneIO (&io)[kLanes], double rtol, double atol);
 void attempt_lanes_sse2(const LaneIO (&io)[kLanes], double rtol, double atol);
 
 // A thread's lane runner. When set, Dopri5 on TrajectoryIntegrator's right-hand sides posts each
-// step attempt to it instead of computing it (`stages` as in LaneIO, of a Dopri5::Stages);
+// step attempt to it instead of computing it (`out`: its trial Dopri5::Stages);
 // attempt() returns false when it does not take the attempt, and the caller computes it.
 class AttemptLanes {
  public:
   virtual bool attempt(const FlightModel& model, int n, const double* y0, const double* f0,
-                       double h, double rtol, double atol, double* stages, double& err) = 0;
+                       double h, double rtol, double atol, LaneOut out, double& err) = 0;
 
  protected:
   ~AttemptLanes() = default;

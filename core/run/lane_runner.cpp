@@ -61,12 +61,12 @@ LaneRunner::~LaneRunner() = default;
 // Called by a history's integrator on its lane's fiber: post the attempt, yield to the
 // scheduler, and return once the kernel has written the stages and the error.
 bool LaneRunner::attempt(const flight::FlightModel& model, int n, const double* y0,
-                         const double* f0, double h, double rtol, double atol, double* stages,
+                         const double* f0, double h, double rtol, double atol, flight::LaneOut out,
                          double& err) {
   if (current_ < 0 || !flight::lane_ready(model)) return false;
   const int me = current_;
   Lane& lane = lanes_[me];
-  lane.io = {&model, y0, f0, h, stages, &err, n == 6};
+  lane.io = {&model, y0, f0, h, out, &err, n == 6};
   lane.rtol = rtol;
   lane.atol = atol;
   lane.waiting = true;
@@ -78,7 +78,7 @@ bool LaneRunner::attempt(const flight::FlightModel& model, int n, const double* 
 // One kernel call per set of waiting lanes that share an atmosphere and tolerances (in a run:
 // all of them). Idle lanes repeat the first waiting lane's inputs into scratch outputs.
 void LaneRunner::compute_waiting() {
-  double scratch_stages[8 * 7], scratch_err;
+  double scratch[4][7], scratch_err;
   for (;;) {
     int first = -1;
     for (int l = 0; l < flight::kLanes && first < 0; ++l)
@@ -96,7 +96,7 @@ void LaneRunner::compute_waiting() {
     for (int j = 0; j < flight::kLanes; ++j) {
       io[j] = lanes_[taken[j < k ? j : 0]].io;
       if (j >= k) {
-        io[j].stages = scratch_stages;
+        io[j].out = {scratch[0], scratch[1], scratch[2], scratch[3]};
         io[j].err = &scratch_err;
       }
     }
@@ -144,12 +144,12 @@ void LaneRunner::run(std::int64_t n, const std::function<bool(std::int64_t, int)
   flight::thread_attempt_lanes = this;
   for (int l = 0; l < flight::kLanes; ++l) {
     lanes_[l].waiting = false;
-    lanes_[l].fiber = ctx::fiber(std::allocator_arg, stacks_->allocator(l),
-                                 [this, l](ctx::fiber&& back) {
-                                   lanes_[l].back = std::move(back);
-                                   lane_body(l);
-                                   return std::move(lanes_[l].back);
-                                 });
+    lanes_[l].fiber =
+        ctx::fiber(std::allocator_arg, stacks_->allocator(l), [this, l](ctx::fiber&& back) {
+          lanes_[l].back = std::move(back);
+          lane_body(l);
+          return std::move(lanes_[l].back);
+        });
   }
   for (;;) {
     bool live = false;

@@ -9,13 +9,12 @@
 // each history's end in history order (`done`), so a chunk's output is the same as one history
 // at a time. Attempts that a lane cannot take (a flight without drag, a truncated step, the
 // ground phase's integrator) are computed by the history itself, as before.
+#include <boost/context/fiber.hpp>
 #include <cstdint>
 #include <exception>
 #include <functional>
 #include <memory>
 #include <vector>
-
-#include <boost/context/fiber.hpp>
 
 #include "core/flight/lanes.h"
 
@@ -50,7 +49,7 @@ class LaneRunner final : public flight::AttemptLanes {
            const std::function<void(std::int64_t)>& done);
 
   bool attempt(const flight::FlightModel& model, int n, const double* y0, const double* f0,
-               double h, double rtol, double atol, double* stages, double& err) override;
+               double h, double rtol, double atol, flight::LaneOut out, double& err) override;
 
   // Diagnostics (lifetime): kernel calls, and lanes that carried an attempt in them.
   long kernel_calls() const { return kernel_calls_; }

@@ -2,13 +2,14 @@
 // time (with and without bounce, records and trajectories included, at 1 and 2 threads and odd
 // chunk sizes); the runner ends every job, reports them in order, passes a job's exception to
 // its caller and stays usable after it.
+#include "core/run/lane_runner.h"
+
 #include <gtest/gtest.h>
 
 #include <stdexcept>
 #include <vector>
 
 #include "core/flight/trajectory.h"
-#include "core/run/lane_runner.h"
 #include "core/run/run.h"
 #include "core/run/run_fixtures.h"
 
@@ -36,8 +37,8 @@ TEST(HistoriesInLanes, GiveTheSameBitsAsOneHistoryAtATime) {
     ASSERT_GT(serial.max_ptn_density_per_m2, 0.0);
     ASSERT_FALSE(serial.trajectories.empty());
     for (const auto& [threads, chunk] : {std::pair{1, 256}, std::pair{2, 7}, std::pair{2, 1000}}) {
-      SCOPED_TRACE(::testing::Message() << "bounce " << bounce << ", threads " << threads
-                                        << ", chunk " << chunk);
+      SCOPED_TRACE(::testing::Message()
+                   << "bounce " << bounce << ", threads " << threads << ", chunk " << chunk);
       const RunResult lanes = run_with(sc, false, threads, chunk);
       expect_same_figures(serial, lanes);
       EXPECT_EQ(serial.stats.rhs_evaluations, lanes.stats.rhs_evaluations);
