@@ -148,6 +148,12 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 using LaneKernel = void (*)(const LaneIO (&)[kLanes], double, double);
 
+// Where a lane writes into a Dopri5's stages.
+template <class Stages>
+LaneOut out(Stages& k) {
+  return {k.k1.data(), k.k7.data(), k.y1.data(), k.dense_sum.data()};
+}
+
 template <int N, class Ode>
 void compare(const char* name, const Recorded<N>& r, LaneKernel kernel, const char* kernel_name,
              int repeat) {
@@ -178,8 +184,8 @@ void compare(const char* name, const Recorded<N>& r, LaneKernel kernel, const ch
     for (std::size_t i = 0; i < n; i += kLanes) {
       LaneIO io[kLanes];
       for (int l = 0; l < kLanes; ++l)
-        io[l] = {r.model[i + l], r.y0[i + l].data(),  r.f0[i + l].data(),
-                 r.h[i + l],     stages[l].k1.data(), &err[l],
+        io[l] = {r.model[i + l], r.y0[i + l].data(), r.f0[i + l].data(),
+                 r.h[i + l],     out(stages[l]),     &err[l],
                  N == 6};
       kernel(io, kRtol, kRtol);
       if (rep == 0) {
@@ -302,7 +308,7 @@ std::vector<Eigen::Matrix<double, N, 1>> fly_lockstep(const std::vector<Flight<N
                lane.ode->y().data(),
                lane.ode->dy().data(),
                lane.trial.h,
-               busy ? lane.ode->trial_stages().k1.data() : scratch.k1.data(),
+               out(busy ? lane.ode->trial_stages() : scratch),
                busy ? &err[l] : &scratch_err,
                N == 6};
       used += busy;
@@ -313,6 +319,7 @@ std::vector<Eigen::Matrix<double, N, 1>> fly_lockstep(const std::vector<Flight<N
       Lane& lane = lanes[l];
       if (!lane.busy) continue;
       lane.ode->count_attempt();
+      lane.ode->trial_stages().has_dense_sum = true;
       lane.ode->trial_stages().has_dense_sum = true;
       const auto verdict = lane.ode->conclude(lane.trial, err[l]);
       bool over = verdict == Ode::Verdict::kFailed;

@@ -3,6 +3,8 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <iterator>
 #include <new>
 #include <utility>
 
@@ -108,14 +110,24 @@ void LaneRunner::compute_waiting() {
 }
 
 void LaneRunner::finish_job(std::int64_t i) {
-  finished_[static_cast<std::size_t>(i)] = true;
-  while (flushed_ < n_ && finished_[static_cast<std::size_t>(flushed_)]) (*done_)(flushed_++);
+  finished_[i % kWindow] = true;
+  while (flushed_ < n_ && finished_[flushed_ % kWindow]) {
+    finished_[flushed_ % kWindow] = false;
+    (*done_)(flushed_++);
+  }
 }
 
 // A lane's fiber: jobs until none is left or the run stops. An exception ends the lane's work
 // and is kept for run(); Boost's forced unwinding (a fiber destroyed while suspended) passes.
 void LaneRunner::lane_body(int lane) {
-  while (!stop_ && next_ < n_) {
+  for (;;) {
+    // The next job would be kWindow ahead of the oldest unreported one, which another lane is
+    // still running: let the others go on first.
+    while (!stop_ && next_ < n_ && next_ >= flushed_ + kWindow) {
+      lanes_[lane].back = std::move(lanes_[lane].back).resume();
+      current_ = lane;
+    }
+    if (stop_ || next_ >= n_) return;
     const std::int64_t i = next_++;
     try {
       if (!(*job_)(i, lane)) stop_ = true;
@@ -137,7 +149,7 @@ void LaneRunner::run(std::int64_t n, const std::function<bool(std::int64_t, int)
   next_ = flushed_ = 0;
   stop_ = false;
   error_ = nullptr;
-  finished_.assign(static_cast<std::size_t>(n), false);
+  std::fill(std::begin(finished_), std::end(finished_), false);
   job_ = &job;
   done_ = &done;
   flight::AttemptLanes* const outer = flight::thread_attempt_lanes;

@@ -14,7 +14,6 @@
 #include <exception>
 #include <functional>
 #include <memory>
-#include <vector>
 
 #include "core/flight/lanes.h"
 
@@ -41,10 +40,15 @@ class LaneRunner final : public flight::AttemptLanes {
   LaneRunner(const LaneRunner&) = delete;
   LaneRunner& operator=(const LaneRunner&) = delete;
 
+  // Jobs start at most this far ahead of the oldest unfinished one: a caller's per-job slots can
+  // be a ring of kWindow (slot i % kWindow), whatever n is.
+  static constexpr std::int64_t kWindow = 64;
+
   // job(i, lane) for i = 0, 1, ... n - 1, up to kLanes at once (lane in [0, kLanes): the lane's
-  // own scratch); a job returning false stops the taking of new ones. done(i) for every finished
-  // job in increasing i, each once job(i) and every earlier job have finished. An exception
-  // thrown by a job stops the taking of new jobs and is rethrown here when the others end.
+  // own scratch), job i never before job i - kWindow has been reported; a job returning false
+  // stops the taking of new ones. done(i) for every finished job in increasing i, each once
+  // job(i) and every earlier job have finished. An exception thrown by a job stops the taking of
+  // new jobs and is rethrown here when the others end.
   void run(std::int64_t n, const std::function<bool(std::int64_t, int)>& job,
            const std::function<void(std::int64_t)>& done);
 
@@ -74,7 +78,7 @@ class LaneRunner final : public flight::AttemptLanes {
   // The run in progress.
   std::int64_t n_ = 0, next_ = 0, flushed_ = 0;
   bool stop_ = false;
-  std::vector<bool> finished_;
+  bool finished_[kWindow] = {};  // job i's end, at i % kWindow, until it is reported
   const std::function<bool(std::int64_t, int)>* job_ = nullptr;
   const std::function<void(std::int64_t)>* done_ = nullptr;
   std::exception_ptr error_;

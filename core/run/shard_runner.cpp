@@ -153,23 +153,22 @@ bool ShardRunner::simulate_in_lanes(
   struct Lanes {
     LaneRunner runner;
     HistoryScratch scratch[flight::kLanes];
-    std::vector<ChunkOutput> pieces;
+    ChunkOutput pieces[LaneRunner::kWindow];  // history i's at i % kWindow
   };
   static thread_local Lanes lanes;
-  if (lanes.pieces.size() < static_cast<std::size_t>(count))
-    lanes.pieces.resize(static_cast<std::size_t>(count));
   // A cancelled or failed chunk leaves pieces unappended: none may reach the next chunk.
-  for (std::int64_t i = 0; i < count; ++i)
-    clear_histories(lanes.pieces[static_cast<std::size_t>(i)]);
+  for (ChunkOutput& piece : lanes.pieces) clear_histories(piece);
+  auto piece = [&](std::int64_t i) -> ChunkOutput& {
+    return lanes.pieces[i % LaneRunner::kWindow];
+  };
   bool complete = true;
   lanes.runner.run(
       count,
       [&](std::int64_t i, int lane) {
-        complete = complete && history(first + i, lanes.scratch[lane],
-                                       lanes.pieces[static_cast<std::size_t>(i)]);
+        complete = complete && history(first + i, lanes.scratch[lane], piece(i));
         return complete;
       },
-      [&](std::int64_t i) { append_histories(out, lanes.pieces[static_cast<std::size_t>(i)]); });
+      [&](std::int64_t i) { append_histories(out, piece(i)); });
   return complete;
 }
 

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <stdexcept>
 #include <vector>
 
@@ -123,6 +124,29 @@ TEST(LaneRunner, AJobsExceptionReachesTheCallerAndTheRunnerStaysUsable) {
       },
       [&](std::int64_t) { ++count; });
   EXPECT_EQ(count, 9);
+}
+
+TEST(LaneRunner, NoJobStartsAWindowAheadOfTheOldestUnreportedOne) {
+  if (!kHistoryLanesBuilt) GTEST_SKIP() << "sanitizer build";
+  const Flights f;
+  LaneRunner runner;
+  constexpr std::int64_t kJobs = 3 * LaneRunner::kWindow;
+  std::int64_t reported = 0, furthest_ahead = 0;
+  std::vector<std::int64_t> order;
+  runner.run(
+      kJobs,
+      [&](std::int64_t i, int) {
+        furthest_ahead = std::max(furthest_ahead, i - reported);
+        f.fly(i, i == 0 ? 400 : 1);  // job 0 holds the oldest place for a long time
+        return true;
+      },
+      [&](std::int64_t i) {
+        order.push_back(i);
+        reported = i + 1;
+      });
+  ASSERT_EQ(order.size(), static_cast<std::size_t>(kJobs));
+  for (std::int64_t i = 0; i < kJobs; ++i) EXPECT_EQ(order[static_cast<std::size_t>(i)], i);
+  EXPECT_EQ(furthest_ahead, LaneRunner::kWindow - 1);  // the window is used, and not exceeded
 }
 
 TEST(LaneRunner, AJobReturningFalseStopsTheTakingOfNewJobs) {
