@@ -89,23 +89,37 @@ void print_results(const run::RunResult& r) {
 // RunControl of every run (--serial-histories).
 run::RunControl g_control;
 
-// One history at a time against histories in lanes, in alternation, 1 thread, best of `rounds`
-// each (CPU time); the two must give the same figures.
-void lanes_ratio(run::Scenario sc, const std::shared_ptr<const scene::Site>& site, int rounds) {
+// Two variants of a run in alternation, 1 thread, best of `rounds` each (process CPU time:
+// steadier than wall time on a shared machine). `set(sc, control, k)` makes variant k (0, 1).
+template <class Set>
+void alternate(run::Scenario sc, const std::shared_ptr<const scene::Site>& site, int rounds,
+               const Set& set, const char* const (&names)[2], double (&best)[2],
+               run::RunResult (&last)[2]) {
   sc.settings.threads = 1;
   sc.settings.profile = false;
-  double best[2] = {0.0, 0.0};
-  run::RunResult last[2];
-  for (int k = 0; k < rounds; ++k) {
-    for (int lanes = 0; lanes < 2; ++lanes) {
-      run::RunControl control;
-      control.serial_histories = lanes == 0;
+  for (int r = 0; r < rounds; ++r) {
+    for (int k = 0; k < 2; ++k) {
+      run::RunControl control = g_control;
+      set(sc, control, k);
       const std::clock_t c0 = std::clock();
-      last[lanes] = run::run(sc, site, control);
+      last[k] = run::run(sc, site, control);
       const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
-      best[lanes] = std::max(best[lanes], static_cast<double>(last[lanes].histories_done) / cpu_s);
+      const double rate = static_cast<double>(last[k].histories_done) / cpu_s;
+      best[k] = std::max(best[k], rate);
+      std::printf("round %d %-26s %.0f fragments per CPU-second\n", r + 1, names[k], rate);
     }
   }
+}
+
+// One history at a time against histories in lanes; the two must give the same figures.
+void lanes_ratio(const run::Scenario& sc, const std::shared_ptr<const scene::Site>& site,
+                 int rounds) {
+  double best[2] = {0.0, 0.0};
+  run::RunResult last[2];
+  alternate(
+      sc, site, rounds,
+      [](run::Scenario&, run::RunControl& control, int k) { control.serial_histories = k == 0; },
+      {"one history at a time", "histories in lanes"}, best, last);
   const bool same =
       last[0].hazardous_fragment_distance_m == last[1].hazardous_fragment_distance_m &&
       last[0].ptn_density_per_m2 == last[1].ptn_density_per_m2 &&
@@ -117,25 +131,15 @@ void lanes_ratio(run::Scenario sc, const std::shared_ptr<const scene::Site>& sit
       rounds, best[0], best[1], best[1] / best[0], same ? "identical" : "DIFFERENT");
 }
 
-// Bounce off and on in alternation, 1 thread, best of `rounds` each (CPU time: steadier than
-// wall time on a shared machine).
-void bounce_ratio(run::Scenario sc, const std::shared_ptr<const scene::Site>& site, int rounds) {
-  sc.settings.threads = 1;
-  sc.settings.profile = false;
+// Bounce off and on (the ground-phase issue's ratio).
+void bounce_ratio(const run::Scenario& sc, const std::shared_ptr<const scene::Site>& site,
+                  int rounds) {
   double best[2] = {0.0, 0.0};
   run::RunResult last[2];
-  for (int k = 0; k < rounds; ++k) {
-    for (int on = 0; on < 2; ++on) {
-      sc.settings.bounce = on == 1;
-      const std::clock_t c0 = std::clock();
-      last[on] = run::run(sc, site, g_control);
-      const double cpu_s = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
-      const double rate = static_cast<double>(last[on].histories_done) / cpu_s;
-      best[on] = std::max(best[on], rate);
-      std::printf("round %d bounce %-3s %.0f fragments per CPU-second\n", k + 1, on ? "on" : "off",
-                  rate);
-    }
-  }
+  alternate(
+      sc, site, rounds,
+      [](run::Scenario& s, run::RunControl&, int k) { s.settings.bounce = k == 1; },
+      {"bounce off", "bounce on"}, best, last);
   print_row("bounce off (last)", last[0]);
   print_results(last[0]);
   print_row("bounce on (last)", last[1]);

@@ -165,8 +165,11 @@ bool ShardRunner::simulate_in_lanes(
   lanes.runner.run(
       count,
       [&](std::int64_t i, int lane) {
-        complete = complete && history(first + i, lanes.scratch[lane], piece(i));
-        return complete;
+        // Not `complete = complete && history(...)`: the history yields to the other lanes, and
+        // a flag read before it would overwrite what they set meanwhile.
+        if (history(first + i, lanes.scratch[lane], piece(i))) return true;
+        complete = false;
+        return false;
       },
       [&](std::int64_t i) { append_histories(out, piece(i)); });
   return complete;
