@@ -167,30 +167,3 @@ TEST(LaneRunner, AJobReturningFalseStopsTheTakingOfNewJobs) {
 
 }  // namespace
 }  // namespace fragsim::run
-
-namespace fragsim::run {
-namespace {
-
-// A cancel seen by one lane while the others are in the middle of their histories: the chunk is
-// dropped whole (none of its histories is folded), whatever the lanes finish after. The cancel
-// comes from the progress report of one worker while the other is inside a chunk.
-TEST(HistoriesInLanes, ACancelInsideAChunkDropsTheWholeChunk) {
-  for (int round = 0; round < 5; ++round) {
-    Scenario sc = testing::mixed_scenario(40001, 40001);
-    sc.settings.threads = 2;
-    std::atomic<bool> cancel{false};
-    RunControl control;
-    control.cancel = &cancel;
-    control.progress_interval_s = 0.0;
-    control.on_progress = [&](const Progress& p) {
-      if (p.histories_done > 2000 + 500 * round) cancel = true;
-    };
-    const RunResult r = run(sc, control);
-    ASSERT_TRUE(r.cancelled);
-    EXPECT_EQ(r.histories_done % 256, 0) << "only whole chunks of 256 are folded";
-    EXPECT_GT(r.histories_done, 0);
-  }
-}
-
-}  // namespace
-}  // namespace fragsim::run
