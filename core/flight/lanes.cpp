@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 
 #include "core/flight/dopri5.h"
 
@@ -20,14 +19,6 @@ static_assert(sizeof(V) == kLanes * sizeof(double));
 
 #define FRAGSIM_LANE_INLINE [[gnu::always_inline]] inline
 
-FRAGSIM_LANE_INLINE V load(const double* p) {
-  V v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-FRAGSIM_LANE_INLINE void store(double* p, const V& v) {
-  std::memcpy(p, &v, sizeof v);
-}
 FRAGSIM_LANE_INLINE V splat(double x) {
   return V{x, x, x, x};
 }
