@@ -133,7 +133,9 @@ bool ShardRunner::simulate_chunk(std::int64_t k, const SamplingPlans::Cells* cel
     return true;
   };
   bool complete = true;
-  if (control_.serial_histories || !kHistoryLanesBuilt) {
+  // settings.profile times sections of one history; in lanes a section's clock would also run
+  // while the other lanes compute, so a profiled run takes its histories one at a time.
+  if (control_.serial_histories || st.profile || !kHistoryLanesBuilt) {
     for (std::int64_t h = first; h < first + cs.count && complete; ++h)
       complete = history(h, scratch, out);
   } else {
