@@ -117,8 +117,9 @@ void LaneRunner::finish_job(std::int64_t i) {
   }
 }
 
-// A lane's fiber: jobs until none is left or the run stops. An exception ends the lane's work
-// and is kept for run(); Boost's forced unwinding (a fiber destroyed while suspended) passes.
+// A lane's fiber: jobs until none is left or the run stops. An exception (from a job or from
+// `done`) ends the lane's work and is kept for run(); Boost's forced unwinding (a fiber destroyed
+// while suspended) passes.
 void LaneRunner::lane_body(int lane) {
   for (;;) {
     // The next job would be kWindow ahead of the oldest unreported one, which another lane is
@@ -131,6 +132,8 @@ void LaneRunner::lane_body(int lane) {
     const std::int64_t i = next_++;
     try {
       if (!(*job_)(i, lane)) stop_ = true;
+      current_ = lane;
+      finish_job(i);  // `done` may throw too (e.g. out of memory): never out of the fiber
     } catch (const ctx::detail::forced_unwind&) {
       throw;
     } catch (...) {
@@ -138,8 +141,6 @@ void LaneRunner::lane_body(int lane) {
       stop_ = true;
       return;
     }
-    current_ = lane;
-    finish_job(i);
   }
 }
 

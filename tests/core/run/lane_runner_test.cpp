@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <new>
 #include <stdexcept>
 #include <vector>
 
@@ -147,6 +148,23 @@ TEST(LaneRunner, NoJobStartsAWindowAheadOfTheOldestUnreportedOne) {
   ASSERT_EQ(order.size(), static_cast<std::size_t>(kJobs));
   for (std::int64_t i = 0; i < kJobs; ++i) EXPECT_EQ(order[static_cast<std::size_t>(i)], i);
   EXPECT_EQ(furthest_ahead, LaneRunner::kWindow - 1);  // the window is used, and not exceeded
+}
+
+TEST(LaneRunner, AnExceptionFromDoneReachesTheCaller) {
+  if (!kHistoryLanesBuilt) GTEST_SKIP() << "sanitizer build";
+  const Flights f;
+  LaneRunner runner;
+  EXPECT_THROW(runner.run(
+                   12,
+                   [&](std::int64_t i, int) {
+                     f.fly(i, 2);
+                     return true;
+                   },
+                   [](std::int64_t i) {
+                     if (i == 3) throw std::bad_alloc();
+                   }),
+               std::bad_alloc);
+  EXPECT_EQ(flight::thread_attempt_lanes, nullptr);
 }
 
 TEST(LaneRunner, AJobReturningFalseStopsTheTakingOfNewJobs) {
