@@ -120,8 +120,10 @@ class Dopri5 {
 
   // The same step in halves, for a caller that computes the attempts itself (the lane kernel,
   // core/flight/lanes.h): `first_trial`, then per attempt `size_trial` (false: no step possible),
-  // the attempt from (t(), y(), dy()) over trial.h into trial_stages() (y1 and k7 included),
-  // `count_attempt()`, and `conclude` with its error norm. step() is exactly this loop.
+  // the attempt from (t(), y(), dy()) over trial.h into trial_stages() (all of k1..k7 and y1
+  // with has_dense_sum false, or k1, k7, y1 and dense_sum with has_dense_sum true: the dense
+  // output reads one or the other), `count_attempt()`, and `conclude` with its error norm.
+  // step() is exactly this loop.
   struct Trial {
     double t_end, h;
     bool last = false;
