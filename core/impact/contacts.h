@@ -32,6 +32,17 @@ inline int chord_count(double length_m, double kappa_max, double sagitta_m, int 
   return std::max(1, static_cast<int>(n));
 }
 
+// How far an arc of chord length L whose curvature is at most kappa strays from its chord: the
+// sagitta kappa L^2 / 8 (docs/physics.md, "Reference formulas"), here kappa L^2: a factor 4 for a
+// curvature that peaks between the step's three samples (the flight's examine_step) and 2 more
+// for the sagitta's growth beyond its first-order form. Only while kappa L <= 1/4 (then an arc of
+// 4 kappa has sagitta at most 0.134 L, within the bound 0.25 L); +inf beyond, or for an unknown
+// curvature.
+inline double chord_deviation_bound(double length_m, double kappa) {
+  if (!(kappa * length_m <= 0.25)) return std::numeric_limits<double>::infinity();
+  return kappa * length_m * length_m;
+}
+
 // Time in [t_lo, t_hi] at which the arc P(t) crosses the plane through q with normal n, found by
 // the Illinois regula falsi (common/roots.h) on g(t) = n.(P(t) - q). Requires g(t_lo) and g(t_hi)
 // of opposite signs (or one of them 0); returns NaN otherwise.

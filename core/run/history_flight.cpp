@@ -97,22 +97,26 @@ bool History::examine_step(const flight::TrajectoryIntegrator& integ, const Flig
                 impact::path_curvature(vm, model_.acceleration(pm, vm))});
   const int n = impact::chord_count((s.p1 - s.p0).norm(), kappa, st_.sagitta_m);
   out_.stats.chords += n;
-  Vec3 pa = s.p0, va = s.v0;
-  double ta = s.t0;
+  Chord c;
+  c.pa = s.p0;
+  c.ta = s.t0;
+  Vec3 va = s.v0;
   // Chord ends evenly spaced in the step's variable: in path length in the s-phase.
   for (int k = 1; k <= n; ++k) {
-    double tb = s.t1;
-    Vec3 pb = s.p1, vb = s.v1;
-    if (k < n) integ.state_at_fraction(static_cast<double>(k) / n, tb, pb, vb);
-    if (std::min(pa.z(), pb.z()) > top_z) {
+    c.tb = s.t1;
+    c.pb = s.p1;
+    Vec3 vb = s.v1;
+    if (k < n) integ.state_at_fraction(static_cast<double>(k) / n, c.tb, c.pb, vb);
+    if (std::min(c.pa.z(), c.pb.z()) > top_z) {
       ++out_.stats.chords_skipped;
-    } else if (examine_chord(integ, s, ta, tb, pa, pb, chord_energy_bound(s, k, pa, va),
-                             near_buildings, ev)) {
-      return true;
+    } else {
+      c.e_bound = chord_energy_bound(s, k, c.pa, va);
+      c.deviation_m = impact::chord_deviation_bound((c.pb - c.pa).norm(), kappa);
+      if (examine_chord(integ, s, c, near_buildings, ev)) return true;
     }
-    pa = pb;
+    c.pa = c.pb;
     va = vb;
-    ta = tb;
+    c.ta = c.tb;
   }
   return false;
 }
@@ -133,8 +137,10 @@ double History::chord_energy_bound(const FlightStep& s, int k, const Vec3& pa,
 // One chord [ta, tb]: the scene query for the centre's path, the body's contact with the
 // terrain, whichever comes first ends the flight; the PTN tally up to there.
 bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const FlightStep& s,
-                            double ta, double tb, const Vec3& pa, const Vec3& pb, double e_bound,
-                            scene::BuildingProximity& near_buildings, FlightEvent& ev) {
+                            const Chord& c, scene::BuildingProximity& near_buildings,
+                            FlightEvent& ev) {
+  const double ta = c.ta, tb = c.tb;
+  const Vec3 &pa = c.pa, &pb = c.pb;
   const double zlo = std::min(pa.z(), pb.z());
   const double clear = terrain_clearance(pa, pb);
   const std::optional<scene::SceneHit> hit = query_chord(pa, pb, clear, near_buildings);
@@ -144,7 +150,7 @@ bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const Fli
   if (st_.bounce && radius_m_ > 0.0 && zlo <= ctx_.terrain_max_z + radius_m_) {
     SectionTimer timer(prof_, out_.geometry_s);
     touch = body_terrain_contact(
-        integ, ta, t_hit, hit && hit->terrain ? static_cast<std::int64_t>(hit->triangle) : -1);
+        integ, c, t_hit, hit && hit->terrain ? static_cast<std::int64_t>(hit->triangle) : -1);
   }
   double s_end = 1.0;  // the path for the PTN tally: the chord, up to the contact
   if (touch) {
@@ -161,8 +167,8 @@ bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const Fli
     ev.surface = hit->surface;
     s_end = std::min(hit->t, 1.0);
   }
-  const bool may_be_hazardous =
-      !ctx_.still_air || !ctx_.step_min_at_ends || e_bound - mass_ * g_ * zlo >= st_.hazardous_ke_j;
+  const bool may_be_hazardous = !ctx_.still_air || !ctx_.step_min_at_ends ||
+                                c.e_bound - mass_ * g_ * zlo >= st_.hazardous_ke_j;
   if (may_be_hazardous) {
     add_ptn_segment(
         pa, pa + s_end * (pb - pa),
@@ -298,25 +304,48 @@ double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint
   return std::numeric_limits<double>::quiet_NaN();
 }
 
-// Body contact with the terrain within [ta, tb]. The contact plane: the terrain triangle under
-// the centre at the chord's end (or the one its path crossed), then the triangle under the
-// contact point if that differs (a contact that moves onto a neighbouring triangle), at most
-// twice.
+// Is the body clear of the plane of terrain triangle `tri` all along the chord? The centre's
+// distance to the plane is linear along the segment pa -> pb, so its least value is at an end;
+// the path strays from the segment by at most c.deviation_m, and the body reaches at most one
+// bounding radius from its centre. Then first_touch would find every clearance sample positive
+// (History::clearance returns distance - radius there) and report no touch: skipping it changes
+// no result, and saves its five samples on the interpolant (each an inversion of t(s) in the
+// s-phase). A chord's ends are on the interpolant, as first_touch's samples are.
+bool History::chord_clear_of_plane(const Chord& c, std::uint32_t tri) const {
+  const Vec3& n = site_.terrain_triangle_normal(tri);
+  const Vec3& v0 = site_.terrain_vertices()[site_.terrain_triangles()[tri][0]];
+  const double d = std::min(n.dot(c.pa - v0), n.dot(c.pb - v0));
+  // 1e-9 of the coordinates: the rounding of the two dot products.
+  const double rounding = 1e-9 * (1.0 + c.pa.cwiseAbs().maxCoeff() + v0.cwiseAbs().maxCoeff());
+  return d - c.deviation_m - rounding > radius_m_;
+}
+
+// Body contact with the terrain within [c.ta, tb] (tb <= c.tb: up to the centre's own hit). The
+// contact plane: the terrain triangle under the centre at tb (or the one its path crossed),
+// then the triangle under the contact point if that differs (a contact that moves onto a
+// neighbouring triangle), at most twice.
 std::optional<FlightEvent> History::body_terrain_contact(const flight::TrajectoryIntegrator& integ,
-                                                         double ta, double tb,
+                                                         const Chord& c, double tb,
                                                          std::int64_t hint) const {
+  const double ta = c.ta;
   std::int64_t tri = hint;
   if (tri < 0) {
     const Vec3 pb = integ.position(tb);
     tri = site_.terrain_triangle_at(pb.x(), pb.y());
   }
   if (tri < 0) return std::nullopt;
+  if (chord_clear_of_plane(c, static_cast<std::uint32_t>(tri))) {
+    // first_touch's one effect besides its answer: the attitude's base moves to ta (the attitude
+    // of an axisymmetric body is propagated from it; the same base gives the same bits).
+    rot_.advance_base(ta);
+    return std::nullopt;
+  }
   double tc = first_touch(integ, static_cast<std::uint32_t>(tri), ta, tb);
   for (int pass = 0; pass < 2 && !std::isnan(tc); ++pass) {
     const Vec3& n = site_.terrain_triangle_normal(static_cast<std::uint32_t>(tri));
-    const Vec3 c =
+    const Vec3 at =
         integ.position(tc) + fragments::contact_point(body_, attitude(tc), n, flat_tol_m_);
-    const std::int64_t under = site_.terrain_triangle_at(c.x(), c.y());
+    const std::int64_t under = site_.terrain_triangle_at(at.x(), at.y());
     if (under < 0 || under == tri) break;
     const double t2 = first_touch(integ, static_cast<std::uint32_t>(under), ta, tb);
     if (std::isnan(t2)) break;  // the neighbour's plane is not reached: keep the first

@@ -103,6 +103,16 @@ struct FlightStep {
   Vec3 p0, v0, a0, p1, v1, a1;
 };
 
+// One chord [ta, tb] of a step: its ends on the interpolant, a bound on the kinetic plus potential
+// energy along it (chord_energy_bound), and a bound on how far the path between its ends strays
+// from the straight segment pa -> pb (+inf when not known).
+struct Chord {
+  double ta = 0.0, tb = 0.0;
+  Vec3 pa, pb;
+  double e_bound = 0.0;
+  double deviation_m = std::numeric_limits<double>::infinity();
+};
+
 enum class Phase { kFlight, kGround, kDone };
 
 class GroundTally;  // history_ground.cpp
@@ -138,8 +148,7 @@ class History {
   bool flight_step(flight::TrajectoryIntegrator& integ, FlightStep& s, FlightEvent& ev);
   bool examine_step(const flight::TrajectoryIntegrator& integ, const FlightStep& s,
                     scene::BuildingProximity& near_buildings, FlightEvent& ev);
-  bool examine_chord(const flight::TrajectoryIntegrator& integ, const FlightStep& s, double ta,
-                     double tb, const Vec3& pa, const Vec3& pb, double e_bound,
+  bool examine_chord(const flight::TrajectoryIntegrator& integ, const FlightStep& s, const Chord& c,
                      scene::BuildingProximity& near_buildings, FlightEvent& ev);
   double chord_energy_bound(const FlightStep& s, int k, const Vec3& pa, const Vec3& va) const;
   // A chord whose clearance over the terrain (TerrainIndex2D::clearance) is more than this
@@ -158,7 +167,9 @@ class History {
                           FlightEvent& ev) const;
   // The body's contact with the terrain (bounce mode).
   std::optional<FlightEvent> body_terrain_contact(const flight::TrajectoryIntegrator& integ,
-                                                  double ta, double tb, std::int64_t hint) const;
+                                                  const Chord& c, double tb,
+                                                  std::int64_t hint) const;
+  bool chord_clear_of_plane(const Chord& c, std::uint32_t tri) const;
   double first_touch(const flight::TrajectoryIntegrator& integ, std::uint32_t tri, double ta,
                      double tb) const;
   double clearance(const flight::TrajectoryIntegrator& integ, std::uint32_t tri, double t) const;

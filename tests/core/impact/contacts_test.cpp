@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+
 namespace fragsim::impact {
 namespace {
 
@@ -30,6 +33,27 @@ TEST(ChordCount, SagittaOfEachChordStaysBelowTolerance) {
 TEST(ChordCount, StraightPathNeedsOneChordAndZeroSpeedIsCapped) {
   EXPECT_EQ(chord_count(100.0, path_curvature(Vec3(1, 0, 0), Vec3(0, 0, 0)), 0.05), 1);
   EXPECT_EQ(chord_count(1.0, path_curvature(Vec3(0, 0, 0), Vec3(0, 0, -9.8)), 0.05, 64), 64);
+}
+
+// chord_deviation_bound: a circular arc of radius R strays from its chord by its sagitta
+// R - sqrt(R^2 - L^2/4). The bound must hold for every arc with up to 4x the curvature it is given
+// (a peak between the caller's samples) up to kappa L = 1/4, and give up (+inf) beyond.
+TEST(ChordDeviationBound, CoversArcsWithFourTimesTheGivenCurvature) {
+  for (double kl : {1e-6, 1e-3, 0.1, 0.2, 0.25}) {
+    for (double length : {0.01, 1.0, 300.0}) {
+      const double kappa = kl / length;
+      const double bound = chord_deviation_bound(length, kappa);
+      const double r = 1.0 / (4.0 * kappa);  // the true curvature 4x the one given
+      const double sagitta = r - std::sqrt(r * r - 0.25 * length * length);
+      EXPECT_LE(sagitta, bound) << "kappa L = " << kl << ", L = " << length;
+      // Not loose beyond its factors: 8 times the plain sagitta kappa L^2 / 8.
+      EXPECT_LE(bound, 8.0 * kappa * length * length / 8.0 * (1 + 1e-15));
+    }
+  }
+  EXPECT_TRUE(std::isinf(chord_deviation_bound(1.0, 0.26)));  // kappa L = 0.26
+  EXPECT_TRUE(std::isinf(chord_deviation_bound(1.0, std::numeric_limits<double>::infinity())));
+  EXPECT_TRUE(std::isinf(chord_deviation_bound(1.0, std::nan(""))));
+  EXPECT_EQ(chord_deviation_bound(5.0, 0.0), 0.0);  // a straight path
 }
 
 TEST(RefinePlaneCrossing, FindsTheCrossingOfAParabolaToMachinePrecision) {
