@@ -397,7 +397,14 @@ double GroundMotion::step_end_time() const {
   };
   const GVec& dy = ode_.dy();
   const Vec3 a = dy.segment<3>(3), dw = dy.segment<3>(6);
-  if (!slipping()) return std::min(set_.t_max_s, t_ + before_zero(v_, a));
+  if (!slipping()) {
+    // A slide off a straight line closes in on its stop geometrically (G10): the pull across the
+    // motion turns the velocity at a rate ~ 1/|v|, so no step reaches the stop. A step to its
+    // predicted time is rejected and retaken at ~0.4 of it (0.47 rejected attempts per step on
+    // the demo with rigid soil); half the way at once is the same approach without them.
+    const double fraction = contact_.line || contact_.crease ? 1.0 : kCurvedStopStepFraction;
+    return std::min(set_.t_max_s, t_ + fraction * before_zero(v_, a));
+  }
   const Vec3& n = contact_.n;
   const double t_slip = before_zero(v_ - w_.cross(n), a - dw.cross(n));
   // Only a skid's spin has a kink at zero (the rolling resistance torque flips there).
