@@ -398,10 +398,10 @@ double GroundMotion::step_end_time() const {
   const GVec& dy = ode_.dy();
   const Vec3 a = dy.segment<3>(3), dw = dy.segment<3>(6);
   if (!slipping()) {
-    // A slide off a straight line closes in on its stop geometrically (G10): the pull across the
-    // motion turns the velocity at a rate ~ 1/|v|, so no step reaches the stop. A step to its
-    // predicted time is rejected and retaken at ~0.4 of it (0.47 rejected attempts per step on
-    // the demo with rigid soil); half the way at once is the same approach without them.
+    // A slide or roll off a straight line closes in on its stop geometrically (G10): the pull
+    // across the motion turns the velocity at a rate ~ 1/|v|, so no step reaches the stop. A step
+    // to its predicted time is rejected and retaken at ~0.4 of it (0.47 rejected attempts per step
+    // on the demo with rigid soil); half the way at once is the same approach without them.
     const double fraction = contact_.line || contact_.crease ? 1.0 : kCurvedStopStepFraction;
     return std::min(set_.t_max_s, t_ + fraction * before_zero(v_, a));
   }

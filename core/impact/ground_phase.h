@@ -138,8 +138,8 @@ double ground_clearance(const GroundBody& body, const Quat& q, const Vec3& n);
 // Tolerances of the model's rest and capture rules (docs/physics.md, "Ground phase").
 // A stop is taken when the path still to go before the speed reaches zero is below this.
 inline constexpr double kRestTravel_m = 1e-6;
-// A slide off a straight line steps at most this fraction of the time to its stop predicted at
-// the present deceleration (docs/physics.md G10; a step choice, not a rule of the model).
+// A slide or roll off a straight line steps at most this fraction of the time to its stop predicted
+// at the present deceleration (docs/physics.md G10; a step choice, not a rule of the model).
 inline constexpr double kCurvedStopStepFraction = 0.5;
 // A body that would climb out of a crease (or a pit) by less than this is held in it.
 inline constexpr double kCaptureHeight_m = 1e-3;

@@ -322,6 +322,48 @@ TEST(GroundPhase, RestsOnASlopeBelowTheFrictionAngle) {
   }
 }
 
+// A slide across a slope (the pull across the motion turns it: no straight line, G3) comes to
+// rest where an independent integration of the in-plane equations puts it:
+//   du/dt = g sin(th) e_down - mu g cos(th) u / |u|
+// (RK4 with steps shrinking with the speed, 1 % of it per step near the stop). The ground phase
+// closes in on such a stop in steps of half the predicted time (G10); at rtol 1e-9 and 1e-6 its
+// rest point must be within 2e-6 m and 2e-4 m of the reference (slides of 2.7-9.2 m).
+TEST(GroundPhase, SlideAcrossASlopeRestsWhereTheInPlaneEquationsPutIt) {
+  const double mu = 0.5, deg = 20.0, th = deg * kDegToRad;
+  const auto site = slope_site(std::tan(th), mu, 0.1);
+  const GroundBody body = plate(Quat(Eigen::AngleAxisd(-th, Vec3::UnitY())));
+  const Air air(0.0, 0.0, body.mass_kg);
+  const Vec3 e_down = -Vec3(std::cos(th), 0.0, std::sin(th)), e_across = Vec3::UnitY();
+  for (const double az_deg : {60.0, 90.0, 135.0}) {  // from the fall line, downhill = 0
+    const double az = az_deg * kDegToRad, speed = 6.0;
+    const Vec2 u0 = speed * Vec2(std::cos(az), std::sin(az));
+    // The reference in the plane's coordinates (down, across).
+    const auto rate = [&](const Vec2& u) -> Vec2 {
+      return Vec2(g * std::sin(th), 0.0) - (mu * g * std::cos(th) / u.norm()) * u;
+    };
+    Vec2 u = u0, x = Vec2::Zero();
+    while (u.norm() > 1e-9) {
+      const double dt = std::min(1e-4, 0.01 * u.norm() / (mu * g * std::cos(th)));
+      const Vec2 k1 = rate(u), k2 = rate(u + 0.5 * dt * k1), k3 = rate(u + 0.5 * dt * k2),
+                 k4 = rate(u + dt * k3);
+      x += dt * (u + dt / 6.0 * (k1 + k2 + k3));  // position: RK4 for x' = u, u' = rate(u)
+      u += dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    }
+    for (const double rtol : {1e-9, 1e-6}) {
+      const GroundState s0 = start_at(*site, body, 3.0, 4.0, u0.x() * e_down + u0.y() * e_across);
+      Recorder rec;
+      const GroundResult r = run(*site, air, body, s0, rec, settings(rtol));
+      ASSERT_EQ(r.end, GroundEnd::kRest) << az_deg << " deg";
+      const Vec3 moved = r.state.position_m - s0.position_m;
+      const Vec2 got(moved.dot(e_down), moved.dot(e_across));
+      EXPECT_NEAR((got - x).norm(), 0.0, rtol < 1e-7 ? 2e-6 : 2e-4)
+          << az_deg << " deg, rtol " << rtol << ": reference (" << x.transpose() << "), got ("
+          << got.transpose() << ")";
+      EXPECT_GT(x.norm(), 2.5);
+    }
+  }
+}
+
 // Sliding up the fall line: constant deceleration g (sin + mu cos), at every piece's end the
 // closed form, the stop at v0 / a, and rest there (below the friction angle).
 TEST(GroundPhase, SlidingUphillFollowsTheClosedFormAndStays) {
