@@ -405,8 +405,12 @@ double GroundMotion::step_end_time() const {
     const double fraction = contact_.line || contact_.crease ? 1.0 : kCurvedStopStepFraction;
     return std::min(set_.t_max_s, t_ + fraction * before_zero(v_, a));
   }
+  // The end of a slip (G7) likewise, when the slip's rate of change is not along it (it turns as
+  // it ends); a straight one keeps the exact prediction (level ground: slip then roll, G7).
   const Vec3& n = contact_.n;
-  const double t_slip = before_zero(v_ - w_.cross(n), a - dw.cross(n));
+  const Vec3 u = v_ - w_.cross(n), du = a - dw.cross(n);
+  const bool turning = u.cross(du).norm() > 1e-3 * u.norm() * du.norm();
+  const double t_slip = (turning ? kCurvedStopStepFraction : 1.0) * before_zero(u, du);
   // Only a skid's spin has a kink at zero (the rolling resistance torque flips there).
   const double t_spin = res_.skid ? before_zero(w_ - w_.dot(n) * n, dw - dw.dot(n) * n)
                                   : std::numeric_limits<double>::infinity();

@@ -365,6 +365,33 @@ TEST(GroundPhase, SlideAcrossASlopeRestsWhereTheInPlaneEquationsPutIt) {
   }
 }
 
+// A ball thrown across a slope without spin slips, the slip turning as it ends (G4, G7: the
+// pull across it), then rolls to rest (G5, G10). Both ends are approached in half steps; the rest
+// point must converge with the tolerance: at rtol 1e-9 and 1e-6 within 1e-8 m and 3e-5 m of the
+// same at rtol 1e-12 (rest 2.0-5.6 m from the start; measured 1.2e-9 and 2.5e-6 m).
+TEST(GroundPhase, BallAcrossASlopeSlipsRollsAndRestsConvergently) {
+  const double deg = 10.0, th = deg * kDegToRad;
+  const auto site = slope_site(std::tan(th), 0.5, 0.3);
+  const GroundBody body = sphere();
+  const Air air(0.0, 0.0, body.mass_kg);
+  const Vec3 e_down = -Vec3(std::cos(th), 0.0, std::sin(th)), e_across = Vec3::UnitY();
+  for (const double az_deg : {45.0, 90.0, 135.0}) {
+    const double az = az_deg * kDegToRad;
+    const GroundState s0 =
+        start_at(*site, body, 3.0, 4.0, 4.0 * (std::cos(az) * e_down + std::sin(az) * e_across));
+    const auto rest_at = [&](double rtol) {
+      Recorder rec;
+      const GroundResult r = run(*site, air, body, s0, rec, settings(rtol));
+      EXPECT_EQ(r.end, GroundEnd::kRest) << az_deg << " deg, rtol " << rtol;
+      return r.state.position_m;
+    };
+    const Vec3 ref = rest_at(1e-12);
+    EXPECT_GT((ref - s0.position_m).norm(), 1.0);
+    EXPECT_LT((rest_at(1e-9) - ref).norm(), 1e-8) << az_deg << " deg";
+    EXPECT_LT((rest_at(1e-6) - ref).norm(), 3e-5) << az_deg << " deg";
+  }
+}
+
 // Sliding up the fall line: constant deceleration g (sin + mu cos), at every piece's end the
 // closed form, the stop at v0 / a, and rest there (below the friction angle).
 TEST(GroundPhase, SlidingUphillFollowsTheClosedFormAndStays) {
