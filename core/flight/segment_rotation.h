@@ -1,6 +1,8 @@
 #pragma once
 // The attitude of a fragment along one flight segment: torque-free rotation from the segment's
 // start state, queried at many nearly increasing times by the contact search (run/history.cpp).
+#include <array>
+#include <limits>
 #include <optional>
 #include <utility>
 
@@ -26,6 +28,7 @@ class SegmentRotation {
     // (axisymmetric bodies use propagate_torque_free's cheap closed form; near the separatrix
     // the solution is not valid and the cached numerical path is used).
     asym_.reset();
+    for (auto& e : recent_) e.t = std::numeric_limits<double>::quiet_NaN();
     if (s.omega_body.squaredNorm() > 0.0 && !has_two_equal_moments(inertia_)) {
       AsymmetricTorqueFree sol(inertia_, s);
       if (sol.valid()) asym_.emplace(std::move(sol));
@@ -37,7 +40,7 @@ class SegmentRotation {
   // before t: each call integrates a short interval, never the whole segment again.
   RotationState at(double t) const {
     if (s0_.omega_body.squaredNorm() == 0.0 || t == t0_) return s0_;
-    if (asym_) return asym_->at(t - t0_);  // exact, O(1) at any time of the segment
+    if (asym_) return asym_at(t);
     if (t == cache_t_) return cache_;
     if (t == base_t_) return base_;
     // Start from the latest known state at or before t: the cache, the base, or the segment's
@@ -70,6 +73,26 @@ class SegmentRotation {
   }
 
  private:
+  // The exact solution at t, remembered for the last few times asked: the contact search asks
+  // for the same times again (a chord's end is the next chord's start; a second contact plane is
+  // searched at the first one's sample times). A pure function of t: the same bits either way.
+  RotationState asym_at(double t) const {
+    for (const Recent& e : recent_)
+      if (e.t == t) return e.s;
+    Recent& slot = recent_[next_recent_];
+    next_recent_ = (next_recent_ + 1) % kRecent;
+    slot.t = t;
+    slot.s = asym_->at(t - t0_);
+    return slot.s;
+  }
+
+  static constexpr int kRecent = 8;
+  struct Recent {
+    double t = std::numeric_limits<double>::quiet_NaN();
+    RotationState s;
+  };
+  mutable std::array<Recent, kRecent> recent_{};
+  mutable int next_recent_ = 0;
   Vec3 inertia_;
   double rtol_ = 1e-9;
   RotationState s0_;  // attitude at t0_ (start of the current flight segment)

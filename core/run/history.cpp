@@ -417,6 +417,9 @@ RunContext::RunContext(const Scenario& sc, const scene::Site& s)
   terrain_max_z = detail::highest_terrain_z(s);
   for (std::uint32_t t = 0; t < s.terrain_triangle_count(); ++t)
     terrain_min_nz = std::min(terrain_min_nz, s.terrain_triangle_normal(t).z());
+  if (s.terrain_is_lattice() && terrain_min_nz > 0.0)
+    lattice_max_slope =
+        std::sqrt(std::max(0.0, 1.0 - terrain_min_nz * terrain_min_nz)) / terrain_min_nz;
   hfd_origin = s.to_local(hfd_origin_input(sc, s));
   top_z = prisms.top_z();
   if (s.has_buildings()) top_z = std::max(top_z, s.buildings_bounds().hi.z());

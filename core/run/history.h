@@ -2,6 +2,7 @@
 // One fragment history: launch checks, flight, contacts, tallies. Pure function of its inputs
 // (scenario, site, group, history index, seed); writes its tally contributions to a ChunkOutput.
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "core/flight/atmosphere.h"
@@ -59,9 +60,12 @@ struct RunContext {
   std::vector<flight::DragCoefficient> cd;     // per group
   std::vector<fragments::GroupLaunch> launch;  // per group: its launch constants
   tally::PtnPrisms prisms;
-  double terrain_min_z = 0.0;    // local
-  double terrain_max_z = 0.0;    // local
-  double terrain_min_nz = 1.0;   // smallest z of a terrain triangle's unit normal (> 0)
+  double terrain_min_z = 0.0;   // local
+  double terrain_max_z = 0.0;   // local
+  double terrain_min_nz = 1.0;  // smallest z of a terrain triangle's unit normal (> 0)
+  // A plane or grid terrain (a continuous height field over the grid's rectangle): the steepest
+  // slope of its triangles (tan of the largest inclination); +inf for a mesh terrain.
+  double lattice_max_slope = std::numeric_limits<double>::infinity();
   Vec3 hfd_origin{0, 0, 0};      // local (core/run/hfd.h)
   double top_z = 0.0;            // highest point anything can be hit or tallied (local)
   bool step_min_at_ends = true;  // no updraft: a step's lowest point is one of its ends

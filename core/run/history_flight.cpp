@@ -149,8 +149,9 @@ bool History::examine_chord(const flight::TrajectoryIntegrator& integ, const Fli
   std::optional<FlightEvent> touch;
   if (st_.bounce && radius_m_ > 0.0 && zlo <= ctx_.terrain_max_z + radius_m_) {
     SectionTimer timer(prof_, out_.geometry_s);
-    touch = body_terrain_contact(
-        integ, c, t_hit, hit && hit->terrain ? static_cast<std::int64_t>(hit->triangle) : -1);
+    touch =
+        body_terrain_contact(integ, c, clear, t_hit,
+                             hit && hit->terrain ? static_cast<std::int64_t>(hit->triangle) : -1);
   }
   double s_end = 1.0;  // the path for the PTN tally: the chord, up to the contact
   if (touch) {
@@ -320,14 +321,59 @@ bool History::chord_clear_of_plane(const Chord& c, std::uint32_t tri) const {
   return d - c.deviation_m - rounding > radius_m_;
 }
 
+// Is the body clear of the terrain all along the chord, by the chord's clearance over the
+// terrain alone (`clear`, TerrainIndex2D::clearance: at most z_C - H(C) at every chord point C,
+// from the buckets' highest terrain rounded up)? On a plane or grid terrain, a continuous height
+// field H over the grid's rectangle with slopes at most s: every point of the body is within
+// rho = R + D of a chord point C (R the bounding radius, D = c.deviation_m the path's distance
+// from the chord). A terrain point it touches is then within rho of C horizontally, so at most
+// H(C) + s rho high, and at least z_C - rho: a touch needs z_C - H(C) <= (1 + s) rho. Both chord
+// ends in the rectangle (so all of the chord: H is defined under it). Then no plane test can
+// find a touch of the terrain either, and no triangle need be looked at (chord_clear_of_plane
+// loads two); a mesh terrain (overhangs, holes) is left to chord_clear_of_plane.
+bool History::chord_clear_of_terrain(const Chord& c, double clear) const {
+  const double s = ctx_.lattice_max_slope;
+  if (!std::isfinite(s)) return false;
+  // A chord above every prism has clear = +inf without a walk: its height over the highest
+  // terrain is the bound then.
+  const double lower =
+      std::isfinite(clear) ? clear : std::min(c.pa.z(), c.pb.z()) - ctx_.terrain_max_z;
+  const double rounding = 1e-9 * (1.0 + c.pa.cwiseAbs().maxCoeff() + c.pb.cwiseAbs().maxCoeff());
+  if (!(lower - rounding > (1.0 + s) * (radius_m_ + c.deviation_m))) return false;
+  const scene::TerrainIndex2D& index = site_.terrain_index();
+  const auto inside = [&](const Vec3& p) {
+    const Vec2 g = (p.head<2>() - index.origin).cwiseQuotient(index.cell);
+    return g.x() >= 0.0 && g.y() >= 0.0 && g.x() <= index.nx && g.y() <= index.ny;
+  };
+  return inside(c.pa) && inside(c.pb);
+}
+
+// Is a touch of a triangle's plane at `at` (over terrain triangle `under`, -1: off the terrain)
+// away from the ground, the contact point more than the body's size above the ground under it?
+// Then the plane touched is a triangle's extended far beyond it, e.g. a back slope's under the
+// end of a chord that crosses a crest, metres above the front slope at the chord's start, where a
+// spinning body's lowest point can move into it. A body reaching across a convex edge touches
+// the nearer plane a little above the farther face (less than its size): that is kept.
+bool History::floats_above_ground(const Vec3& at, std::int64_t under) const {
+  if (under < 0) return false;
+  const auto t = static_cast<std::uint32_t>(under);
+  return at.z() - site_.terrain_plane_height(t, at.x(), at.y()) > radius_m_;
+}
+
 // Body contact with the terrain within [c.ta, tb] (tb <= c.tb: up to the centre's own hit). The
 // contact plane: the terrain triangle under the centre at tb (or the one its path crossed),
 // then the triangle under the contact point if that differs (a contact that moves onto a
-// neighbouring triangle), at most twice.
+// neighbouring triangle), at most twice; a touch of a plane where the ground under the contact
+// point is lower by more than the body's size is none. `clear`: the chord's clearance over the
+// terrain.
 std::optional<FlightEvent> History::body_terrain_contact(const flight::TrajectoryIntegrator& integ,
-                                                         const Chord& c, double tb,
+                                                         const Chord& c, double clear, double tb,
                                                          std::int64_t hint) const {
   const double ta = c.ta;
+  if (chord_clear_of_terrain(c, clear)) {
+    rot_.advance_base(ta);  // as below: the same bits with or without this shortcut
+    return std::nullopt;
+  }
   std::int64_t tri = hint;
   if (tri < 0) {
     const Vec3 pb = integ.position(tb);
@@ -341,18 +387,19 @@ std::optional<FlightEvent> History::body_terrain_contact(const flight::Trajector
     return std::nullopt;
   }
   double tc = first_touch(integ, static_cast<std::uint32_t>(tri), ta, tb);
-  for (int pass = 0; pass < 2 && !std::isnan(tc); ++pass) {
+  Vec3 at{0, 0, 0};         // the body's point on the plane of `tri` at tc
+  std::int64_t under = -1;  // the terrain triangle under it
+  for (int pass = 0; !std::isnan(tc); ++pass) {
     const Vec3& n = site_.terrain_triangle_normal(static_cast<std::uint32_t>(tri));
-    const Vec3 at =
-        integ.position(tc) + fragments::contact_point(body_, attitude(tc), n, flat_tol_m_);
-    const std::int64_t under = site_.terrain_triangle_at(at.x(), at.y());
-    if (under < 0 || under == tri) break;
+    at = integ.position(tc) + fragments::contact_point(body_, attitude(tc), n, flat_tol_m_);
+    under = site_.terrain_triangle_at(at.x(), at.y());
+    if (pass == 2 || under < 0 || under == tri) break;
     const double t2 = first_touch(integ, static_cast<std::uint32_t>(under), ta, tb);
     if (std::isnan(t2)) break;  // the neighbour's plane is not reached: keep the first
     tri = under;
     tc = t2;
   }
-  if (std::isnan(tc)) return std::nullopt;
+  if (std::isnan(tc) || floats_above_ground(at, under)) return std::nullopt;
   FlightEvent ev;
   ev.end = FlightEnd::kTerrain;
   ev.t = tc;

@@ -343,6 +343,63 @@ TEST(BounceHistory, FastSteepImpactsOnSoilEmbed) {
   EXPECT_GE(slow.bounces, 1u);
 }
 
+// Sawtooth ridges along y (crests 10 m high every 20 m in x, slopes of 1), as a mesh or a grid.
+// Fast, fast-spinning plates skim the crests: a chord ending over a back slope has that slope's
+// plane, extended back over the front slope, metres above the body at the chord's start, and the
+// spin can move the body's lowest point into it. Touching that extended plane is not a contact:
+// every first impact must find the body at the terrain, its centre no higher above the ground
+// than the body reaches (its bounding radius R, 2 R allowing for a slope of 1 or a valley).
+TEST(BounceHistory, ContactsAreWithTheTerrainNotATrianglesPlaneBeyondIt) {
+  const auto ground_z = [](double x) { return 10.0 - std::abs(x - 20.0 * std::round(x / 20.0)); };
+  for (const bool mesh : {true, false}) {
+    run::Scenario sc = bounce_scenario(200.0, 0.3, 0.6);
+    if (mesh) {
+      scene::MeshSpec m;
+      for (int i = 0; i <= 40; ++i) {
+        const double x = -200.0 + 10.0 * i;
+        m.vertices_m.emplace_back(x, -200.0, ground_z(x));
+        m.vertices_m.emplace_back(x, 200.0, ground_z(x));
+      }
+      for (std::int64_t i = 0; i < 40; ++i) {
+        m.triangles.push_back({2 * i, 2 * i + 2, 2 * i + 3});
+        m.triangles.push_back({2 * i, 2 * i + 3, 2 * i + 1});
+      }
+      sc.site.terrain.geometry = m;
+    } else {
+      scene::GridTerrainSpec grid;
+      grid.origin_m = {-200.0, -200.0};
+      grid.spacing_m = 10.0;
+      grid.nx = grid.ny = 41;
+      for (int j = 0; j < grid.ny; ++j)
+        for (int i = 0; i < grid.nx; ++i) grid.elevation_m.push_back(ground_z(-200.0 + 10.0 * i));
+      sc.site.terrain.geometry = grid;
+    }
+    const double mass = 0.5, side = std::cbrt(mass / (7850.0 * 0.1));
+    auto g = sphere_group(Vec3(-185.0, 0.0, 11.5), mass, 150.0, 1.0, 400);
+    g.shape.type = fragments::ShapeType::kCuboid;
+    g.shape.aspect = {1.0, 1.0, 0.1};
+    g.spin_radps = fragments::Distribution::fixed(8000.0);
+    g.direction.elevation_min_deg = -3.0;
+    g.direction.elevation_max_deg = 1.0;
+    g.direction.azimuth_min_deg = -10.0;
+    g.direction.azimuth_max_deg = 10.0;
+    g.cd.constant = 1.0;
+    sc.groups = {g};
+    sc.settings.hazardous_ke_j = 1e-9;
+    const run::RunResult r = run::run(sc);
+    const double radius = 0.5 * side * std::sqrt(2.01);
+    int checked = 0;
+    for (const auto& f : r.fragments) {
+      if (!(f.first_impact_time_s > 0.0)) continue;
+      const Vec3& p = f.first_impact_position_m;
+      EXPECT_LE(p.z() - ground_z(p.x()), 2.0 * radius)
+          << (mesh ? "mesh" : "grid") << " x " << p.x();
+      ++checked;
+    }
+    EXPECT_GT(checked, 300);
+  }
+}
+
 // Bit-identical results whatever the thread count and chunk size, with bounce, slide and roll.
 TEST(BounceHistory, DeterministicForThreadsAndChunks) {
   run::Scenario sc = bounce_scenario(300.0, 0.3, 0.6);
