@@ -348,24 +348,41 @@ bool History::chord_clear_of_terrain(const Chord& c, double clear) const {
   return inside(c.pa) && inside(c.pb);
 }
 
-// Is a touch of a triangle's plane at `at` (over terrain triangle `under`, -1: off the terrain)
-// away from the ground, the contact point more than the body's size above the ground under it?
-// Then the plane touched is a triangle's extended far beyond it, e.g. a back slope's under the
-// end of a chord that crosses a crest, metres above the front slope at the chord's start, where a
-// spinning body's lowest point can move into it. A body reaching across a convex edge touches
-// the nearer plane a little above the farther face (less than its size): that is kept.
-bool History::floats_above_ground(const Vec3& at, std::int64_t under) const {
-  if (under < 0) return false;
-  const auto t = static_cast<std::uint32_t>(under);
-  return at.z() - site_.terrain_plane_height(t, at.x(), at.y()) > radius_m_;
+// Is a touch of the plane of terrain triangle `tri` at `at` (over terrain triangle `under`; -1:
+// off the terrain) a touch of nothing? Yes when the contact point is both far from `tri` and off
+// the ground: more than one body width, 2 R, from the triangle horizontally (no part of the body
+// is over it), and more than R above the plane of the triangle under it. The plane touched is then
+// the triangle's extended far beyond it, e.g. a back slope's under the end of a chord that crosses
+// a crest, metres above the front slope at the chord's start, where a spinning body's lowest point
+// can move into it. A body reaching across an edge to a lower neighbour touches the nearer plane
+// first, a little above the farther face; a contact point at the ground beyond the triangle is
+// where the body meets the ground anyway: both kept. The horizontal distance is bounded below by
+// the largest signed distance to the triangle's three edge lines (outward positive).
+bool History::touches_beyond_triangle(const Vec3& at, std::uint32_t tri, std::int64_t under) const {
+  if (under < 0 || under == static_cast<std::int64_t>(tri)) return false;
+  const auto below = static_cast<std::uint32_t>(under);
+  if (!(at.z() - site_.terrain_plane_height(below, at.x(), at.y()) > radius_m_)) return false;
+  const auto& ids = site_.terrain_triangles()[tri];
+  const auto& vs = site_.terrain_vertices();
+  const Vec2 a = vs[ids[0]].head<2>(), b = vs[ids[1]].head<2>(), c = vs[ids[2]].head<2>();
+  const double orient = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+  const double sign = orient < 0.0 ? -1.0 : 1.0;  // outward normals for either winding
+  const Vec2 p = at.head<2>();
+  double beyond = -std::numeric_limits<double>::infinity();
+  for (const auto& [u, w] : {std::pair{a, b}, std::pair{b, c}, std::pair{c, a}}) {
+    const Vec2 d = w - u;
+    const double len = d.norm();
+    if (!(len > 0.0)) continue;
+    beyond = std::max(beyond, sign * (d.y() * (p - u).x() - d.x() * (p - u).y()) / len);
+  }
+  return beyond > 2.0 * radius_m_;
 }
 
 // Body contact with the terrain within [c.ta, tb] (tb <= c.tb: up to the centre's own hit). The
 // contact plane: the terrain triangle under the centre at tb (or the one its path crossed),
 // then the triangle under the contact point if that differs (a contact that moves onto a
-// neighbouring triangle), at most twice; a touch of a plane where the ground under the contact
-// point is lower by more than the body's size is none. `clear`: the chord's clearance over the
-// terrain.
+// neighbouring triangle), at most twice; a touch of a triangle's plane more than a body width
+// beyond the triangle is none. `clear`: the chord's clearance over the terrain.
 std::optional<FlightEvent> History::body_terrain_contact(const flight::TrajectoryIntegrator& integ,
                                                          const Chord& c, double clear, double tb,
                                                          std::int64_t hint) const {
@@ -399,7 +416,8 @@ std::optional<FlightEvent> History::body_terrain_contact(const flight::Trajector
     tri = under;
     tc = t2;
   }
-  if (std::isnan(tc) || floats_above_ground(at, under)) return std::nullopt;
+  if (std::isnan(tc) || touches_beyond_triangle(at, static_cast<std::uint32_t>(tri), under))
+    return std::nullopt;
   FlightEvent ev;
   ev.end = FlightEnd::kTerrain;
   ev.t = tc;

@@ -170,7 +170,7 @@ class History {
                                                   const Chord& c, double clear, double tb,
                                                   std::int64_t hint) const;
   bool chord_clear_of_terrain(const Chord& c, double clear) const;
-  bool floats_above_ground(const Vec3& at, std::int64_t under) const;
+  bool touches_beyond_triangle(const Vec3& at, std::uint32_t tri, std::int64_t under) const;
   bool chord_clear_of_plane(const Chord& c, std::uint32_t tri) const;
   double first_touch(const flight::TrajectoryIntegrator& integ, std::uint32_t tri, double ta,
                      double tb) const;
