@@ -333,7 +333,7 @@ bool History::chord_clear_of_plane(const Chord& c, std::uint32_t tri) const {
 // loads two); a mesh terrain (overhangs, holes) is left to chord_clear_of_plane.
 bool History::chord_clear_of_terrain(const Chord& c, double clear) const {
   const double s = ctx_.lattice_max_slope;
-  if (!std::isfinite(s)) return false;
+  if (!st_.terrain_clearance_skip || !std::isfinite(s)) return false;
   // A chord above every prism has clear = +inf without a walk: its height over the highest
   // terrain is the bound then.
   const double lower =

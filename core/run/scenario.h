@@ -97,6 +97,10 @@ struct Settings {
   // (outcome `harmless`, docs/architecture.md). Not a scenario key: it never changes a tally,
   // only outcomes and cost, and tests compare runs with and without it.
   bool harmless_cutoff = true;
+  // Skip the body-contact search of a chord whose clearance over a plane or grid terrain proves
+  // that the body cannot reach it (docs/physics.md K2). Not a scenario key: it never changes a
+  // result, only cost, and a test compares runs with and without it.
+  bool terrain_clearance_skip = true;
   // Work cap per history: integrator steps (flight and ground) and events (impacts, ground
   // events) together. A history that reaches it ends (outcome `work_limit`), so that no history
   // runs unbounded whatever the inputs. Not a scenario key: real histories stay far below it
