@@ -23,6 +23,12 @@ run::Scenario bounce_scenario(double half_m, double e, double mu) {
   return sc;
 }
 
+// The same PTN field, bit for bit.
+void expect_same_ptn(const run::RunResult& a, const run::RunResult& b) {
+  EXPECT_EQ(a.ptn_density_per_m2, b.ptn_density_per_m2);
+  EXPECT_EQ(a.ptn_std_error_per_m2, b.ptn_std_error_per_m2);
+}
+
 // A ball dropped from rest with constant e comes to rest after the geometric series of bounce
 // times sqrt(2h/g) (1 + e) / (1 - e) (docs/physics.md, "Reference formulas", impact checks). Vacuum
 // (cd 0); the rebound floor is set low so that the untracked tail (< 2 v_floor / (g (1 - e))) is
@@ -273,15 +279,9 @@ TEST(BounceHistory, ResultsDoNotDependOnTerrainVertexOrder) {
 TEST(BounceHistory, HarmlessCutOffChangesNoTally) {
   for (const auto shape : {fragments::ShapeType::kCuboid, fragments::ShapeType::kSphere}) {
     run::Scenario sc = bounce_scenario(300.0, 0.3, 0.5);
-    scene::GridTerrainSpec grid;
-    grid.origin_m = {-300.0, -300.0};
-    grid.spacing_m = 10.0;
-    grid.nx = grid.ny = 61;
-    for (int j = 0; j < grid.ny; ++j)
-      for (int i = 0; i < grid.nx; ++i)
-        grid.elevation_m.push_back(-0.03 * (10.0 * i - 300.0) +
-                                   std::sin(0.3 * i) * std::cos(0.2 * j));
-    sc.site.terrain.geometry = grid;
+    sc.site.terrain.geometry = square_grid(-300.0, 61, [](int i, int j) {
+      return -0.03 * (10.0 * i - 300.0) + std::sin(0.3 * i) * std::cos(0.2 * j);
+    });
     sc.site.materials["soil"].rolling_resistance = 0.2;
     auto grp = sphere_group(Vec3(0, 0, 1.5), 0.05, 70.0, 400.0, 400);
     grp.shape.type = shape;
@@ -297,8 +297,7 @@ TEST(BounceHistory, HarmlessCutOffChangesNoTally) {
     const run::RunResult off = run::run(sc);
     sc.settings.harmless_cutoff = true;
     const run::RunResult on = run::run(sc);
-    EXPECT_EQ(on.ptn_density_per_m2, off.ptn_density_per_m2);
-    EXPECT_EQ(on.ptn_std_error_per_m2, off.ptn_std_error_per_m2);
+    expect_same_ptn(on, off);
     const auto count = [](const run::RunResult& r, run::Outcome o) {
       return r.outcome_histories[static_cast<std::size_t>(o)];
     };
@@ -366,23 +365,15 @@ TEST(BounceHistory, ContactsAreWithTheTerrainNotATrianglesPlaneBeyondIt) {
       }
       sc.site.terrain.geometry = m;
     } else {
-      scene::GridTerrainSpec grid;
-      grid.origin_m = {-200.0, -200.0};
-      grid.spacing_m = 10.0;
-      grid.nx = grid.ny = 41;
-      for (int j = 0; j < grid.ny; ++j)
-        for (int i = 0; i < grid.nx; ++i) grid.elevation_m.push_back(ground_z(-200.0 + 10.0 * i));
-      sc.site.terrain.geometry = grid;
+      sc.site.terrain.geometry =
+          square_grid(-200.0, 41, [&](int i, int) { return ground_z(-200.0 + 10.0 * i); });
     }
     const double mass = 0.5, side = std::cbrt(mass / (7850.0 * 0.1));
     auto g = sphere_group(Vec3(-185.0, 0.0, 11.5), mass, 150.0, 1.0, 400);
     g.shape.type = fragments::ShapeType::kCuboid;
     g.shape.aspect = {1.0, 1.0, 0.1};
     g.spin_radps = fragments::Distribution::fixed(8000.0);
-    g.direction.elevation_min_deg = -3.0;
-    g.direction.elevation_max_deg = 1.0;
-    g.direction.azimuth_min_deg = -10.0;
-    g.direction.azimuth_max_deg = 10.0;
+    aim(g, -3.0, 1.0, -10.0, 10.0);
     g.cd.constant = 1.0;
     sc.groups = {g};
     sc.settings.hazardous_ke_j = 1e-9;
@@ -407,14 +398,8 @@ TEST(BounceHistory, ContactsAreWithTheTerrainNotATrianglesPlaneBeyondIt) {
 // plates touch the ground while their centre is up to one radius above it.
 TEST(BounceHistory, TerrainClearanceSkipChangesNothing) {
   run::Scenario sc = bounce_scenario(300.0, 0.3, 0.5);
-  scene::GridTerrainSpec grid;
-  grid.origin_m = {-300.0, -300.0};
-  grid.spacing_m = 10.0;
-  grid.nx = grid.ny = 61;
-  for (int j = 0; j < grid.ny; ++j)
-    for (int i = 0; i < grid.nx; ++i)
-      grid.elevation_m.push_back(std::sin(0.7 * i) * std::cos(0.5 * j));
-  sc.site.terrain.geometry = grid;
+  sc.site.terrain.geometry =
+      square_grid(-300.0, 61, [](int i, int j) { return std::sin(0.7 * i) * std::cos(0.5 * j); });
   auto plates = sphere_group(Vec3(0, 0, 1.0), 2.0, 90.0, 300.0, 300);
   plates.shape.type = fragments::ShapeType::kCuboid;
   plates.shape.aspect = {1.0, 1.0, 0.05};
@@ -430,8 +415,7 @@ TEST(BounceHistory, TerrainClearanceSkipChangesNothing) {
   const run::RunResult on = run::run(sc);
   sc.settings.terrain_clearance_skip = false;
   const run::RunResult off = run::run(sc);
-  EXPECT_EQ(on.ptn_density_per_m2, off.ptn_density_per_m2);
-  EXPECT_EQ(on.ptn_std_error_per_m2, off.ptn_std_error_per_m2);
+  expect_same_ptn(on, off);
   ASSERT_EQ(on.fragments.size(), off.fragments.size());
   int differ = 0;
   for (std::size_t k = 0; k < on.fragments.size(); ++k)
@@ -450,10 +434,7 @@ TEST(BounceHistory, DeterministicForThreadsAndChunks) {
   auto grp = sphere_group(Vec3(0, 0, 1.0), 2.0, 80.0, 100.0, 600);
   grp.shape.type = fragments::ShapeType::kCuboid;
   grp.shape.aspect = {1.0, 0.5, 0.25};
-  grp.direction.elevation_min_deg = -10.0;
-  grp.direction.elevation_max_deg = 30.0;
-  grp.direction.azimuth_min_deg = -30.0;
-  grp.direction.azimuth_max_deg = 30.0;
+  aim(grp, -10.0, 30.0, -30.0, 30.0);
   grp.cd.constant = 1.0;
   sc.groups = {grp};
   sc.settings.threads = 1;
@@ -462,8 +443,7 @@ TEST(BounceHistory, DeterministicForThreadsAndChunks) {
   sc.settings.threads = 2;
   sc.settings.chunk_histories = 7;
   const run::RunResult b = run::run(sc);
-  EXPECT_EQ(a.ptn_density_per_m2, b.ptn_density_per_m2);
-  EXPECT_EQ(a.ptn_std_error_per_m2, b.ptn_std_error_per_m2);
+  expect_same_ptn(a, b);
   ASSERT_EQ(a.fragments.size(), b.fragments.size());
   for (std::size_t k = 0; k < a.fragments.size(); ++k) {
     EXPECT_EQ(a.fragments[k].end_position_m, b.fragments[k].end_position_m);

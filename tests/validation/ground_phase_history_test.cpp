@@ -351,14 +351,7 @@ TEST(GroundPhaseHistory, BallSlipsThenRollsToTheReferenceDistance) {
 
 // A grid terrain z = x tan(theta) over [-100, 100]^2 (10 m cells).
 scene::GridTerrainSpec slope_grid(double theta) {
-  scene::GridTerrainSpec grid;
-  grid.origin_m = {-100.0, -100.0};
-  grid.spacing_m = 10.0;
-  grid.nx = grid.ny = 21;
-  for (int j = 0; j < grid.ny; ++j)
-    for (int i = 0; i < grid.nx; ++i)
-      grid.elevation_m.push_back(std::tan(theta) * (-100.0 + 10.0 * i));
-  return grid;
+  return square_grid(-100.0, 21, [&](int i, int) { return std::tan(theta) * (-100.0 + 10.0 * i); });
 }
 
 // Below the friction angle (mu 0.5: 26.57 deg) a block put down on its face with a small velocity

@@ -23,6 +23,29 @@ inline run::Scenario flat_site_scenario(double half_m, double cell_m) {
   return sc;
 }
 
+// Launch directions of group g within elevation [el_min, el_max] and azimuth [az_min, az_max]
+// (degrees).
+inline void aim(fragments::FragmentGroupSpec& g, double el_min, double el_max, double az_min,
+                double az_max) {
+  g.direction.elevation_min_deg = el_min;
+  g.direction.elevation_max_deg = el_max;
+  g.direction.azimuth_min_deg = az_min;
+  g.direction.azimuth_max_deg = az_max;
+}
+
+// A square grid terrain of n x n points with 10 m cells, its corner at (origin_m, origin_m), the
+// height at point (i, j) z(i, j).
+template <class Z>
+scene::GridTerrainSpec square_grid(double origin_m, int n, Z&& z) {
+  scene::GridTerrainSpec grid;
+  grid.origin_m = {origin_m, origin_m};
+  grid.spacing_m = 10.0;
+  grid.nx = grid.ny = n;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) grid.elevation_m.push_back(z(i, j));
+  return grid;
+}
+
 // A group of steel spheres (fixed mass and speed) launched from `origin` within the direction
 // ranges; cd = 0 unless set by the caller.
 inline fragments::FragmentGroupSpec sphere_group(const Vec3& origin, double mass_kg,
