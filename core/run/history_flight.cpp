@@ -279,18 +279,23 @@ double History::clearance(const flight::TrajectoryIntegrator& integ, std::uint32
 }
 
 // The first time in [ta, tb] at which the body touches the plane of `tri` while approaching it
-// (clearance falls from > 0 to <= 0), or NaN. Sampled at a few points, then refined.
+// (clearance falls from > 0 to <= 0), or NaN. Sampled at a few points, then refined. The
+// clearance at ta is read only when the first sample touches (as the bracket's other end, or for
+// the "already touching" test): otherwise nothing depends on it. The attitude at ta is the
+// base's (advance_base), so reading it later gives the same bits.
 double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint32_t tri, double ta,
                             double tb) const {
   constexpr int kSamples = 4;
   rot_.advance_base(ta);
   double t_prev = ta;
-  double g_prev = clearance(integ, tri, ta);
+  double g_prev = 0.0;
+  bool have_prev = false;  // g_prev = g(t_prev) taken
   const auto g = [&](double t) { return clearance(integ, tri, t); };
   for (int k = 1; k <= kSamples; ++k) {
     const double t = (k == kSamples) ? tb : ta + (tb - ta) * k / kSamples;
     const double gk = g(t);
     if (gk <= 0.0) {
+      if (!have_prev) g_prev = g(t_prev);
       // The side that touches (clearance <= 0): the bracket's end on or after the root.
       if (g_prev > 0.0) return illinois(g, t_prev, t, g_prev, gk, 1e-13, 60).hi;
       // Already touching at the start of this sample interval. Right after a bounce or a
@@ -301,6 +306,7 @@ double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint
     }
     t_prev = t;
     g_prev = gk;
+    have_prev = true;
   }
   return std::numeric_limits<double>::quiet_NaN();
 }
