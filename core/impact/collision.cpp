@@ -7,12 +7,11 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cmath>
-#include <cstdint>
 #include <limits>
-#include <numbers>
 #include <utility>
+
+#include "core/common/least_log.h"
 
 namespace fragsim::impact {
 namespace {
@@ -80,41 +79,6 @@ Mat3 cross_matrix(const Vec3& r) {
   Mat3 m;
   m << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
   return m;
-}
-
-// A lower bound of ln x for x > 0 normal, within 0.06 of it: the binary exponent plus the mantissa
-// m in [1, 2) taken as log2 m ~ m - 1 (log2 is concave and equal to m - 1 at both ends, so
-// 0 <= log2 m - (m - 1) <= 1 - (1 + ln ln 2) / ln 2 = 0.0861, times ln 2: 0.0597), less 1e-9 for
-// the rounding of this sum (< 4e-13 for |ln x| <= 745) and of std::log (one ulp, < 1.2e-13).
-double rough_ln_below(double x) {
-  const auto bits = std::bit_cast<std::uint64_t>(x);
-  const auto biased = static_cast<int>(bits >> 52);  // sign bit 0 for x > 0
-  const double m = std::bit_cast<double>((bits & 0x000fffffffffffffULL) | 0x3ff0000000000000ULL);
-  return (static_cast<double>(biased - 1023) + (m - 1.0)) * std::numbers::ln2 - 1e-9;
-}
-
-// A step-size candidate ln(x) / k (k > 0), if `valid`, with a lower bound of its value: -inf
-// where x is not a positive normal number (0, subnormal, infinite, NaN).
-struct LogCandidate {
-  bool valid = false;
-  double x = 0.0, k = 1.0, lower = 0.0;
-  LogCandidate() = default;
-  LogCandidate(bool v, double x_in, double k_in) : valid(v), x(x_in), k(k_in) {
-    lower = v && std::isnormal(x) && x > 0.0 ? rough_ln_below(x) / k : -kInf;
-  }
-  // min(least, ln(x) / k), exactly as std::min gives it, without the logarithm when the lower
-  // bound already exceeds `least` (then the minimum is `least` either way).
-  void lower_into(double& least) const {
-    if (valid && !(lower > least)) least = std::min(least, std::log(x) / k);
-  }
-};
-
-// min(least, both candidates' values), the one with the lower bound first: the minimum of doubles
-// does not depend on their order, and the second's logarithm is mostly not needed then.
-void lower_into(double& least, const LogCandidate& a, const LogCandidate& b) {
-  const bool a_first = !(b.lower < a.lower);
-  (a_first ? a : b).lower_into(least);
-  (a_first ? b : a).lower_into(least);
 }
 
 // The impulse of one impact in the contact frame (docs/physics.md C1-C10).
@@ -192,9 +156,9 @@ class Solver {
   // Step in sigma from the last two Taylor terms of the contact velocity and of the friction work
   // (docs/physics.md C6; Jorba & Zou 2005, sec. 3.2): h = 0.95 exp(min_i ln(x_i) / k_i) over the
   // candidates below. Only the smallest candidate's logarithm matters: a candidate whose lower
-  // bound (rough_ln) lies above the least exact one so far cannot be the minimum, and its
-  // logarithm is not taken. The minimum, and so h, is the same double as with every logarithm
-  // taken (the min of doubles does not depend on their order).
+  // bound (rough_ln_below, common/least_log.h) lies above the least exact one so far cannot be the
+  // minimum, and its logarithm is not taken. The minimum, and so h, is the same double as with
+  // every logarithm taken (the min of doubles does not depend on their order).
   double step_size(const Series& c) const {
     const double tol = kStepTol * scale_u_;
     const auto speed = [&](std::size_t n) {
