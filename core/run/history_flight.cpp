@@ -281,8 +281,9 @@ double History::clearance(const flight::TrajectoryIntegrator& integ, std::uint32
 // The first time in [ta, tb] at which the body touches the plane of `tri` while approaching it
 // (clearance falls from > 0 to <= 0), or NaN. Sampled at a few points, then refined. The
 // clearance at ta is read only when the first sample touches (as the bracket's other end, or for
-// the "already touching" test): otherwise nothing depends on it. The attitude at ta is the
-// base's (advance_base), so reading it later gives the same bits.
+// the "already touching" test): otherwise nothing depends on it. Reading it later gives the same
+// bits: the attitude at ta is the base's, set by advance_base, for a body propagated from it, and
+// a pure function of t for an asymmetric one (SegmentRotation::at).
 double History::first_touch(const flight::TrajectoryIntegrator& integ, std::uint32_t tri, double ta,
                             double tb) const {
   constexpr int kSamples = 4;
