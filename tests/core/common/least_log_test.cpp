@@ -23,10 +23,17 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Positive doubles spread over every binade (random bits of exponent and mantissa), and the ends.
 std::vector<double> positive_normals(int n, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
-  std::vector<double> xs = {std::numeric_limits<double>::min(), std::numeric_limits<double>::max(),
-                            1.0, std::nextafter(1.0, 0.0), std::nextafter(1.0, 2.0),
-                            std::nextafter(2.0, 1.0), 2.0, 1.0 / std::numbers::ln2,
-                            std::exp(1.0), 1e-300, 1e300};
+  std::vector<double> xs = {std::numeric_limits<double>::min(),
+                            std::numeric_limits<double>::max(),
+                            1.0,
+                            std::nextafter(1.0, 0.0),
+                            std::nextafter(1.0, 2.0),
+                            std::nextafter(2.0, 1.0),
+                            2.0,
+                            1.0 / std::numbers::ln2,
+                            std::exp(1.0),
+                            1e-300,
+                            1e300};
   while (static_cast<int>(xs.size()) < n) {
     const double x = std::bit_cast<double>(rng() & 0x7fffffffffffffffULL);
     if (std::isnormal(x)) xs.push_back(x);
