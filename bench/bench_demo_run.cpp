@@ -17,12 +17,20 @@
 //
 //   build/bench/bench_demo_run [scenario.json] [--repeat N] [--rtol-sweep] [--bounce]
 //                              [--samples-scale X] [--one-thread] [--rigid-ground]
-//                              [--bounce-ratio] [--serial-histories] [--lanes-ratio]
+//                              [--bounce-ratio] [--serial-histories] [--lanes-ratio] [--per-cpu]
 //
+// --per-cpu: the two-thread figure against what the machine allows. Each round runs the scenario
+// on 1 thread pinned to each CPU in turn, then on all threads unpinned, and prints the parallel
+// efficiency: the all-threads rate over the sum of the pinned rates (the most any number of
+// threads could reach when the CPUs differ in speed, as a VM's vCPUs may), and the speed-up over
+// the fastest CPU's rate, with its bound (the sum over the fastest).
 // --one-thread: only the 1-thread runs (no all-threads run, no profiled run).
 // --serial-histories: one history at a time per thread (RunControl::serial_histories), instead of
 // flight::kLanes histories in lanes (core/run/lane_runner.h); --lanes-ratio runs the two in
 // alternation on 1 thread and prints the ratio of the best throughputs (same results).
+#include <pthread.h>
+#include <sched.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -33,6 +41,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "api/scenario_json.h"
 #include "core/run/run.h"
@@ -148,6 +157,54 @@ void bounce_ratio(const run::Scenario& sc, const std::shared_ptr<const scene::Si
               best[0], best[1], best[1] / best[0]);
 }
 
+// Wall-clock rate of one run (fragments per second).
+double run_rate(const run::Scenario& sc, const std::shared_ptr<const scene::Site>& site) {
+  const run::RunResult r = run::run(sc, site, g_control);
+  return static_cast<double>(r.histories_done) / r.timing.wall_s;
+}
+
+// The two-thread figure against the machine's own CPUs (see --per-cpu above). One thread runs on
+// the calling thread (run::run with threads = 1 spawns none), so pinning it pins the run; the
+// worker threads of the all-threads run inherit the calling thread's mask, so it is restored
+// first.
+void per_cpu(run::Scenario sc, const std::shared_ptr<const scene::Site>& site, int rounds) {
+  cpu_set_t all;
+  CPU_ZERO(&all);
+  if (pthread_getaffinity_np(pthread_self(), sizeof(all), &all) != 0) {
+    std::fprintf(stderr, "per-cpu: cannot read this thread's CPU mask\n");
+    return;
+  }
+  std::vector<int> cpus;
+  for (int c = 0; c < CPU_SETSIZE; ++c)
+    if (CPU_ISSET(c, &all)) cpus.push_back(c);
+  const int threads = static_cast<int>(cpus.size());
+  for (int r = 0; r < rounds; ++r) {
+    std::vector<double> alone;
+    sc.settings.threads = 1;
+    for (int c : cpus) {
+      cpu_set_t one;
+      CPU_ZERO(&one);
+      CPU_SET(c, &one);
+      pthread_setaffinity_np(pthread_self(), sizeof(one), &one);
+      alone.push_back(run_rate(sc, site));
+    }
+    pthread_setaffinity_np(pthread_self(), sizeof(all), &all);
+    sc.settings.threads = threads;
+    const double together = run_rate(sc, site);
+    double sum = 0.0, fastest = 0.0;
+    std::printf("round %d  1 thread pinned:", r + 1);
+    for (std::size_t i = 0; i < cpus.size(); ++i) {
+      std::printf(" cpu %d %.0f/s", cpus[i], alone[i]);
+      sum += alone[i];
+      fastest = std::max(fastest, alone[i]);
+    }
+    std::printf(
+        "\n         %d threads %.0f/s: %.2f x the fastest CPU (bound %.2f x), efficiency %.3f of "
+        "the pinned sum\n",
+        threads, together, together / fastest, sum / fastest, together / sum);
+  }
+}
+
 double total_impacts(const run::RunResult& r) {
   double s = 0.0;
   for (const auto& b : r.buildings) s += b.impacts.mean;
@@ -193,7 +250,7 @@ int main(int argc, char** argv) {
   int repeat = 3;
   bool one_thread = false;
   bool rtol_sweep = false;
-  bool bounce = false, rigid_ground = false, ratio = false, lanes = false;
+  bool bounce = false, rigid_ground = false, ratio = false, lanes = false, cpus = false;
   double samples_scale = 1.0;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
@@ -212,6 +269,8 @@ int main(int argc, char** argv) {
       g_control.serial_histories = true;
     } else if (std::strcmp(argv[i], "--lanes-ratio") == 0) {
       lanes = true;
+    } else if (std::strcmp(argv[i], "--per-cpu") == 0) {
+      cpus = true;
     } else if (std::strcmp(argv[i], "--samples-scale") == 0 && i + 1 < argc) {
       samples_scale = std::atof(argv[++i]);
     } else {
@@ -248,6 +307,10 @@ int main(int argc, char** argv) {
   }
   if (lanes) {
     lanes_ratio(sc, site, repeat);
+    return 0;
+  }
+  if (cpus) {
+    per_cpu(sc, site, repeat);
     return 0;
   }
 
