@@ -157,12 +157,6 @@ void bounce_ratio(const run::Scenario& sc, const std::shared_ptr<const scene::Si
               best[0], best[1], best[1] / best[0]);
 }
 
-// Wall-clock rate of one run (fragments per second).
-double run_rate(const run::Scenario& sc, const std::shared_ptr<const scene::Site>& site) {
-  const run::RunResult r = run::run(sc, site, g_control);
-  return static_cast<double>(r.histories_done) / r.timing.wall_s;
-}
-
 // The two-thread figure against the machine's own CPUs (see --per-cpu above). One thread runs on
 // the calling thread (run::run with threads = 1 spawns none), so pinning it pins the run; the
 // worker threads of the all-threads run inherit the calling thread's mask, so it is restored
@@ -178,6 +172,7 @@ void per_cpu(run::Scenario sc, const std::shared_ptr<const scene::Site>& site, i
   for (int c = 0; c < CPU_SETSIZE; ++c)
     if (CPU_ISSET(c, &all)) cpus.push_back(c);
   const int threads = static_cast<int>(cpus.size());
+  const auto rate = [&] { return run::run(sc, site, g_control).timing.fragments_per_s; };
   for (int r = 0; r < rounds; ++r) {
     std::vector<double> alone;
     sc.settings.threads = 1;
@@ -185,12 +180,18 @@ void per_cpu(run::Scenario sc, const std::shared_ptr<const scene::Site>& site, i
       cpu_set_t one;
       CPU_ZERO(&one);
       CPU_SET(c, &one);
-      pthread_setaffinity_np(pthread_self(), sizeof(one), &one);
-      alone.push_back(run_rate(sc, site));
+      if (pthread_setaffinity_np(pthread_self(), sizeof(one), &one) != 0) {
+        std::fprintf(stderr, "per-cpu: cannot pin this thread to cpu %d\n", c);
+        return;
+      }
+      alone.push_back(rate());
     }
-    pthread_setaffinity_np(pthread_self(), sizeof(all), &all);
+    if (pthread_setaffinity_np(pthread_self(), sizeof(all), &all) != 0) {
+      std::fprintf(stderr, "per-cpu: cannot restore this thread's CPU mask\n");
+      return;
+    }
     sc.settings.threads = threads;
-    const double together = run_rate(sc, site);
+    const double together = rate();
     double sum = 0.0, fastest = 0.0;
     std::printf("round %d  1 thread pinned:", r + 1);
     for (std::size_t i = 0; i < cpus.size(); ++i) {
