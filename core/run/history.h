@@ -12,6 +12,7 @@
 #include "core/run/scenario.h"
 #include "core/scene/site.h"
 #include "core/tally/ptn_prisms.h"
+#include "core/tally/stratum_pieces.h"
 
 namespace fragsim::run {
 
@@ -50,6 +51,9 @@ struct ChunkOutput {
   std::vector<TrajectoryRecord> trajectories;
   RunStats stats;
   double integration_s = 0.0, geometry_s = 0.0, tally_s = 0.0;
+  // The histories' tally contributions as exact stratum pieces, built on the worker after the
+  // last history (Reducer::prefold, core/run/reducer.h) and added under the fold's lock.
+  std::vector<tally::StratumPiece> pieces;
 };
 
 // Immutable, shared by all workers of one run.

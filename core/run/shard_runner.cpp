@@ -86,9 +86,12 @@ PartialRun ShardRunner::run() {
 // the count are this runner's.
 ShardRunner::Pipeline::Stages ShardRunner::stages() {
   Pipeline::Stages s;
-  s.produce = [this](std::int64_t k, HistoryScratch& scratch, ChunkOutput& out) {
+  s.produce = [this](std::int64_t k, WorkerScratch& scratch, ChunkOutput& out) {
     const SamplingPlans::Cells* cells = nullptr;
-    return batch_cells(k / per_batch_, cells) && simulate_chunk(k, cells, scratch, out);
+    if (!batch_cells(k / per_batch_, cells) || !simulate_chunk(k, cells, scratch.history, out))
+      return false;
+    prefold(k, out, scratch.fold);
+    return true;
   };
   s.fold = [this](ChunkOutput& c) { fold(c); };
   s.submitted = [this](std::int64_t k) {
@@ -177,9 +180,19 @@ bool ShardRunner::simulate_in_lanes(
   return complete;
 }
 
+// On the worker, after chunk k's histories: their tally pieces, as fold() will take them. A
+// pilot's chunk is batch 0's with a learner: the learner's plan for batch 1 is published only
+// after the pilot's boundary, so no later chunk is folded before it.
+void ShardRunner::prefold(std::int64_t k, ChunkOutput& c, FoldScratch& s) const {
+  const bool pilot = learner_ && k / per_batch_ == 0;
+  if (!pilot || precision_.wants_pilot_density()) reducer_.prefold(c, s, pilot);
+}
+
 // Under the fold's lock, in chunk order (never after the pipeline is finished).
 void ShardRunner::fold(ChunkOutput& c) {
   const bool pilot = learner_ && batches_ == 0;
+  if (pilot != (learner_ && c.first_history < sc_.groups[c.group].samples))
+    throw std::logic_error("a chunk folded as a pilot's that was not prefolded as one");
   if (learner_) learn(*learner_, c, sync_ != nullptr ? &learnt_ : nullptr);
   folded_ += c.count;
   if (pilot) {

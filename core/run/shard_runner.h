@@ -46,7 +46,11 @@ class ShardRunner {
 
  private:
   using Clock = std::chrono::steady_clock;
-  using Pipeline = OrderedPipeline<ChunkOutput, HistoryScratch>;
+  struct WorkerScratch {
+    HistoryScratch history;
+    FoldScratch fold;
+  };
+  using Pipeline = OrderedPipeline<ChunkOutput, WorkerScratch>;
 
   Pipeline::Stages stages();
   bool batch_cells(std::int64_t batch, const SamplingPlans::Cells*& cells);
@@ -56,6 +60,7 @@ class ShardRunner {
       std::int64_t first, std::int64_t count,
       const std::function<bool(std::int64_t, HistoryScratch&, ChunkOutput&)>& history,
       ChunkOutput& out);
+  void prefold(std::int64_t k, ChunkOutput& c, FoldScratch& s) const;
   void fold(ChunkOutput& c);
   void end_batch(bool pilot);
   bool exchange_batch(double& elapsed);

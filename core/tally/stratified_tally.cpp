@@ -19,45 +19,20 @@ double variance_term(const ExactSum& s, const ExactSum& q, std::int64_t n) {
 }  // namespace
 
 StratifiedTally::StratifiedTally(std::size_t bins, int partitions)
-    : mean_(bins), var_(partitions > 1 ? 2 : 1, ExactBins(bins)) {
-  parts_.resize(var_.size());
-  for (Scratch& p : parts_) {
-    p.s = ExactBins(bins);
-    p.q = ExactBins(bins);
-  }
-}
-
-void StratifiedTally::start(std::size_t partition, const StratumKey& key, std::int64_t size) {
-  Scratch& p = parts_[partition];
-  if (p.n != 0 || !p.s.bins().empty()) throw std::logic_error("start() before flush()");
-  p.key = key;
-  p.key.partition = static_cast<std::uint32_t>(partition);
-  p.size = size;
-  p.n = 0;
-}
+    : builder_(partitions), mean_(bins), var_(partitions > 1 ? 2 : 1, ExactBins(bins)) {}
 
 void StratifiedTally::flush(std::size_t partition) {
-  Scratch& p = parts_[partition];
-  if (p.n == 0) {
-    if (!p.s.bins().empty()) throw std::logic_error("contributions without history_done()");
+  builder_.flush(partition, flushed_);
+  for (StratumPiece& piece : flushed_) add_piece(std::move(piece));
+  flushed_.clear();
+}
+
+void StratifiedTally::add_piece(StratumPiece&& piece) {
+  if (piece.st.n >= piece.st.size) {
+    close(piece.st, piece.key.partition);  // the whole stratum is here: no need to keep it
     return;
   }
-  OpenStratum piece;
-  piece.size = p.size;
-  piece.n = p.n;
-  piece.entries.reserve(p.s.bins().size());
-  for (std::size_t k = 0; k < p.s.bins().size(); ++k)
-    piece.entries.push_back({p.s.bins()[k], p.s.sums()[k], p.q.sums()[k]});
-  p.s.clear();
-  p.q.clear();
-  p.n = 0;
-  if (piece.n >= piece.size) {
-    close(piece, partition);  // the whole stratum is here: no need to sort or keep it
-    return;
-  }
-  std::sort(piece.entries.begin(), piece.entries.end(),
-            [](const OpenStratum::Entry& a, const OpenStratum::Entry& b) { return a.bin < b.bin; });
-  merge_open(p.key, std::move(piece));
+  merge_open(piece.key, std::move(piece.st));
 }
 
 void StratifiedTally::close(const OpenStratum& st, std::size_t partition) {
@@ -118,11 +93,7 @@ void StratifiedTally::clear() {
   mean_.clear();
   for (ExactBins& v : var_) v.clear();
   open_.clear();
-  for (Scratch& p : parts_) {
-    p.s.clear();
-    p.q.clear();
-    p.n = 0;
-  }
+  builder_.clear();
 }
 
 double StratifiedTally::std_error(std::size_t bin) const {

@@ -13,7 +13,8 @@
 // add its contributions together first (x_i is the history's whole contribution).
 //
 // Strata are named by a StratumKey and have a known size. A piece of a stratum (the histories of
-// one chunk in it) is folded into a scratch, then either closed at once (the piece is the whole
+// one chunk in it) is folded into a PieceBuilder (tally/stratum_pieces.h: this tally's own, or a
+// run's worker's, added by add_piece()), then either closed at once (the piece is the whole
 // stratum) or kept open, as exact per-bin sums S and Q, until pieces of the stratum from other
 // chunks, threads or shards have brought it to its size (merge). S_j and Q_j are thus exact
 // whatever the split, and each stratum's variance term is computed once from them.
@@ -27,6 +28,7 @@
 #include <vector>
 
 #include "core/tally/exact_sum.h"
+#include "core/tally/stratum_pieces.h"
 
 namespace fragsim::tally {
 
@@ -70,51 +72,32 @@ class ExactBins {
   std::vector<ExactSum> sums_;
 };
 
-struct StratumKey {
-  std::uint32_t partition = 0;
-  std::uint32_t group = 0;
-  std::int64_t batch = 0;
-  std::int64_t index = 0;
-  auto operator<=>(const StratumKey&) const = default;
-};
-
-// An open stratum: the histories folded so far and their exact S and Q, sorted by bin.
-struct OpenStratum {
-  struct Entry {
-    std::uint32_t bin = 0;
-    ExactSum s, q;
-  };
-  std::int64_t size = 0;  // histories in the whole stratum
-  std::int64_t n = 0;     // histories folded so far
-  std::vector<Entry> entries;
-};
-
 class StratifiedTally {
  public:
   // `partitions`: 1, or 2 for two partitions into strata closed independently.
   explicit StratifiedTally(std::size_t bins = 0, int partitions = 1);
   std::size_t size() const { return mean_.size(); }
-  std::size_t partitions() const { return parts_.size(); }
+  std::size_t partitions() const { return var_.size(); }
 
   // Folding: start(k, key, size) names partition k's current stratum (key.partition is set to
   // k); add() feeds every partition's current stratum; history_done() counts one history in
   // each (after its add()s); flush(k) ends the piece of partition k's stratum folded since
   // start(). A start() without the flush() of the piece before, or add()s not followed by
   // history_done(), throw std::logic_error.
-  void start(std::size_t partition, const StratumKey& key, std::int64_t size);
-  void add(std::size_t bin, double x) {
-    if (x == 0.0) return;  // changes neither sum
-    for (Scratch& p : parts_) p.add(bin, x);
+  // The pieces are built by a PieceBuilder (tally/stratum_pieces.h) and added by add_piece().
+  void start(std::size_t partition, const StratumKey& key, std::int64_t size) {
+    builder_.start(partition, key, size);
   }
+  void add(std::size_t bin, double x) { builder_.add(bin, x); }
   // Adds v to the bin's sum of squares alone, raising its variance term by about v: a floor
   // for a unit whose add() to the bin came just before (so the bin is touched in both sums).
-  void add_square(std::size_t bin, double v) {
-    for (Scratch& p : parts_) p.q.add(bin, v);
-  }
-  void history_done() {
-    for (Scratch& p : parts_) ++p.n;
-  }
+  void add_square(std::size_t bin, double v) { builder_.add_square(bin, v); }
+  void history_done() { builder_.history_done(); }
   void flush(std::size_t partition);
+  // A piece built elsewhere (a worker's PieceBuilder): closed at once when it is the whole
+  // stratum, else merged into the open stratum, which closes when its pieces are complete. The
+  // same bits as folding its histories here.
+  void add_piece(StratumPiece&& piece);
 
   // Adds another tally's closed and open strata (exact: any order gives the same bits).
   void merge(const StratifiedTally& o);
@@ -136,19 +119,10 @@ class StratifiedTally {
   void restore(ExactBins mean, std::vector<ExactBins> var, std::map<StratumKey, OpenStratum> open);
 
  private:
-  struct Scratch {
-    StratumKey key;
-    std::int64_t size = 0;
-    std::int64_t n = 0;  // histories since start()
-    ExactBins s, q;      // of the current piece; both touched in the same order
-    void add(std::size_t bin, double x) {
-      s.add(bin, x);
-      q.add(bin, x * x);
-    }
-  };
   void close(const OpenStratum& st, std::size_t partition);
   void merge_open(const StratumKey& key, OpenStratum&& piece);
-  std::vector<Scratch> parts_;
+  PieceBuilder builder_;
+  std::vector<StratumPiece> flushed_;  // builder_'s pieces, added at once
   ExactBins mean_;
   std::vector<ExactBins> var_;  // per partition
   std::map<StratumKey, OpenStratum> open_;

@@ -1,0 +1,76 @@
+#include "core/tally/stratum_pieces.h"
+
+#include <algorithm>
+#include <bit>
+
+namespace fragsim::tally {
+
+void BinIndex::clear() {
+  if (slot_.size() <= 8 * bins_.size()) {
+    std::fill(slot_.begin(), slot_.end(), 0u);
+  } else {  // each bin's slot holds its index + 1: found along its probe sequence
+    const std::size_t mask = slot_.size() - 1;
+    for (std::size_t k = 0; k < bins_.size(); ++k) {
+      std::size_t s = hash(bins_[k]);
+      while (slot_[s] != k + 1) s = (s + 1) & mask;
+      slot_[s] = 0;
+    }
+  }
+  bins_.clear();
+}
+
+void BinIndex::grow() {
+  const std::size_t slots = std::max<std::size_t>(1024, 2 * slot_.size());
+  slot_.assign(slots, 0u);
+  shift_ = 64 - std::countr_zero(slots);
+  const std::size_t mask = slots - 1;
+  for (std::size_t k = 0; k < bins_.size(); ++k) {
+    std::size_t s = hash(bins_[k]);
+    while (slot_[s] != 0) s = (s + 1) & mask;
+    slot_[s] = static_cast<std::uint32_t>(k + 1);
+  }
+}
+
+void PieceSums::move_to(std::vector<OpenStratum::Entry>& out) {
+  out.reserve(out.size() + s_.size());
+  for (std::size_t k = 0; k < s_.size(); ++k) out.push_back({index_.bins()[k], s_[k], q_[k]});
+  index_.clear();
+  s_.clear();
+  q_.clear();
+}
+
+void PieceBuilder::start(std::size_t partition, const StratumKey& key, std::int64_t size) {
+  Part& p = parts_[partition];
+  if (p.n != 0 || !p.sums.empty()) throw std::logic_error("start() before flush()");
+  p.key = key;
+  p.key.partition = static_cast<std::uint32_t>(partition);
+  p.size = size;
+}
+
+void PieceBuilder::flush(std::size_t partition, std::vector<StratumPiece>& out) {
+  Part& p = parts_[partition];
+  if (p.n == 0) {
+    if (!p.sums.empty()) throw std::logic_error("contributions without history_done()");
+    return;
+  }
+  StratumPiece& piece = out.emplace_back();
+  piece.key = p.key;
+  piece.st.size = p.size;
+  piece.st.n = p.n;
+  p.sums.move_to(piece.st.entries);
+  p.n = 0;
+  if (piece.st.n < piece.st.size)  // a part, to be merged with the others: sorted by bin
+    std::sort(
+        piece.st.entries.begin(), piece.st.entries.end(),
+        [](const OpenStratum::Entry& a, const OpenStratum::Entry& b) { return a.bin < b.bin; });
+}
+
+void PieceBuilder::clear() {
+  for (Part& p : parts_) {
+    std::vector<OpenStratum::Entry> dropped;
+    p.sums.move_to(dropped);
+    p.n = 0;
+  }
+}
+
+}  // namespace fragsim::tally
