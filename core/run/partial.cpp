@@ -149,7 +149,9 @@ RunResult finish_tally(const Scenario& sc, const scene::Site& site, PartialRun p
   auto by_history = [](const auto& a, const auto& b) {
     return std::tie(a.group, a.history) < std::tie(b.group, b.history);
   };
-  std::sort(p.records.begin(), p.records.end(), by_history);
+  // One process's records of one batch arrive in this order already (chunk order).
+  if (!std::is_sorted(p.records.begin(), p.records.end(), by_history))
+    std::sort(p.records.begin(), p.records.end(), by_history);
   std::sort(p.trajectories.begin(), p.trajectories.end(), by_history);
   r.fragments = std::move(p.records);
   r.trajectories = std::move(p.trajectories);

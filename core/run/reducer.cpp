@@ -161,7 +161,7 @@ void Reducer::add_pieces(ChunkOutput& c) {
 }
 
 void Reducer::add_records_and_stats(ChunkOutput& c) {
-  for (auto& r : c.records) out_.records.push_back(r);
+  out_.records.insert(out_.records.end(), c.records.begin(), c.records.end());
   for (auto& tr : c.trajectories) out_.trajectories.push_back(std::move(tr));
   out_.stats += c.stats;
   out_.integration_s += c.integration_s;

@@ -58,6 +58,9 @@ ShardRunner::ShardRunner(const Scenario& sc, std::shared_ptr<const scene::Site> 
     group_offset_[g] = group_offset_[g - 1] + sc.groups[g - 1].samples;
   part_.shard_count = shard.count;
   part_.shards = {shard.index};
+  // One batch's records at once: the fold appends each chunk's without moving the ones before.
+  if (sc.settings.record_fragments)
+    part_.records.reserve(static_cast<std::size_t>(plan_.histories));
   if (sync_) {
     global_.shard_count = shard.count;
     global_.tally =
