@@ -165,6 +165,15 @@ inline void reseal_superblock(std::string& image, const std::string& name) {
 
 // ---- Writer ----
 
+// The deflate level of large fields: 1 (on the demo's results.h5, 1.2 % larger than level 4 and
+// 0.1 s quicker to write; docs/benchmarks.md §4, stop 48).
+inline constexpr int kDeflateLevel = 1;
+
+// Whether deflating this field pays: its first values (at most 8,192), shuffled and deflated at
+// kDeflateLevel, shrink by at least 10 %. Near-random doubles (a fragment's positions, velocities,
+// times) shrink by 12-17 % over a whole field (so less over a probe) and are stored as they are.
+bool worth_deflating(const void* data, std::size_t elements, std::size_t element_size);
+
 // Builds the file in memory (HDF5's core driver, no backing store) and writes it out in one piece
 // at close(). HDF5 1.10 cannot survive a file whose writes fail: an H5Fclose that fails for a full
 // disk leaves the file's id valid over freed memory, and the next call on it, or the library's
@@ -294,17 +303,19 @@ class Writer {
     const Handle space(is_scalar ? H5Screate(H5S_SCALAR) : H5Screate_simple(rank, dims, nullptr),
                        H5Sclose, "dataspace for " + path);
     const Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "property list");
-    // Large fields are chunked and compressed (shuffle + deflate); both are deterministic, and
-    // readers see the same values either way. Level 1: on the demo (13.5 MB) the file is 1.2 %
-    // larger than at level 4 and `fragsim run` 0.1 s quicker (docs/benchmarks.md §4, stop 48).
+    // Large fields are chunked and compressed (shuffle + deflate) when a probe of their first
+    // values shows it pays (worth_deflating); both filters are deterministic, and readers see the
+    // same values either way. Level 1, and no deflate of near-random doubles (a fragment's
+    // positions, velocities, times: 1.12-1.17 x at most): docs/benchmarks.md §4, stop 48.
     const std::size_t elements = rows * std::max<std::size_t>(cols, 1);
-    if (!is_scalar && elements >= kCompressElements && H5Zfilter_avail(H5Z_FILTER_DEFLATE) > 0) {
+    if (!is_scalar && elements >= kCompressElements && H5Zfilter_avail(H5Z_FILTER_DEFLATE) > 0 &&
+        worth_deflating(data, elements, H5Tget_size(mem_type))) {
       const std::size_t width = std::max<std::size_t>(cols, 1);
       const hsize_t chunk[2] = {
           std::min<hsize_t>(rows, std::max<std::size_t>(1, kChunkElements / width)), cols};
       check(H5Pset_chunk(dcpl, rank, chunk), "chunking " + path);
       check(H5Pset_shuffle(dcpl), "shuffle filter for " + path);
-      check(H5Pset_deflate(dcpl, 1), "deflate filter for " + path);
+      check(H5Pset_deflate(dcpl, kDeflateLevel), "deflate filter for " + path);
     }
     const Handle dset(
         H5Dcreate2(file_, path.c_str(), file_type, space, H5P_DEFAULT, dcpl, H5P_DEFAULT), H5Dclose,
