@@ -156,8 +156,9 @@ void put_tally(Writer& w, const tally::StratifiedTally& t) {
   w.put<std::uint32_t>(static_cast<std::uint32_t>(t.partitions()));
   put_bins(w, t.mean_sums());
   for (std::size_t k = 0; k < t.partitions(); ++k) put_bins(w, t.variance_sums(k));
-  w.put<std::uint64_t>(t.open_strata().size());
-  for (const auto& [key, st] : t.open_strata()) {
+  const auto open = t.open_strata();
+  w.put<std::uint64_t>(open.size());
+  for (const auto& [key, st] : open) {
     w.put(key.partition);
     w.put(key.group);
     w.put(key.batch);

@@ -32,48 +32,45 @@ void StratifiedTally::add_piece(StratumPiece&& piece) {
     close(piece.st, piece.key.partition);  // the whole stratum is here: no need to keep it
     return;
   }
-  merge_open(piece.key, std::move(piece.st));
+  merge_open(piece.key, piece.st);
+}
+
+// One bin of a complete stratum: its sum into the mean (once: partition 0's) and its variance
+// term, computed once from the exact S and Q, into the partition's variance.
+void StratifiedTally::close_entry(std::uint32_t bin, const ExactSum& s, const ExactSum& q,
+                                  std::int64_t n, std::size_t partition) {
+  if (partition == 0) mean_.add(bin, s);
+  const double v = variance_term(s, q, n);
+  if (v > 0.0) var_[partition].add(bin, v);
 }
 
 void StratifiedTally::close(const OpenStratum& st, std::size_t partition) {
-  for (const OpenStratum::Entry& e : st.entries) {
-    if (partition == 0) mean_.add(e.bin, e.s);
-    const double v = variance_term(e.s, e.q, st.n);
-    if (v > 0.0) var_[partition].add(e.bin, v);
-  }
+  for (const OpenStratum::Entry& e : st.entries) close_entry(e.bin, e.s, e.q, st.n, partition);
 }
 
-// Adds a piece to the open stratum `key`, closing it when it is complete. The entries of both
-// are sorted by bin; the sum of two pieces is exact, so the order of pieces does not matter.
-void StratifiedTally::merge_open(const StratumKey& key, OpenStratum&& piece) {
-  auto [it, inserted] = open_.try_emplace(key, std::move(piece));
-  if (!inserted) {
-    OpenStratum& st = it->second;
+// In the order of the bins, so that the tally's sums are touched in the same order however the
+// stratum's pieces arrived.
+void StratifiedTally::close(const Open& st, std::size_t partition) {
+  for (const std::uint32_t k : st.sums.order_by_bin())
+    close_entry(st.sums.bin(k), st.sums.s(k), st.sums.q(k), st.n, partition);
+}
+
+// Adds a piece to the open stratum `key`, closing it when it is complete. The sum of two pieces
+// is exact, so the order of pieces does not matter.
+void StratifiedTally::merge_open(const StratumKey& key, const OpenStratum& piece) {
+  auto [it, inserted] = open_.try_emplace(key);
+  Open& st = it->second;
+  if (inserted) {
+    st.size = piece.size;
+  } else if (piece.size != st.size || piece.n < 0 || piece.n > st.size - st.n) {
     // Pieces of one stratum agree on its size and together hold at most its histories; pieces
     // that do not (a damaged or forged partial file) are refused before anything changes.
-    if (piece.size != st.size || piece.n < 0 || piece.n > st.size - st.n)
-      throw std::overflow_error("open strata whose pieces do not add up to the stratum");
-    std::vector<OpenStratum::Entry> merged;
-    merged.reserve(st.entries.size() + piece.entries.size());
-    auto a = st.entries.begin(), b = piece.entries.begin();
-    while (a != st.entries.end() || b != piece.entries.end()) {
-      if (b == piece.entries.end() || (a != st.entries.end() && a->bin < b->bin)) {
-        merged.push_back(*a++);
-      } else if (a == st.entries.end() || b->bin < a->bin) {
-        merged.push_back(*b++);
-      } else {
-        OpenStratum::Entry e = *a++;
-        e.s.add(b->s);
-        e.q.add(b->q);
-        ++b;
-        merged.push_back(e);
-      }
-    }
-    st.entries = std::move(merged);
-    st.n += piece.n;
+    throw std::overflow_error("open strata whose pieces do not add up to the stratum");
   }
-  if (it->second.n >= it->second.size) {
-    close(it->second, key.partition);
+  for (const OpenStratum::Entry& e : piece.entries) st.sums.add_sums(e.bin, e.s, e.q);
+  st.n += piece.n;
+  if (st.n >= st.size) {
+    close(st, key.partition);
     open_.erase(it);
   }
 }
@@ -81,7 +78,20 @@ void StratifiedTally::merge_open(const StratumKey& key, OpenStratum&& piece) {
 void StratifiedTally::merge(const StratifiedTally& o) {
   mean_.merge(o.mean_);
   for (std::size_t k = 0; k < var_.size() && k < o.var_.size(); ++k) var_[k].merge(o.var_[k]);
-  for (const auto& [key, st] : o.open_) merge_open(key, OpenStratum(st));
+  for (const auto& [key, st] : o.open_strata()) merge_open(key, st);
+}
+
+std::map<StratumKey, OpenStratum> StratifiedTally::open_strata() const {
+  std::map<StratumKey, OpenStratum> out;
+  for (const auto& [key, st] : open_) {
+    OpenStratum& o = out[key];
+    o.size = st.size;
+    o.n = st.n;
+    o.entries.reserve(st.sums.size());
+    for (const std::uint32_t k : st.sums.order_by_bin())
+      o.entries.push_back({st.sums.bin(k), st.sums.s(k), st.sums.q(k)});
+  }
+  return out;
 }
 
 void StratifiedTally::close_open_strata() {
@@ -127,7 +137,13 @@ void StratifiedTally::restore(ExactBins mean, std::vector<ExactBins> var,
                               std::map<StratumKey, OpenStratum> open) {
   mean_ = std::move(mean);
   var_ = std::move(var);
-  open_ = std::move(open);
+  open_.clear();
+  for (const auto& [key, st] : open) {
+    Open& o = open_[key];
+    o.size = st.size;
+    o.n = st.n;
+    for (const OpenStratum::Entry& e : st.entries) o.sums.add_sums(e.bin, e.s, e.q);
+  }
 }
 
 }  // namespace fragsim::tally

@@ -105,7 +105,10 @@ class StratifiedTally {
   void close_open_strata();
   // Forgets every sum and open stratum, keeping the shape (visits only the touched bins).
   void clear();
-  const std::map<StratumKey, OpenStratum>& open_strata() const { return open_; }
+  // The open strata, each with its entries sorted by bin (built on demand: for a partial
+  // result's file and for tests).
+  std::map<StratumKey, OpenStratum> open_strata() const;
+  bool has_open_strata() const { return !open_.empty(); }
 
   double mean(std::size_t bin) const { return mean_.value(bin); }
   double std_error(std::size_t bin) const;
@@ -119,13 +122,23 @@ class StratifiedTally {
   void restore(ExactBins mean, std::vector<ExactBins> var, std::map<StratumKey, OpenStratum> open);
 
  private:
+  // An open stratum: its pieces so far, summed per bin in a hash index (adding a piece costs in
+  // proportion to the piece, not to the stratum).
+  struct Open {
+    std::int64_t size = 0;
+    std::int64_t n = 0;
+    PieceSums sums;
+  };
   void close(const OpenStratum& st, std::size_t partition);
-  void merge_open(const StratumKey& key, OpenStratum&& piece);
+  void close(const Open& st, std::size_t partition);
+  void close_entry(std::uint32_t bin, const ExactSum& s, const ExactSum& q, std::int64_t n,
+                   std::size_t partition);
+  void merge_open(const StratumKey& key, const OpenStratum& piece);
   PieceBuilder builder_;
   std::vector<StratumPiece> flushed_;  // builder_'s pieces, added at once
   ExactBins mean_;
   std::vector<ExactBins> var_;  // per partition
-  std::map<StratumKey, OpenStratum> open_;
+  std::map<StratumKey, Open> open_;
 };
 
 }  // namespace fragsim::tally

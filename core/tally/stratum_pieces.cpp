@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <numeric>
 
 namespace fragsim::tally {
 
@@ -39,6 +40,14 @@ void PieceSums::move_to(std::vector<OpenStratum::Entry>& out) {
   q_.clear();
 }
 
+std::vector<std::uint32_t> PieceSums::order_by_bin() const {
+  std::vector<std::uint32_t> order(size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return bin(a) < bin(b); });
+  return order;
+}
+
 void PieceBuilder::start(std::size_t partition, const StratumKey& key, std::int64_t size) {
   Part& p = parts_[partition];
   if (p.n != 0 || !p.sums.empty()) throw std::logic_error("start() before flush()");
@@ -59,10 +68,6 @@ void PieceBuilder::flush(std::size_t partition, std::vector<StratumPiece>& out) 
   piece.st.n = p.n;
   p.sums.move_to(piece.st.entries);
   p.n = 0;
-  if (piece.st.n < piece.st.size)  // a part, to be merged with the others: sorted by bin
-    std::sort(
-        piece.st.entries.begin(), piece.st.entries.end(),
-        [](const OpenStratum::Entry& a, const OpenStratum::Entry& b) { return a.bin < b.bin; });
 }
 
 void PieceBuilder::clear() {

@@ -22,7 +22,9 @@ struct StratumKey {
   auto operator<=>(const StratumKey&) const = default;
 };
 
-// An open stratum: the histories folded so far and their exact S and Q, sorted by bin.
+// A stratum's histories folded so far and their exact S and Q per bin: a piece of it
+// (StratumPiece), or an open stratum as StratifiedTally::open_strata() and partial files show it
+// (entries sorted by bin).
 struct OpenStratum {
   struct Entry {
     std::uint32_t bin = 0;
@@ -33,8 +35,8 @@ struct OpenStratum {
   std::vector<Entry> entries;
 };
 
-// A piece of stratum `key`: the whole stratum (st.n == st.size; entries in the order their bins
-// were first touched) or a part of it (entries sorted by bin, ready to merge).
+// A piece of stratum `key`: the whole stratum (st.n == st.size) or a part of it; its entries in
+// the order their bins were first touched.
 struct StratumPiece {
   StratumKey key;
   OpenStratum st;
@@ -81,7 +83,26 @@ class PieceSums {
     q_[k].add(x * x);
   }
   void add_square(std::uint32_t bin, double v) { q_[at(bin)].add(v); }
+  // Another piece's sums for the bin (exact: throws std::overflow_error out of range). A bin not
+  // touched before takes them as they are.
+  void add_sums(std::uint32_t bin, const ExactSum& s, const ExactSum& q) {
+    const std::uint32_t k = index_.find_or_add(bin);
+    if (k == s_.size()) {
+      s_.push_back(s);
+      q_.push_back(q);
+      return;
+    }
+    s_[k].add(s);
+    q_[k].add(q);
+  }
   bool empty() const { return index_.size() == 0; }
+  std::size_t size() const { return index_.size(); }
+  // Entry k (in the order first touched): its bin and sums.
+  std::uint32_t bin(std::size_t k) const { return index_.bins()[k]; }
+  const ExactSum& s(std::size_t k) const { return s_[k]; }
+  const ExactSum& q(std::size_t k) const { return q_[k]; }
+  // The entries' indices in the order of their bins.
+  std::vector<std::uint32_t> order_by_bin() const;
   // Appends the entries to `out` (first touched first) and clears.
   void move_to(std::vector<OpenStratum::Entry>& out);
 

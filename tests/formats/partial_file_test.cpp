@@ -525,19 +525,26 @@ TEST_P(PartialFile, OpenStratumBinsOutOfOrderAreRefused) {
   auto it = std::find_if(open.begin(), open.end(),
                          [](const auto& kv) { return kv.second.entries.size() >= 2; });
   ASSERT_NE(it, open.end());
+  // A tally keeps its open strata sorted by bin, so a file out of order is made by patching the
+  // bins of one written in order: a partial with that stratum alone, whose entries (bin u32,
+  // then S and Q, 40 bytes each) follow the open count and the stratum's 48-byte header.
+  const std::map<tally::StratumKey, tally::OpenStratum> one{*it};
+  const std::string in_order =
+      body_of(encode_partial(with_tally(p, p.tally.mean_sums(), var, one), kIdentity));
+  const std::size_t first_bin = offsets_of(p).open + 8 + 48, entry = 4 + 2 * 40;
+  const std::size_t last_bin = first_bin + (it->second.entries.size() - 1) * entry;
+  ASSERT_EQ(read_at<std::uint32_t>(in_order, first_bin), it->second.entries[0].bin);
+  ASSERT_EQ(read_at<std::uint32_t>(in_order, last_bin), it->second.entries.back().bin);
   {
-    auto swapped = open;
-    auto& e = swapped.find(it->first)->second.entries;
-    std::swap(e[0], e.back());
-    expect_refused(encode_partial(with_tally(p, p.tally.mean_sums(), var, swapped), kIdentity),
-                   c().bins, "open stratum bins out of order");
+    std::string swapped = in_order;
+    write_at(swapped, first_bin, it->second.entries.back().bin);
+    write_at(swapped, last_bin, it->second.entries[0].bin);
+    expect_refused(with_trailer(swapped), c().bins, "open stratum bins out of order");
   }
   {
-    auto twice = open;
-    auto& e = twice.find(it->first)->second.entries;
-    e[1].bin = e[0].bin;
-    expect_refused(encode_partial(with_tally(p, p.tally.mean_sums(), var, twice), kIdentity),
-                   c().bins, "open stratum bins out of order");
+    std::string twice = in_order;
+    write_at(twice, first_bin + entry, it->second.entries[0].bin);
+    expect_refused(with_trailer(twice), c().bins, "open stratum bins out of order");
   }
   {
     auto beyond = open;
@@ -671,7 +678,8 @@ TEST_P(PartialFile, ASumOutOfRangeIsAnInputError) {
     entries = {{bin, tally::ExactSum::from_limbs({0, 0, 0, 0, top}), tally::ExactSum{}}};
     return encode_partial(with_tally(p, p.tally.mean_sums(), var, open), kIdentity);
   };
-  const auto& [key, st] = *c().middle().tally.open_strata().begin();
+  const auto middle_open = c().middle().tally.open_strata();
+  const auto& [key, st] = *middle_open.begin();
   ASSERT_TRUE(c().shards[0].tally.open_strata().count(key));
   const std::uint32_t bin = st.entries[0].bin;
   {

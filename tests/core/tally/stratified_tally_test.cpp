@@ -527,7 +527,8 @@ TEST(StratifiedTally, OpenStrataHoldTheHistoriesSeenUntilTheirPiecesAreAllThere)
   ab.merge(b);
   ab.merge(a);
   ASSERT_EQ(ab.open_strata().size(), 1u);
-  const OpenStratum& st = ab.open_strata().at(key);
+  const auto ab_open = ab.open_strata();
+  const OpenStratum& st = ab_open.at(key);
   EXPECT_EQ(st.size, 4);
   EXPECT_EQ(st.n, 3);
   ASSERT_EQ(st.entries.size(), 3u);  // sorted by bin
@@ -687,7 +688,8 @@ TEST(StratifiedTally, PiecesThatDoNotAddUpToTheirStratumAreRefused) {
     const StratifiedTally b = one_open(c.size_b, c.n_b);
     EXPECT_THROW(a.merge(b), std::overflow_error) << c.what;
     ASSERT_EQ(a.open_strata().size(), 1u) << c.what;
-    const OpenStratum& st = a.open_strata().begin()->second;
+    const auto a_open = a.open_strata();
+    const OpenStratum& st = a_open.begin()->second;
     EXPECT_EQ(st.size, c.size_a) << c.what;
     EXPECT_EQ(st.n, c.n_a) << c.what;
     EXPECT_EQ(st.entries.size(), 1u) << c.what;

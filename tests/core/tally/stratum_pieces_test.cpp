@@ -125,7 +125,7 @@ TEST(PieceBuilder, PiecesAddedToATallyGiveTheBitsOfItsOwnFold) {
   }
 }
 
-TEST(PieceBuilder, AWholeStratumKeepsTheOrderOfFirstTouchAPartIsSortedByBin) {
+TEST(PieceBuilder, APieceKeepsTheOrderOfFirstTouch) {
   PieceBuilder b;
   std::vector<StratumPiece> pieces;
   b.start(0, StratumKey{0, 0, 0, 0}, 2);
@@ -142,8 +142,8 @@ TEST(PieceBuilder, AWholeStratumKeepsTheOrderOfFirstTouchAPartIsSortedByBin) {
   b.flush(0, pieces);  // nothing since: no piece
   ASSERT_EQ(pieces.size(), 2u);
   ASSERT_EQ(pieces[0].st.entries.size(), 2u);
-  EXPECT_EQ(pieces[0].st.entries[0].bin, 3u);
-  EXPECT_EQ(pieces[0].st.entries[1].bin, 7u);
+  EXPECT_EQ(pieces[0].st.entries[0].bin, 7u);
+  EXPECT_EQ(pieces[0].st.entries[1].bin, 3u);
   EXPECT_EQ(pieces[0].st.n, 1);
   EXPECT_EQ(pieces[0].st.size, 2);
   ASSERT_EQ(pieces[1].st.entries.size(), 2u);
