@@ -142,10 +142,12 @@ void write_fragments(Writer& w, const std::vector<run::FragmentRecord>& records)
     w.dataset(std::string("/fragments/") + name, v);
   };
   const auto vectors = [&](const char* name, auto field) {
-    std::vector<Vec3> v;
-    v.reserve(n);
-    for (const auto& r : records) v.push_back(field(r));
-    const auto xyz = flatten(v);
+    std::vector<double> xyz;  // n x 3, gathered straight from the records
+    xyz.reserve(3 * n);
+    for (const auto& r : records) {
+      const Vec3& p = field(r);
+      xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
+    }
     w.dataset(std::string("/fragments/") + name, xyz.data(), n, 3);
   };
   using R = run::FragmentRecord;
