@@ -53,7 +53,10 @@ void merge(PartialRun& into, PartialRun&& other) {
   for (const std::int64_t k : other.shards)
     if (std::find(into.shards.begin(), into.shards.end(), k) != into.shards.end())
       throw InputError("shards", "shard " + std::to_string(k) + " is there twice");
-  PartialRun sum = std::move(into);  // `into` is left as it was when this throws
+  // On a throw `into` gets back what it held: unchanged when a piece of a stratum does not fit
+  // (checked before any sum moves), partly merged when an exact sum overflows midway (only a
+  // forged partial can do that; every caller then discards `into`).
+  PartialRun sum = std::move(into);
   try {
     sum.tally.merge(other.tally);
   } catch (const std::overflow_error& e) {
