@@ -108,7 +108,6 @@ class StratifiedTally {
   // The open strata, each with its entries sorted by bin (built on demand: for a partial
   // result's file and for tests).
   std::map<StratumKey, OpenStratum> open_strata() const;
-  bool has_open_strata() const { return !open_.empty(); }
 
   double mean(std::size_t bin) const { return mean_.value(bin); }
   double std_error(std::size_t bin) const;

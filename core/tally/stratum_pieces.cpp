@@ -35,6 +35,10 @@ void BinIndex::grow() {
 void PieceSums::move_to(std::vector<OpenStratum::Entry>& out) {
   out.reserve(out.size() + s_.size());
   for (std::size_t k = 0; k < s_.size(); ++k) out.push_back({index_.bins()[k], s_[k], q_[k]});
+  clear();
+}
+
+void PieceSums::clear() {
   index_.clear();
   s_.clear();
   q_.clear();
@@ -72,8 +76,7 @@ void PieceBuilder::flush(std::size_t partition, std::vector<StratumPiece>& out) 
 
 void PieceBuilder::clear() {
   for (Part& p : parts_) {
-    std::vector<OpenStratum::Entry> dropped;
-    p.sums.move_to(dropped);
+    p.sums.clear();
     p.n = 0;
   }
 }

@@ -105,6 +105,7 @@ class PieceSums {
   std::vector<std::uint32_t> order_by_bin() const;
   // Appends the entries to `out` (first touched first) and clears.
   void move_to(std::vector<OpenStratum::Entry>& out);
+  void clear();  // keeps the capacity
 
  private:
   std::uint32_t at(std::uint32_t bin) {
