@@ -12,7 +12,6 @@ PACKAGES=(
   libsqlite3-dev sqlite3   # job queue and result index (fragsimd)
   libhdf5-dev              # results.h5
   librandom123-dev         # Philox counter-based random streams
-  libboost-context-dev     # fibers: histories in lanes (core/run/lane_runner.h), linked statically
   libgtest-dev libgmock-dev googletest  # unit and validation tests
   libopenmpi-dev openmpi-bin  # fragsim-mpi: a run divided among MPI ranks (mpi/, docs/cluster.md)
   libbenchmark-dev         # micro-benchmarks in bench/

@@ -10,8 +10,6 @@
 
 namespace fragsim::run {
 
-namespace ctx = boost::context;
-
 // One stack per lane, mapped once for the runner's life (a thread's), with an inaccessible page
 // below it: an overflow faults instead of writing over the heap. A history needs a few tens of
 // kB (Embree's traversal stack is the largest user); 1 MiB is reserved, and only touched pages
@@ -37,20 +35,8 @@ class LaneRunner::Stacks {
   }
   Stacks(const Stacks&) = delete;
   Stacks& operator=(const Stacks&) = delete;
-  // Boost.Context's stack allocator for lane l: hands out the lane's stack, keeps it after.
-  struct Allocator {
-    void* top;
-    ctx::stack_context allocate() {
-      ctx::stack_context sc;
-      sc.size = kStackBytes;
-      sc.sp = top;
-      return sc;
-    }
-    void deallocate(ctx::stack_context&) noexcept {}
-  };
-  Allocator allocator(int lane) const {
-    return {static_cast<char*>(maps_[lane]) + page_ + kStackBytes};
-  }
+  // The top (highest address, exclusive) of lane l's stack.
+  void* top(int lane) const { return static_cast<char*>(maps_[lane]) + page_ + kStackBytes; }
 
  private:
   std::size_t page_ = 4096;
@@ -60,7 +46,7 @@ class LaneRunner::Stacks {
 LaneRunner::LaneRunner() : stacks_(std::make_unique<Stacks>()) {}
 LaneRunner::~LaneRunner() = default;
 
-// Called by a history's integrator on its lane's fiber: post the attempt, yield to the
+// Called by a history's integrator on its lane's stack: post the attempt, yield to the
 // scheduler, and return once the kernel has written the stages and the error.
 bool LaneRunner::attempt(const flight::FlightModel& model, int n, const double* y0,
                          const double* f0, double h, double rtol, double atol, flight::LaneOut out,
@@ -72,14 +58,14 @@ bool LaneRunner::attempt(const flight::FlightModel& model, int n, const double* 
   lane.rtol = rtol;
   lane.atol = atol;
   lane.waiting = true;
-  lane.back = std::move(lane.back).resume();
+  lane.context.suspend();
   current_ = me;
   return true;
 }
 
 // One kernel call per set of waiting lanes that share an atmosphere and tolerances (in a run:
 // all of them). Idle lanes repeat the first waiting lane's inputs into scratch outputs.
-void LaneRunner::compute_waiting() {
+void LaneRunner::compute_waiting() noexcept {
   double scratch[4][7], scratch_err;
   for (;;) {
     int first = -1;
@@ -117,15 +103,19 @@ void LaneRunner::finish_job(std::int64_t i) {
   }
 }
 
-// A lane's fiber: jobs until none is left or the run stops. An exception (from a job or from
-// `done`) ends the lane's work and is kept for run(); Boost's forced unwinding (a fiber destroyed
-// while suspended) passes.
+void LaneRunner::lane_entry(void* lane) noexcept {
+  const Lane& l = *static_cast<const Lane*>(lane);
+  l.runner->lane_body(l.index);
+}
+
+// A lane's body: jobs until none is left or the run stops. An exception (from a job or from
+// `done`) ends the lane's work and is kept for run(): nothing leaves the lane's stack.
 void LaneRunner::lane_body(int lane) {
   for (;;) {
     // The next job would be kWindow ahead of the oldest unreported one, which another lane is
     // still running: let the others go on first.
     while (!stop_ && next_ < n_ && next_ >= flushed_ + kWindow) {
-      lanes_[lane].back = std::move(lanes_[lane].back).resume();
+      lanes_[lane].context.suspend();
       current_ = lane;
     }
     if (stop_ || next_ >= n_) return;
@@ -133,9 +123,7 @@ void LaneRunner::lane_body(int lane) {
     try {
       if (!(*job_)(i, lane)) stop_ = true;
       current_ = lane;
-      finish_job(i);  // `done` may throw too (e.g. out of memory): never out of the fiber
-    } catch (const ctx::detail::forced_unwind&) {
-      throw;
+      finish_job(i);  // `done` may throw too (e.g. out of memory): never out of the lane
     } catch (...) {
       if (!error_) error_ = std::current_exception();
       stop_ = true;
@@ -156,24 +144,24 @@ void LaneRunner::run(std::int64_t n, const std::function<bool(std::int64_t, int)
   flight::AttemptLanes* const outer = flight::thread_attempt_lanes;
   flight::thread_attempt_lanes = this;
   for (int l = 0; l < flight::kLanes; ++l) {
-    lanes_[l].waiting = false;
-    lanes_[l].fiber =
-        ctx::fiber(std::allocator_arg, stacks_->allocator(l), [this, l](ctx::fiber&& back) {
-          lanes_[l].back = std::move(back);
-          lane_body(l);
-          return std::move(lanes_[l].back);
-        });
+    Lane& lane = lanes_[l];
+    lane.waiting = false;
+    lane.runner = this;
+    lane.index = l;
+    lane.context.start(stacks_->top(l), &LaneRunner::lane_entry, &lane);
   }
+  // Every lane is resumed until its body has returned: none is left suspended when run() leaves
+  // (a suspended lane's stack is not unwound, lane_context.h), and nothing here throws.
   for (;;) {
     bool live = false;
     for (int l = 0; l < flight::kLanes; ++l) {
       Lane& lane = lanes_[l];
-      if (lane.fiber && !lane.waiting) {
+      if (!lane.context.finished() && !lane.waiting) {
         current_ = l;
-        lane.fiber = std::move(lane.fiber).resume();
+        lane.context.resume();
         current_ = -1;
       }
-      live = live || static_cast<bool>(lane.fiber);
+      live = live || !lane.context.finished();
     }
     if (!live) break;
     compute_waiting();

@@ -1,27 +1,30 @@
 #pragma once
 // Histories in lanes (docs/architecture.md, "Histories in lanes"): a worker thread runs up to
-// flight::kLanes histories at once, each on its own fiber (Boost.Context). A history runs as it
+// flight::kLanes histories at once, each on its own stack (LaneContext). A history runs as it
 // would alone until its flight integrator needs a step attempt; the integrator posts it here
-// (flight::thread_attempt_lanes) and the fiber yields. When every live lane waits, one call of
+// (flight::thread_attempt_lanes) and the lane yields. When every live lane waits, one call of
 // the lane kernel (core/flight/lanes.h) computes all their attempts, in path length or in time,
 // kLanes at a time, and the lanes resume. Each lane's arithmetic is the scalar attempt's, bit for
 // bit, so a history's results do not depend on which histories shared its lanes; the caller gets
 // each history's end in history order (`done`), so a chunk's output is the same as one history
 // at a time. Attempts that a lane cannot take (a flight without drag, a truncated step, the
 // ground phase's integrator) are computed by the history itself, as before.
-#include <boost/context/fiber.hpp>
 #include <cstdint>
 #include <exception>
 #include <functional>
 #include <memory>
 
 #include "core/flight/lanes.h"
+#include "core/run/lane_context.h"
 
 namespace fragsim::run {
 
-// Sanitizer builds run one history at a time: ASan and TSan do not follow Boost.Context's stack
-// switches (docs/testing.md). Release builds check the lanes against that path bit for bit.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+// Sanitizer builds run one history at a time: ASan and TSan do not follow the lanes' stack
+// switches (docs/testing.md); so do targets without a LaneContext. Release builds check the lanes
+// against that path bit for bit.
+#if !defined(__x86_64__) || !defined(__ELF__)
+inline constexpr bool kHistoryLanesBuilt = false;
+#elif defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 inline constexpr bool kHistoryLanesBuilt = false;
 #elif defined(__has_feature)
 #if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
@@ -61,15 +64,17 @@ class LaneRunner final : public flight::AttemptLanes {
 
  private:
   struct Lane {
-    boost::context::fiber fiber;  // the lane, while it is suspended
-    boost::context::fiber back;   // the scheduler, while the lane runs
-    bool waiting = false;         // an attempt posted, not yet computed
+    LaneContext context;
+    LaneRunner* runner = nullptr;
+    int index = 0;
+    bool waiting = false;  // an attempt posted, not yet computed
     flight::LaneIO io{};
     double rtol = 0.0, atol = 0.0;
   };
-  class Stacks;  // the lanes' fiber stacks, mapped once with a guard page each
+  class Stacks;  // the lanes' stacks, mapped once with a guard page each
+  static void lane_entry(void* lane) noexcept;
   void lane_body(int lane);
-  void compute_waiting();
+  void compute_waiting() noexcept;
   void finish_job(std::int64_t i);
 
   std::unique_ptr<Stacks> stacks_;
