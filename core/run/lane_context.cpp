@@ -18,9 +18,8 @@ void fragsim_switch_stack(void** save_sp, void* load_sp);
 void fragsim_lane_entry();
 }
 
-// The return address is popped and jumped to rather than returned to, as Boost.Context does: the
-// indirect-branch predictor learns the few places a switch lands (after a suspend, after a
-// resume), where a `ret` would always miss the return-stack buffer's prediction.
+// The return address is popped and jumped to, as Boost.Context does; a `ret` would do the same
+// (either way the CPU's return-stack buffer holds the other stack's calls and misses once).
 asm(R"(
         .text
         .globl  fragsim_switch_stack
