@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <cstdlib>
 
-#if defined(__x86_64__) && defined(__ELF__)
+#if FRAGSIM_LANE_CONTEXT
 
 extern "C" {
 // Saves rbp, rbx, r12-r15 and the return address on the current stack, stores the stack pointer

@@ -16,15 +16,19 @@
 //   are not destroyed. The lane runner resumes every lane until its body has returned before it
 //   leaves run(), and nothing in its scheduling loop throws;
 // * on other targets kLaneContextBuilt is false and histories run one at a time (the path the
-//   sanitizer builds take too, bit for bit the same results).
+//   sanitizer builds take too, bit for bit the same results). So also with Intel CET
+//   (-fcf-protection defines __CET__): a shadow stack would refuse the switch's returns into the
+//   other stack, and indirect-branch tracking its jumps to return addresses.
+
+#if defined(__x86_64__) && defined(__ELF__) && !defined(__CET__)
+#define FRAGSIM_LANE_CONTEXT 1
+#else
+#define FRAGSIM_LANE_CONTEXT 0
+#endif
 
 namespace fragsim::run {
 
-#if defined(__x86_64__) && defined(__ELF__)
-inline constexpr bool kLaneContextBuilt = true;
-#else
-inline constexpr bool kLaneContextBuilt = false;
-#endif
+inline constexpr bool kLaneContextBuilt = FRAGSIM_LANE_CONTEXT != 0;
 
 class LaneContext {
  public:

@@ -22,7 +22,7 @@ namespace fragsim::run {
 // Sanitizer builds run one history at a time: ASan and TSan do not follow the lanes' stack
 // switches (docs/testing.md); so do targets without a LaneContext. Release builds check the lanes
 // against that path bit for bit.
-#if !defined(__x86_64__) || !defined(__ELF__)
+#if !FRAGSIM_LANE_CONTEXT
 inline constexpr bool kHistoryLanesBuilt = false;
 #elif defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 inline constexpr bool kHistoryLanesBuilt = false;
